@@ -1,0 +1,33 @@
+// Ashikhmin & Shirley 2000, "An anisotropic Phong BRDF model" (JGT 5(2)), eqs. 4 and 5.
+// Twin of src/model/ashikhmin_shirley.rs.
+#include "brdf/terms.glsl"
+
+struct AshikhminShirleyParams {
+    vec3 diffuse;
+    float nu;
+    vec3 specular;
+    float nv;
+};
+
+// (nu h_x^2 + nv h_y^2) / (1 - c_h^2), with 1 - c_h^2 taken as h_x^2 + h_y^2 so that it does not
+// cancel near h = n. At h = n exactly the ratio is 0/0, but c_h = 1 there and 1^e = 1 for any
+// finite e, so any finite value will do: the mean of the two exponents keeps it continuous along
+// the diagonal.
+float ashikhmin_shirley_exponent(vec3 h, float nu, float nv) {
+    float hx2 = h.x * h.x, hy2 = h.y * h.y;
+    float s = hx2 + hy2;
+    return s > 0.0 ? (nu * hx2 + nv * hy2) / s : 0.5 * (nu + nv);
+}
+
+vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
+    vec3 h = normalize(wi + wo);
+    float c_i = wi.z, c_o = wo.z;
+    float c_d = dot(wi, h);
+    float e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
+    float spec = sqrt((p.nu + 1.0) * (p.nv + 1.0)) / (8.0 * PI) * pow_guarded(h.z, e)
+               / (c_d * max(c_i, c_o));
+    vec3 rho_s = spec * F_specular(c_d, p.specular);
+    vec3 rho_d = 28.0 / (23.0 * PI) * p.diffuse * (1.0 - p.specular)
+               * ((1.0 - pow5(1.0 - 0.5 * c_i)) * (1.0 - pow5(1.0 - 0.5 * c_o)));
+    return rho_s + rho_d;
+}

@@ -1,0 +1,21 @@
+// Blinn-Phong with the (N+8)/(8 pi) normalization (Akenine-Moller et al., Real-Time Rendering)
+// and the seed's smoothness mapping N = 8192^(1-s). Twin of src/model/blinn_phong.rs.
+#include "brdf/terms.glsl"
+
+struct BlinnPhongParams {
+    vec3 diffuse;
+    float smoothness;
+    vec3 specular;
+};
+
+// N = 8192^(1-s) = 2^(13 (1-s)), exact at s = 0 and s = 1.
+float blinn_phong_exponent(float smoothness) {
+    return exp2(13.0 * (1.0 - smoothness));
+}
+
+vec3 blinn_phong(BlinnPhongParams p, vec3 wi, vec3 wo) {
+    vec3 h = normalize(wi + wo);
+    float n = blinn_phong_exponent(p.smoothness);
+    float lobe = (n + 8.0) / (8.0 * PI) * pow_guarded(h.z, n);
+    return p.diffuse * INV_PI + p.specular * lobe;
+}

@@ -1,0 +1,25 @@
+// Cook & Torrance 1982, "A reflectance model for computer graphics": Beckmann D, V-cavity G and
+// Schlick's Fresnel in place of the exact one. Twin of src/model/cook_torrance.rs.
+#include "brdf/terms.glsl"
+
+struct CookTorranceParams {
+    vec3 diffuse;
+    float ior;
+    vec3 specular;
+    float roughness;
+};
+
+// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
+float G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
+    return min(1.0, 2.0 * c_h * min(c_i, c_o) / c_d);
+}
+
+vec3 cook_torrance(CookTorranceParams p, vec3 wi, vec3 wo) {
+    vec3 h = normalize(wi + wo);
+    float c_i = wi.z, c_o = wo.z;
+    float c_d = dot(wi, h);
+    float d = D_beckmann(h, p.roughness);
+    float g = G_v_cavity(h.z, c_d, c_i, c_o);
+    vec3 f = F_specular(c_d, vec3(r0_from_ior(p.ior)));
+    return p.diffuse * INV_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
+}

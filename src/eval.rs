@@ -1,0 +1,109 @@
+//! One interface over the two backends: the Vulkan kernels (f32) and the CPU reference (f64).
+
+use crate::gpu::{Gpu, GpuPair};
+use crate::grid::Grid;
+use crate::model::{Brdf, ParamSet, Reference};
+use anyhow::Result;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Cells per CPU chunk of a table: bounded memory, enough work for every thread.
+const CPU_CHUNK_CELLS: u64 = 1 << 22;
+
+/// Where f is evaluated.
+pub enum Evaluator<'a, 'd> {
+    Gpu(&'a Gpu<'d>),
+    Cpu,
+}
+
+fn f32x4(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+impl Evaluator<'_, '_> {
+    pub fn name(&self) -> String {
+        match self {
+            Evaluator::Gpu(g) => format!("gpu ({})", g.device().name()),
+            Evaluator::Cpu => "cpu (f64 reference)".to_string(),
+        }
+    }
+
+    /// f at each (ωi, ωo) pair, for one parameter set.
+    pub fn eval_pairs(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<[f64; 3]>> {
+        match self {
+            Evaluator::Gpu(gpu) => {
+                let block = Brdf::new(params).gpu_block();
+                let gp: Vec<GpuPair> = pairs
+                    .iter()
+                    .map(|(wi, wo)| GpuPair {
+                        wi: [wi.x as f32, wi.y as f32, wi.z as f32],
+                        param_index: 0,
+                        wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+                        pad: 0,
+                    })
+                    .collect();
+                let out = gpu.eval_pairs(params.model(), &[block], &gp, white_furnace)?;
+                Ok(out.into_iter().map(|c| c.map(f64::from)).collect())
+            }
+            Evaluator::Cpu => {
+                let r = Reference::new(params, white_furnace);
+                Ok(pairs
+                    .par_iter()
+                    .map(|(wi, wo)| r.eval(*wi, *wo).to_array())
+                    .collect())
+            }
+        }
+    }
+
+    /// The lobe table on `grid`, handed to `sink` in order, one chunk at a time, as
+    /// (first cell, f32 rgb values).
+    pub fn eval_table(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<()> {
+        let wi = grid.wi_list();
+        let wo = grid.wo_list();
+        match self {
+            Evaluator::Gpu(gpu) => {
+                let block = Brdf::new(params).gpu_block();
+                let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
+                let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
+                gpu.eval_table::<anyhow::Error>(
+                    params.model(),
+                    &block,
+                    &wi,
+                    &wo,
+                    white_furnace,
+                    sink,
+                )
+            }
+            Evaluator::Cpu => {
+                let r = Reference::new(params, white_furnace);
+                let cells = wi.len() as u64 * wo.len() as u64;
+                let n_wo = wo.len() as u64;
+                let mut first = 0u64;
+                let mut buf = Vec::new();
+                while first < cells {
+                    let count = CPU_CHUNK_CELLS.min(cells - first);
+                    buf.resize(count as usize * 3, 0.0f32);
+                    buf.par_chunks_mut(3).enumerate().for_each(|(k, out)| {
+                        let cell = first + k as u64;
+                        let f = r.eval(wi[(cell / n_wo) as usize], wo[(cell % n_wo) as usize]);
+                        out.copy_from_slice(&[f.x as f32, f.y as f32, f.z as f32]);
+                    });
+                    sink(first, &buf)?;
+                    first += count;
+                }
+                Ok(())
+            }
+        }
+    }
+}

@@ -1,0 +1,286 @@
+//! Instance, device selection and the queue. A real GPU is preferred over a CPU driver
+//! (lavapipe); `--device SUBSTRING` picks by name. `LOBE_VALIDATION=1` turns on the Khronos
+//! validation layer and counts what it reports.
+
+use super::error::{Context, GpuError, Result};
+use ash::vk;
+use std::ffi::{c_void, CStr};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Messages of severity warning or error reported by the validation layer in this process.
+static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
+
+/// How many warnings and errors the validation layer has reported so far in this process.
+pub fn validation_message_count() -> usize {
+    VALIDATION_MESSAGES.load(Ordering::SeqCst)
+}
+
+/// Whether `LOBE_VALIDATION=1` asks for the validation layer.
+pub fn validation_requested() -> bool {
+    std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1")
+}
+
+unsafe extern "system" fn on_validation_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut c_void,
+) -> vk::Bool32 {
+    let serious = vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR;
+    if severity.intersects(serious) {
+        VALIDATION_MESSAGES.fetch_add(1, Ordering::SeqCst);
+        let text = if data.is_null() || (*data).p_message.is_null() {
+            "(no message)".into()
+        } else {
+            CStr::from_ptr((*data).p_message).to_string_lossy()
+        };
+        eprintln!("lobe: Vulkan validation {severity:?}: {text}");
+    }
+    vk::FALSE
+}
+
+/// Options for opening a device.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceOptions {
+    /// Pick the first device whose name contains this (case-insensitive).
+    pub name_contains: Option<String>,
+}
+
+/// An open Vulkan device with one compute queue.
+pub struct Device {
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    pub(crate) device: ash::Device,
+    pub(crate) queue: vk::Queue,
+    pub(crate) queue_family: u32,
+    pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
+    pub(crate) limits: vk::PhysicalDeviceLimits,
+    name: String,
+    device_type: vk::PhysicalDeviceType,
+}
+
+fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
+    props
+        .device_name_as_c_str()
+        .map(|c| c.to_string_lossy().into_owned())
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// Real GPUs first, then virtual, then CPU drivers such as lavapipe.
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+impl Device {
+    pub fn open(opts: &DeviceOptions) -> Result<Device> {
+        // SAFETY: loading the system's Vulkan loader; the library stays loaded while `entry` lives.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
+        let validation = validation_requested();
+        let layer_name = c"VK_LAYER_KHRONOS_validation";
+        let mut layers = Vec::new();
+        let mut extensions = Vec::new();
+        if validation {
+            // SAFETY: plain enumeration on a loaded entry.
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .ctx("listing instance layers")?;
+            if !available
+                .iter()
+                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == layer_name))
+            {
+                return Err(GpuError::NoValidationLayer);
+            }
+            layers.push(layer_name.as_ptr());
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"lobe")
+            .application_version(1)
+            .api_version(vk::API_VERSION_1_1);
+        let info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        // SAFETY: the create info and the strings it points to outlive the call.
+        let instance = unsafe { entry.create_instance(&info, None) }.map_err(|r| match r {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => GpuError::NoDevice,
+            r => GpuError::Vk {
+                what: "creating the Vulkan instance".into(),
+                result: r,
+            },
+        })?;
+        // finish_open releases the instance itself if a later step fails.
+        Self::finish_open(entry, instance, validation, opts)
+    }
+
+    fn finish_open(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        validation: bool,
+        opts: &DeviceOptions,
+    ) -> Result<Device> {
+        let debug = if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(on_validation_message));
+            // SAFETY: the callback is a plain function that lives for the whole program.
+            match unsafe { loader.create_debug_utils_messenger(&info, None) } {
+                Ok(m) => Some((loader, m)),
+                Err(r) => {
+                    unsafe { instance.destroy_instance(None) };
+                    return Err(GpuError::Vk {
+                        what: "creating the validation messenger".into(),
+                        result: r,
+                    });
+                }
+            }
+        } else {
+            None
+        };
+        let destroy_instance = |debug: &Option<(
+            ash::ext::debug_utils::Instance,
+            vk::DebugUtilsMessengerEXT,
+        )>| unsafe {
+            if let Some((loader, m)) = debug {
+                loader.destroy_debug_utils_messenger(*m, None);
+            }
+            instance.destroy_instance(None);
+        };
+        match Self::pick(&instance, opts) {
+            Ok((physical, queue_family)) => {
+                let priorities = [1.0f32];
+                let queue_info = [vk::DeviceQueueCreateInfo::default()
+                    .queue_family_index(queue_family)
+                    .queue_priorities(&priorities)];
+                let info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+                // SAFETY: physical comes from this instance; the create info outlives the call.
+                let device = match unsafe { instance.create_device(physical, &info, None) } {
+                    Ok(d) => d,
+                    Err(r) => {
+                        destroy_instance(&debug);
+                        return Err(GpuError::Vk {
+                            what: "creating the logical device".into(),
+                            result: r,
+                        });
+                    }
+                };
+                // SAFETY: queue 0 of a family we asked one queue of.
+                let queue = unsafe { device.get_device_queue(queue_family, 0) };
+                let (memory, props) = unsafe {
+                    (
+                        instance.get_physical_device_memory_properties(physical),
+                        instance.get_physical_device_properties(physical),
+                    )
+                };
+                Ok(Device {
+                    _entry: entry,
+                    instance,
+                    debug,
+                    device,
+                    queue,
+                    queue_family,
+                    memory,
+                    limits: props.limits,
+                    name: device_name(&props),
+                    device_type: props.device_type,
+                })
+            }
+            Err(e) => {
+                destroy_instance(&debug);
+                Err(e)
+            }
+        }
+    }
+
+    fn pick(instance: &ash::Instance, opts: &DeviceOptions) -> Result<(vk::PhysicalDevice, u32)> {
+        // SAFETY: enumeration on a live instance.
+        let physicals =
+            unsafe { instance.enumerate_physical_devices() }.ctx("listing Vulkan devices")?;
+        let mut candidates = Vec::new();
+        for pd in physicals {
+            let props = unsafe { instance.get_physical_device_properties(pd) };
+            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+            if let Some(qf) = families
+                .iter()
+                .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            {
+                candidates.push((pd, qf as u32, device_name(&props), props.device_type));
+            }
+        }
+        if candidates.is_empty() {
+            return Err(GpuError::NoDevice);
+        }
+        candidates.sort_by_key(|c| type_rank(c.3));
+        if let Some(wanted) = &opts.name_contains {
+            let w = wanted.to_lowercase();
+            return candidates
+                .iter()
+                .find(|c| c.2.to_lowercase().contains(&w))
+                .map(|c| (c.0, c.1))
+                .ok_or_else(|| GpuError::NoMatchingDevice {
+                    wanted: wanted.clone(),
+                    available: candidates
+                        .iter()
+                        .map(|c| c.2.clone())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                });
+        }
+        Ok((candidates[0].0, candidates[0].1))
+    }
+
+    /// The device's name as the driver reports it.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Whether this is a CPU implementation such as lavapipe.
+    pub fn is_cpu(&self) -> bool {
+        self.device_type == vk::PhysicalDeviceType::CPU
+    }
+
+    /// Index of a memory type with all of `flags` among `type_bits`.
+    pub(crate) fn memory_type(
+        &self,
+        type_bits: u32,
+        flags: vk::MemoryPropertyFlags,
+    ) -> Option<u32> {
+        (0..self.memory.memory_type_count).find(|&i| {
+            type_bits & (1 << i) != 0
+                && self.memory.memory_types[i as usize]
+                    .property_flags
+                    .contains(flags)
+        })
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: every object created from the device is owned by something that borrows it and has
+        // been dropped already; release in reverse order of creation.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_device(None);
+            if let Some((loader, m)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

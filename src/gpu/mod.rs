@@ -1,0 +1,189 @@
+//! The Vulkan compute runner: device, buffers, pipelines, dispatch, read-back. Work larger than
+//! one buffer binding or one dispatch is split into chunks; buffers are sized for one chunk, so
+//! memory stays bounded whatever the job's size.
+
+pub mod buffer;
+pub mod device;
+pub mod error;
+pub mod pipeline;
+pub mod shaders;
+pub mod spirv;
+
+use crate::model::Model;
+use buffer::Buffer;
+pub use device::{validation_message_count, Device, DeviceOptions};
+pub use error::{GpuError, Result, INSTALL_HINT};
+use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::Rc;
+use std::time::Duration;
+
+/// Bytes of output per chunk: large enough to amortise a submit, small enough to stay well under
+/// lavapipe's 128 MiB binding limit and to keep memory bounded.
+pub const CHUNK_OUTPUT_BYTES: u64 = 48 << 20;
+
+/// One direction pair for the pairs kernel; the std430 twin of `Pair` in `glsl/kernels/pairs.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuPair {
+    pub wi: [f32; 3],
+    pub param_index: u32,
+    pub wo: [f32; 3],
+    pub pad: u32,
+}
+
+/// The pipelines built so far on one device; each is built on first use only.
+pub struct Gpu<'d> {
+    dev: &'d Device,
+    pipelines: RefCell<HashMap<(Kernel, Model, bool), Rc<Pipeline<'d>>>>,
+    built: RefCell<Vec<(String, Duration)>>,
+}
+
+impl<'d> Gpu<'d> {
+    pub fn new(dev: &'d Device) -> Gpu<'d> {
+        Gpu {
+            dev,
+            pipelines: RefCell::default(),
+            built: RefCell::default(),
+        }
+    }
+
+    pub fn device(&self) -> &'d Device {
+        self.dev
+    }
+
+    fn pipeline(
+        &self,
+        kernel: Kernel,
+        model: Model,
+        white_furnace: bool,
+    ) -> Result<Rc<Pipeline<'d>>> {
+        let key = (kernel, model, white_furnace);
+        if let Some(p) = self.pipelines.borrow().get(&key) {
+            return Ok(p.clone());
+        }
+        let p = Rc::new(Pipeline::new(
+            self.dev,
+            kernel,
+            model.name(),
+            white_furnace,
+        )?);
+        if std::env::var("LOBE_LOG").is_ok_and(|v| v != "0") {
+            eprintln!(
+                "lobe: built pipeline {} in {:.1} ms",
+                p.label,
+                p.build_time.as_secs_f64() * 1e3
+            );
+        }
+        self.built
+            .borrow_mut()
+            .push((p.label.clone(), p.build_time));
+        self.pipelines.borrow_mut().insert(key, p.clone());
+        Ok(p)
+    }
+
+    /// Every pipeline built so far, with its build time.
+    pub fn built_pipelines(&self) -> Vec<(String, Duration)> {
+        self.built.borrow().clone()
+    }
+
+    fn max_chunk(&self, pipe: &Pipeline<'d>, in_bytes_per_eval: u64) -> u64 {
+        let range = self.dev.limits.max_storage_buffer_range as u64;
+        let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
+        let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
+        let by_output = CHUNK_OUTPUT_BYTES.min(range) / 12;
+        let by_input = if in_bytes_per_eval > 0 {
+            range / in_bytes_per_eval
+        } else {
+            u64::MAX
+        };
+        by_dispatch.min(by_output).min(by_input).max(1)
+    }
+
+    /// f at explicit pairs; `blocks` are std430 parameter blocks and each pair names its block.
+    pub fn eval_pairs(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        pairs: &[GpuPair],
+        white_furnace: bool,
+    ) -> Result<Vec<[f32; 3]>> {
+        let pipe = self.pipeline(Kernel::Pairs, model, white_furnace)?;
+        let params: Vec<u8> = blocks.concat();
+        let chunk = (self.max_chunk(&pipe, std::mem::size_of::<GpuPair>() as u64) as usize)
+            .min(pairs.len().max(1));
+        let mut param_buf = Buffer::new(self.dev, params.len() as u64, "parameter")?;
+        param_buf.write(&params);
+        let mut pair_buf = Buffer::new(
+            self.dev,
+            (chunk * std::mem::size_of::<GpuPair>()) as u64,
+            "direction pair",
+        )?;
+        let out_buf = Buffer::new(self.dev, (chunk * 12) as u64, "output")?;
+        let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pair_buf, &out_buf])?;
+        let mut out = Vec::with_capacity(pairs.len());
+        for (k, part) in pairs.chunks(chunk).enumerate() {
+            pair_buf.write(bytemuck::cast_slice(part));
+            let push = ChunkPush {
+                first: (k * chunk) as u32,
+                count: part.len() as u32,
+                n_wo: 0,
+                pad: 0,
+            };
+            dispatcher.run_one(&push)?;
+            out.extend(
+                out_buf
+                    .read_f32(part.len() * 3)
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]]),
+            );
+        }
+        Ok(out)
+    }
+
+    /// The outer product table f(wi[i], wo[o]), cell = i * wo.len() + o, handed to `sink` one
+    /// chunk at a time as (first cell, rgb values).
+    pub fn eval_table<E: From<GpuError>>(
+        &self,
+        model: Model,
+        block: &[u8],
+        wi: &[[f32; 4]],
+        wo: &[[f32; 4]],
+        white_furnace: bool,
+        sink: &mut dyn FnMut(u64, &[f32]) -> std::result::Result<(), E>,
+    ) -> std::result::Result<(), E> {
+        let cells = wi.len() as u64 * wo.len() as u64;
+        if cells > u32::MAX as u64 {
+            return Err(GpuError::Limit(format!(
+                "a table of {cells} cells exceeds the GPU kernel's 32-bit cell index (at most {})",
+                u32::MAX
+            ))
+            .into());
+        }
+        let pipe = self.pipeline(Kernel::Table, model, white_furnace)?;
+        let chunk = self.max_chunk(&pipe, 0).min(cells.max(1));
+        let mut param_buf = Buffer::new(self.dev, block.len() as u64, "parameter")?;
+        param_buf.write(block);
+        let mut wi_buf = Buffer::new(self.dev, (wi.len() * 16) as u64, "light direction")?;
+        wi_buf.write(bytemuck::cast_slice(wi));
+        let mut wo_buf = Buffer::new(self.dev, (wo.len() * 16) as u64, "view direction")?;
+        wo_buf.write(bytemuck::cast_slice(wo));
+        let out_buf = Buffer::new(self.dev, chunk * 12, "output")?;
+        let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &wi_buf, &wo_buf, &out_buf])?;
+        let mut first = 0u64;
+        while first < cells {
+            let count = chunk.min(cells - first);
+            let push = ChunkPush {
+                first: first as u32,
+                count: count as u32,
+                n_wo: wo.len() as u32,
+                pad: 0,
+            };
+            dispatcher.run_one(&push)?;
+            sink(first, out_buf.read_f32(count as usize * 3))?;
+            first += count;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,370 @@
+//! Compute pipelines, one per (kernel, model, white furnace), specialised at creation:
+//! constant 0 = WHITE_FURNACE, 1 = workgroup size, 2 = evaluations per invocation.
+//! A pipeline carries exactly one model; nothing is built until a command needs it.
+
+use super::buffer::Buffer;
+use super::device::Device;
+use super::error::{Context, GpuError, Result};
+use super::shaders;
+use ash::vk;
+use std::time::{Duration, Instant};
+
+/// Which kernel of `glsl/kernels/`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out).
+    Table,
+    /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
+    Pairs,
+}
+
+impl Kernel {
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Table => "table",
+            Kernel::Pairs => "pairs",
+        }
+    }
+
+    pub(crate) fn bindings(self) -> &'static [u32] {
+        match self {
+            Kernel::Table => &[0, 1, 2, 3],
+            Kernel::Pairs => &[0, 1, 3],
+        }
+    }
+}
+
+/// Workgroup size. 64 suits lavapipe (PLATFORM.md) and is a multiple of every GPU's wave width.
+pub const LOCAL_SIZE: u32 = 64;
+
+/// Push constants: see `Chunk` in `glsl/kernels/eval.glsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ChunkPush {
+    pub first: u32,
+    pub count: u32,
+    pub n_wo: u32,
+    pub pad: u32,
+}
+
+pub struct Pipeline<'d> {
+    dev: &'d Device,
+    pub kernel: Kernel,
+    module: vk::ShaderModule,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    pub evals_per_invocation: u32,
+    /// How long creating the pipeline took (the driver compiles the shader here).
+    pub build_time: Duration,
+    pub label: String,
+}
+
+impl<'d> Pipeline<'d> {
+    pub fn new(
+        dev: &'d Device,
+        kernel: Kernel,
+        model: &str,
+        white_furnace: bool,
+    ) -> Result<Pipeline<'d>> {
+        let start = Instant::now();
+        let bytes =
+            shaders::spirv(kernel.name(), model).ok_or_else(|| GpuError::MissingKernel {
+                kernel: kernel.name().into(),
+                model: model.into(),
+            })?;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
+            GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
+        })?;
+        // On a CPU driver several evaluations per invocation amortise the invocation overhead;
+        // on a GPU one per invocation keeps every lane busy.
+        let evals_per_invocation = if dev.is_cpu() { 4 } else { 1 };
+        let label = format!(
+            "{}/{model}{}",
+            kernel.name(),
+            if white_furnace {
+                " (white furnace)"
+            } else {
+                ""
+            }
+        );
+        let d = &dev.device;
+        let mut p = Pipeline {
+            dev,
+            kernel,
+            module: vk::ShaderModule::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            pipeline: vk::Pipeline::null(),
+            evals_per_invocation,
+            build_time: Duration::ZERO,
+            label,
+        };
+        // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
+        unsafe {
+            p.module = d
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+                .ctx("creating a shader module")?;
+            let bindings: Vec<_> = kernel
+                .bindings()
+                .iter()
+                .map(|&b| {
+                    vk::DescriptorSetLayoutBinding::default()
+                        .binding(b)
+                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .descriptor_count(1)
+                        .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                })
+                .collect();
+            p.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .ctx("creating a descriptor set layout")?;
+            let push = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                .offset(0)
+                .size(std::mem::size_of::<ChunkPush>() as u32)];
+            let set_layouts = [p.set_layout];
+            p.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&push),
+                    None,
+                )
+                .ctx("creating a pipeline layout")?;
+            let spec_data: [u32; 3] = [white_furnace as u32, LOCAL_SIZE, evals_per_invocation];
+            let entries: Vec<_> = (0..3)
+                .map(|i| vk::SpecializationMapEntry {
+                    constant_id: i,
+                    offset: 4 * i,
+                    size: 4,
+                })
+                .collect();
+            let spec = vk::SpecializationInfo::default()
+                .map_entries(&entries)
+                .data(bytemuck::cast_slice(&spec_data));
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(p.module)
+                .name(c"main")
+                .specialization_info(&spec);
+            let info = [vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(p.layout)];
+            p.pipeline = d
+                .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+                .map_err(|(_, r)| r)
+                .ctx(&format!("creating the compute pipeline {}", p.label))?[0];
+        }
+        p.build_time = start.elapsed();
+        Ok(p)
+    }
+
+    /// Runs the kernel once per chunk over bound buffers (in binding order), waiting for each.
+    pub fn dispatch(&self, buffers: &[&Buffer<'d>], chunks: &[ChunkPush]) -> Result<()> {
+        Dispatcher::new(self, buffers)?.run(chunks)
+    }
+}
+
+impl Drop for Pipeline<'_> {
+    fn drop(&mut self) {
+        let d = &self.dev.device;
+        // SAFETY: the device is idle after every dispatch; release in reverse order of creation.
+        unsafe {
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+            d.destroy_shader_module(self.module, None);
+        }
+    }
+}
+
+/// How long one chunk may run before we call the device hung.
+const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
+
+/// A descriptor set bound to a job's buffers, a command buffer and a fence, reused per chunk.
+pub struct Dispatcher<'p, 'd> {
+    pipe: &'p Pipeline<'d>,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    cmd_pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl<'p, 'd> Dispatcher<'p, 'd> {
+    pub fn new(pipe: &'p Pipeline<'d>, buffers: &[&Buffer<'d>]) -> Result<Dispatcher<'p, 'd>> {
+        let bindings = pipe.kernel.bindings();
+        assert_eq!(
+            buffers.len(),
+            bindings.len(),
+            "kernel {} takes {} buffers",
+            pipe.kernel.name(),
+            bindings.len()
+        );
+        let d = &pipe.dev.device;
+        let mut s = Dispatcher {
+            pipe,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            cmd_pool: vk::CommandPool::null(),
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+        };
+        // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
+        unsafe {
+            let sizes = [vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: bindings.len() as u32,
+            }];
+            s.pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .ctx("creating a descriptor pool")?;
+            let layouts = [pipe.set_layout];
+            s.set = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(s.pool)
+                        .set_layouts(&layouts),
+                )
+                .ctx("allocating a descriptor set")?[0];
+            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+                .iter()
+                .map(|b| {
+                    [vk::DescriptorBufferInfo {
+                        buffer: b.buffer,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    }]
+                })
+                .collect();
+            let writes: Vec<_> = bindings
+                .iter()
+                .zip(&infos)
+                .map(|(&b, info)| {
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(s.set)
+                        .dst_binding(b)
+                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .buffer_info(info)
+                })
+                .collect();
+            d.update_descriptor_sets(&writes, &[]);
+            s.cmd_pool = d
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default()
+                        .queue_family_index(pipe.dev.queue_family)
+                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                    None,
+                )
+                .ctx("creating a command pool")?;
+            s.cmd = d
+                .allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(s.cmd_pool)
+                        .level(vk::CommandBufferLevel::PRIMARY)
+                        .command_buffer_count(1),
+                )
+                .ctx("allocating a command buffer")?[0];
+            s.fence = d
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .ctx("creating a fence")?;
+        }
+        Ok(s)
+    }
+
+    /// Dispatches one chunk and waits for it.
+    pub fn run_one(&self, chunk: &ChunkPush) -> Result<()> {
+        let pipe = self.pipe;
+        let d = &pipe.dev.device;
+        let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as u64;
+        let groups = (chunk.count as u64).div_ceil(per_group);
+        let max_groups = pipe.dev.limits.max_compute_work_group_count[0] as u64;
+        if groups > max_groups {
+            return Err(GpuError::Limit(format!(
+                "a chunk of {} evaluations needs {groups} workgroups; this device allows {max_groups}",
+                chunk.count
+            )));
+        }
+        // SAFETY: the command buffer is idle (we wait on the fence after each submit).
+        unsafe {
+            d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
+                .ctx("resetting a command buffer")?;
+            d.begin_command_buffer(
+                self.cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .ctx("beginning a command buffer")?;
+            d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::COMPUTE, pipe.pipeline);
+            d.cmd_bind_descriptor_sets(
+                self.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipe.layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            d.cmd_push_constants(
+                self.cmd,
+                pipe.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(chunk),
+            );
+            d.cmd_dispatch(self.cmd, groups as u32, 1, 1);
+            // Make the shader's writes visible to the host's reads of the mapped output.
+            let barrier = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            d.cmd_pipeline_barrier(
+                self.cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            );
+            d.end_command_buffer(self.cmd)
+                .ctx("ending a command buffer")?;
+            let cmds = [self.cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            d.reset_fences(&[self.fence]).ctx("resetting a fence")?;
+            d.queue_submit(pipe.dev.queue, &submit, self.fence)
+                .ctx(&format!("submitting {}", pipe.label))?;
+            match d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64) {
+                Ok(()) => Ok(()),
+                Err(vk::Result::TIMEOUT) => Err(GpuError::Timeout {
+                    what: pipe.label.clone(),
+                    seconds: CHUNK_TIMEOUT.as_secs(),
+                }),
+                Err(r) => Err(r).ctx(&format!("running {}", pipe.label)),
+            }
+        }
+    }
+
+    pub fn run(&self, chunks: &[ChunkPush]) -> Result<()> {
+        chunks.iter().try_for_each(|c| self.run_one(c))
+    }
+}
+
+impl Drop for Dispatcher<'_, '_> {
+    fn drop(&mut self) {
+        let d = &self.pipe.dev.device;
+        // SAFETY: the fence was waited on; release in reverse order of creation.
+        unsafe {
+            d.destroy_fence(self.fence, None);
+            d.destroy_command_pool(self.cmd_pool, None);
+            d.destroy_descriptor_pool(self.pool, None);
+        }
+    }
+}

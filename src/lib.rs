@@ -1,0 +1,34 @@
+//! lobe: evaluate BRDFs with Vulkan compute shaders (GLSL, f32) over dense (light, view) grids,
+//! checked against a CPU reference in f64, and write lobe tables.
+//!
+//! Conventions (DESIGN §2): local frame n = +z, t = +x, b = +y; ω = (sinθ cosφ, sinθ sinφ, cosθ);
+//! ωi points to the light, ωo to the viewer; f is in 1/sr, linear RGB, without the cosine, and 0
+//! whenever cosθi ≤ 0 or cosθo ≤ 0.
+
+pub mod eval;
+pub mod gpu;
+pub mod grid;
+pub mod material;
+pub mod model;
+pub mod table;
+
+pub use eval::Evaluator;
+pub use model::{Model, ParamSet, Reference};
+
+/// Resolves a model's parameters as the CLI does: the model's defaults, then the material preset
+/// (if any), then each `key=value` assignment in order.
+pub fn resolve_params(
+    model: &str,
+    material: Option<&str>,
+    sets: &[String],
+) -> Result<ParamSet, model::ParamError> {
+    let model = Model::from_name(model)?;
+    let mut params = match material {
+        Some(name) => material::preset(name, model)?,
+        None => ParamSet::defaults(model),
+    };
+    for s in sets {
+        params.set_text(s)?;
+    }
+    Ok(params)
+}

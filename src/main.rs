@@ -1,0 +1,377 @@
+//! The `lobe` command line: parses, calls the library, prints.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use glam::DVec3;
+use lobe::gpu::{Device, DeviceOptions, Gpu};
+use lobe::grid::{direction, Grid};
+use lobe::model::{Model, ParamKind};
+use lobe::table::{write_table, TableMeta};
+use lobe::{material, resolve_params, Evaluator, ParamSet};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "lobe",
+    version,
+    about = "Evaluate BRDFs with Vulkan compute shaders, checked against an f64 CPU reference",
+    long_about = "Evaluate BRDFs with Vulkan compute shaders (GLSL, f32), checked against a CPU reference in f64.\n\
+Conventions: normal +z, tangent +x; theta from the normal, phi from +x counter-clockwise; wi points to the light,\n\
+wo to the viewer; f is in 1/sr, linear RGB, without the cosine. The command line takes angles in degrees."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Evaluate f at direction pairs; prints CSV (or JSON).
+    Eval(EvalArgs),
+    /// Write a lobe table (EXR mosaic, plus .npy and .json beside it).
+    Table(TableArgs),
+    /// List every model with its parameters, ranges, defaults and a description.
+    Models(ModelsArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum Backend {
+    /// Vulkan compute shaders in f32 (a real GPU if there is one, else lavapipe).
+    Gpu,
+    /// The CPU reference in f64.
+    Cpu,
+}
+
+#[derive(Args)]
+struct ModelArgs {
+    /// BRDF model (see `lobe models`).
+    #[arg(long, default_value = "cook_torrance")]
+    model: String,
+    /// Set a parameter, KEY=VALUE; rgb values as r,g,b or one number. Repeatable; applied after --material.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Start from a material preset: tin, gold, glazed_ceramic, granite.
+    #[arg(long)]
+    material: Option<String>,
+    /// Replace every Fresnel factor of a specular lobe by 1 (shows the lobe's own energy).
+    #[arg(long)]
+    white_furnace: bool,
+    /// Where to evaluate.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Use the first Vulkan device whose name contains this text (default: a real GPU, else lavapipe).
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum Format {
+    Csv,
+    Json,
+}
+
+#[derive(Args)]
+struct EvalArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Light direction THETA,PHI in degrees.
+    #[arg(
+        long,
+        value_name = "THETA,PHI",
+        requires = "wo",
+        conflicts_with = "pairs",
+        allow_hyphen_values = true
+    )]
+    wi: Option<String>,
+    /// View direction THETA,PHI in degrees.
+    #[arg(
+        long,
+        value_name = "THETA,PHI",
+        requires = "wi",
+        allow_hyphen_values = true
+    )]
+    wo: Option<String>,
+    /// CSV file of pairs with the header theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg.
+    #[arg(long, value_name = "FILE.csv")]
+    pairs: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Csv)]
+    format: Format,
+}
+
+#[derive(Args)]
+struct TableArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Grid: full (theta_i, phi_i, theta_o, phi_o) or isotropic (theta_i, theta_o, delta_phi in [0, 180 deg]).
+    #[arg(long, default_value = "full")]
+    grid: String,
+    /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full) or NTHETA_I,NTHETA_O,NDPHI (isotropic).
+    #[arg(long)]
+    res: String,
+    /// Output EXR path; the .npy and .json are written beside it.
+    #[arg(short = 'o', long = "output", value_name = "PATH.exr")]
+    output: PathBuf,
+}
+
+#[derive(Args)]
+struct ModelsArgs {
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval(a) => cmd_eval(a),
+        Command::Table(a) => cmd_table(a),
+        Command::Models(a) => cmd_models(a),
+    };
+    if let Err(e) = result {
+        eprintln!("lobe: error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn params_of(a: &ModelArgs) -> Result<ParamSet> {
+    Ok(resolve_params(&a.model, a.material.as_deref(), &a.sets)?)
+}
+
+/// Runs `f` with the evaluator the arguments ask for; the device lives for the call.
+fn with_evaluator<T>(a: &ModelArgs, f: impl FnOnce(&Evaluator) -> Result<T>) -> Result<T> {
+    match a.backend {
+        Backend::Cpu => f(&Evaluator::Cpu),
+        Backend::Gpu => {
+            let dev = Device::open(&DeviceOptions {
+                name_contains: a.device.clone(),
+            })?;
+            let gpu = Gpu::new(&dev);
+            f(&Evaluator::Gpu(&gpu))
+        }
+    }
+}
+
+/// Parses `THETA,PHI` in degrees.
+fn parse_angles(flag: &str, text: &str) -> Result<[f64; 2]> {
+    let nums: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("{flag} '{text}': expected THETA,PHI in degrees, e.g. {flag} 30,0")
+        })?;
+    let [theta, phi] = nums[..] else {
+        bail!("{flag} '{text}': expected two numbers THETA,PHI in degrees")
+    };
+    check_angles(flag, theta, phi)?;
+    Ok([theta, phi])
+}
+
+fn check_angles(what: &str, theta: f64, phi: f64) -> Result<()> {
+    if !(0.0..=180.0).contains(&theta) {
+        bail!("{what}: theta = {theta} deg is out of range; valid range is [0, 180] (f = 0 beyond 90)");
+    }
+    if !phi.is_finite() {
+        bail!("{what}: phi = {phi} deg must be a finite number");
+    }
+    Ok(())
+}
+
+fn read_pairs(path: &PathBuf) -> Result<Vec<[f64; 4]>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    const HEADER: &str = "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg";
+    match lines.next() {
+        Some((_, h)) if h.replace(' ', "") == HEADER => {}
+        _ => bail!(
+            "{}: the first line must be the header {HEADER}",
+            path.display()
+        ),
+    }
+    let mut out = Vec::new();
+    for (n, line) in lines {
+        let where_ = format!("{} line {}", path.display(), n + 1);
+        let nums: Vec<f64> = line
+            .split(',')
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("{where_}: '{line}' is not four numbers"))?;
+        let [ti, pi, to, po] = nums[..] else {
+            bail!("{where_}: expected four numbers, found {}", nums.len())
+        };
+        check_angles(&where_, ti, pi)?;
+        check_angles(&where_, to, po)?;
+        out.push([ti, pi, to, po]);
+    }
+    Ok(out)
+}
+
+fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let params = params_of(&a.model)?;
+    let angles: Vec<[f64; 4]> = match (&a.wi, &a.wo, &a.pairs) {
+        (Some(wi), Some(wo), None) => {
+            let [ti, pi] = parse_angles("--wi", wi)?;
+            let [to, po] = parse_angles("--wo", wo)?;
+            vec![[ti, pi, to, po]]
+        }
+        (None, None, Some(path)) => read_pairs(path)?,
+        _ => bail!("give either --wi THETA,PHI --wo THETA,PHI or --pairs FILE.csv"),
+    };
+    let dirs: Vec<(DVec3, DVec3)> = angles
+        .iter()
+        .map(|[ti, pi, to, po]| {
+            (
+                direction(ti.to_radians(), pi.to_radians()),
+                direction(to.to_radians(), po.to_radians()),
+            )
+        })
+        .collect();
+    let (values, backend) = with_evaluator(&a.model, |e| {
+        Ok((
+            e.eval_pairs(&params, a.model.white_furnace, &dirs)?,
+            e.name(),
+        ))
+    })?;
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        Format::Csv => {
+            writeln!(out, "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg,r,g,b")?;
+            for ([ti, pi, to, po], [r, g, b]) in angles.iter().zip(&values) {
+                writeln!(out, "{ti},{pi},{to},{po},{r},{g},{b}")?;
+            }
+        }
+        Format::Json => {
+            let rows: Vec<_> = angles
+                .iter()
+                .zip(&values)
+                .map(|([ti, pi, to, po], rgb)| {
+                    serde_json::json!({"theta_i_deg": ti, "phi_i_deg": pi, "theta_o_deg": to, "phi_o_deg": po, "rgb": rgb})
+                })
+                .collect();
+            let doc = serde_json::json!({
+                "model": params.model().name(),
+                "parameters": params.to_json(),
+                "white_furnace": a.model.white_furnace,
+                "backend": backend,
+                "units": "1/sr, linear RGB, without the cosine; delta lobes excluded",
+                "values": rows,
+            });
+            writeln!(out, "{}", serde_json::to_string_pretty(&doc)?)?;
+        }
+    }
+    Ok(())
+}
+
+/// Cells above which a table is refused before any work starts: 2^32, the GPU kernel's cell index
+/// (48 GiB of float32 RGB).
+const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
+
+fn cmd_table(a: TableArgs) -> Result<()> {
+    let params = params_of(&a.model)?;
+    let grid = Grid::parse(&a.grid, &a.res).map_err(anyhow::Error::msg)?;
+    if matches!(grid, Grid::Isotropic { .. }) && !params.is_isotropic() {
+        bail!(
+            "--grid isotropic needs an isotropic parameter set, but {} with {} is anisotropic; use --grid full",
+            params.model().name(),
+            params.to_text()
+        );
+    }
+    let cells = grid.cells().filter(|&c| c <= MAX_TABLE_CELLS).ok_or_else(|| {
+        anyhow::anyhow!("--res {}: the table would have more than {MAX_TABLE_CELLS} cells; lower the resolution", a.res)
+    })?;
+    if a.output.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "-o {}: the output must end in .exr (the .npy and .json are written beside it)",
+            a.output.display()
+        );
+    }
+    with_evaluator(&a.model, |e| {
+        let meta = TableMeta {
+            params: &params,
+            white_furnace: a.model.white_furnace,
+            grid,
+            backend: e.name(),
+        };
+        let bar = indicatif::ProgressBar::new(cells);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(format!("{} table", params.model().name()));
+        let started = std::time::Instant::now();
+        write_table(e, &meta, &a.output, &mut |done, _| bar.set_position(done))?;
+        bar.finish_and_clear();
+        let (npy, json) = lobe::table::sibling_paths(&a.output);
+        eprintln!(
+            "lobe: wrote {} ({} cells, {:.2} s on {}), {} and {}",
+            a.output.display(),
+            cells,
+            started.elapsed().as_secs_f64(),
+            e.name(),
+            npy.display(),
+            json.display()
+        );
+        Ok(())
+    })
+}
+
+fn cmd_models(a: ModelsArgs) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    if a.json {
+        let models: Vec<_> = Model::ALL
+            .iter()
+            .map(|m| {
+                let params: Vec<_> = m
+                    .params()
+                    .iter()
+                    .map(|p| serde_json::json!({"key": p.key, "kind": if p.kind == ParamKind::Rgb {"rgb"} else {"scalar"},
+                        "range": p.range_text(), "default": p.default, "description": p.doc}))
+                    .collect();
+                serde_json::json!({"name": m.name(), "description": m.description(), "delta_lobe": m.has_delta(), "parameters": params})
+            })
+            .collect();
+        writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(
+                &serde_json::json!({"models": models, "materials": material::names()})
+            )?
+        )?;
+        return Ok(());
+    }
+    for m in Model::ALL {
+        writeln!(
+            out,
+            "{}{}\n  {}",
+            m.name(),
+            if m.has_delta() { "  [delta lobe]" } else { "" },
+            m.description()
+        )?;
+        for p in m.params() {
+            let kind = if p.kind == ParamKind::Rgb { "rgb" } else { "" };
+            writeln!(
+                out,
+                "    {:<12} {:<4} {:<14} default {:<8} {}",
+                p.key,
+                kind,
+                p.range_text(),
+                p.default,
+                p.doc
+            )?;
+        }
+    }
+    writeln!(
+        out,
+        "\nmaterials (--material): {}",
+        material::names().join(", ")
+    )?;
+    Ok(())
+}

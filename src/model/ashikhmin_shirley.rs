@@ -1,0 +1,99 @@
+//! Ashikhmin & Shirley 2000, "An anisotropic Phong BRDF model", eqs. 4 and 5.
+//! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
+
+use super::params::ParamSpec;
+use super::terms::{pow5, pow_guarded, F_specular};
+use super::{f32x3, Layout, ParamSet};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::PI;
+use std::mem::offset_of;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::rgb("diffuse", 0.5, "reflectance of the diffuse substrate"),
+    ParamSpec::rgb("specular", 0.05, "R0 of the coat's Schlick Fresnel"),
+    ParamSpec::scalar(
+        "nu",
+        0.0,
+        1e6,
+        100.0,
+        "Phong-like exponent along the tangent t = +x",
+    ),
+    ParamSpec::scalar(
+        "nv",
+        0.0,
+        1e6,
+        100.0,
+        "Phong-like exponent along the bitangent b = +y",
+    ),
+];
+
+#[derive(Clone, Copy, Debug)]
+pub struct AshikhminShirley {
+    pub diffuse: DVec3,
+    pub specular: DVec3,
+    pub nu: f64,
+    pub nv: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct AshikhminShirleyParams {
+    pub diffuse: [f32; 3],
+    pub nu: f32,
+    pub specular: [f32; 3],
+    pub nv: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("diffuse", offset_of!(AshikhminShirleyParams, diffuse)),
+    ("nu", offset_of!(AshikhminShirleyParams, nu)),
+    ("specular", offset_of!(AshikhminShirleyParams, specular)),
+    ("nv", offset_of!(AshikhminShirleyParams, nv)),
+];
+
+impl AshikhminShirley {
+    pub fn new(p: &ParamSet) -> Self {
+        AshikhminShirley {
+            diffuse: p.rgb("diffuse"),
+            specular: p.rgb("specular"),
+            nu: p.scalar("nu"),
+            nv: p.scalar("nv"),
+        }
+    }
+
+    pub fn gpu_params(&self) -> AshikhminShirleyParams {
+        AshikhminShirleyParams {
+            diffuse: f32x3(self.diffuse),
+            nu: self.nu as f32,
+            specular: f32x3(self.specular),
+            nv: self.nv as f32,
+        }
+    }
+}
+
+/// (nu h_x² + nv h_y²)/(1 − c_h²) with 1 − c_h² = h_x² + h_y²; finite at h = n (see the GLSL twin).
+pub fn ashikhmin_shirley_exponent(h: DVec3, nu: f64, nv: f64) -> f64 {
+    let (hx2, hy2) = (h.x * h.x, h.y * h.y);
+    let s = hx2 + hy2;
+    if s > 0.0 {
+        (nu * hx2 + nv * hy2) / s
+    } else {
+        0.5 * (nu + nv)
+    }
+}
+
+pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
+    let h = (wi + wo).normalize();
+    let (c_i, c_o) = (wi.z, wo.z);
+    let c_d = wi.dot(h);
+    let e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
+    let spec = ((p.nu + 1.0) * (p.nv + 1.0)).sqrt() / (8.0 * PI) * pow_guarded(h.z, e)
+        / (c_d * c_i.max(c_o));
+    let rho_s = spec * F_specular(c_d, p.specular, white_furnace);
+    let rho_d = 28.0 / (23.0 * PI)
+        * p.diffuse
+        * (DVec3::ONE - p.specular)
+        * ((1.0 - pow5(1.0 - 0.5 * c_i)) * (1.0 - pow5(1.0 - 0.5 * c_o)));
+    rho_s + rho_d
+}

@@ -1,0 +1,75 @@
+//! Blinn–Phong with the (N+8)/(8π) normalization and the seed's mapping N = 8192^(1−s).
+//! Twin of `glsl/brdf/blinn_phong.glsl`.
+
+use super::params::ParamSpec;
+use super::terms::pow_guarded;
+use super::{f32x3, Layout, ParamSet};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::{FRAC_1_PI, PI};
+use std::mem::offset_of;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::rgb("diffuse", 0.5, "Lambertian reflectance"),
+    ParamSpec::rgb("specular", 0.5, "specular reflectance"),
+    ParamSpec::scalar(
+        "smoothness",
+        0.0,
+        1.0,
+        0.5,
+        "s: exponent N = 8192^(1-s) (s=0.1 sharp, s=0.9 broad)",
+    ),
+];
+
+#[derive(Clone, Copy, Debug)]
+pub struct BlinnPhong {
+    pub diffuse: DVec3,
+    pub specular: DVec3,
+    pub smoothness: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct BlinnPhongParams {
+    pub diffuse: [f32; 3],
+    pub smoothness: f32,
+    pub specular: [f32; 3],
+    pub _pad: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("diffuse", offset_of!(BlinnPhongParams, diffuse)),
+    ("smoothness", offset_of!(BlinnPhongParams, smoothness)),
+    ("specular", offset_of!(BlinnPhongParams, specular)),
+];
+
+impl BlinnPhong {
+    pub fn new(p: &ParamSet) -> Self {
+        BlinnPhong {
+            diffuse: p.rgb("diffuse"),
+            specular: p.rgb("specular"),
+            smoothness: p.scalar("smoothness"),
+        }
+    }
+
+    pub fn gpu_params(&self) -> BlinnPhongParams {
+        BlinnPhongParams {
+            diffuse: f32x3(self.diffuse),
+            smoothness: self.smoothness as f32,
+            specular: f32x3(self.specular),
+            _pad: 0.0,
+        }
+    }
+}
+
+/// N = 8192^(1−s) = 2^(13(1−s)).
+pub fn blinn_phong_exponent(smoothness: f64) -> f64 {
+    (13.0 * (1.0 - smoothness)).exp2()
+}
+
+pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
+    let h = (wi + wo).normalize();
+    let n = blinn_phong_exponent(p.smoothness);
+    let lobe = (n + 8.0) / (8.0 * PI) * pow_guarded(h.z, n);
+    p.diffuse * FRAC_1_PI + p.specular * lobe
+}

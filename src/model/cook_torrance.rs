@@ -1,0 +1,87 @@
+//! Cook & Torrance 1982: Beckmann D, V-cavity G, Schlick's Fresnel.
+//! Twin of `glsl/brdf/cook_torrance.glsl`.
+
+use super::params::ParamSpec;
+use super::terms::{r0_from_ior, D_beckmann, F_specular};
+use super::{f32x3, Layout, ParamSet};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::FRAC_1_PI;
+use std::mem::offset_of;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::rgb("diffuse", 0.2, "kD x colour: Lambertian part"),
+    ParamSpec::rgb(
+        "specular",
+        0.8,
+        "kS x colour: weight of the microfacet lobe",
+    ),
+    ParamSpec::scalar(
+        "ior",
+        1.0,
+        5.0,
+        1.5,
+        "index of refraction eta for Schlick's R0",
+    ),
+    ParamSpec::positive("roughness", 1.0, 0.3, "m: Beckmann RMS slope"),
+];
+
+#[derive(Clone, Copy, Debug)]
+pub struct CookTorrance {
+    pub diffuse: DVec3,
+    pub specular: DVec3,
+    pub ior: f64,
+    pub roughness: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct CookTorranceParams {
+    pub diffuse: [f32; 3],
+    pub ior: f32,
+    pub specular: [f32; 3],
+    pub roughness: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("diffuse", offset_of!(CookTorranceParams, diffuse)),
+    ("ior", offset_of!(CookTorranceParams, ior)),
+    ("specular", offset_of!(CookTorranceParams, specular)),
+    ("roughness", offset_of!(CookTorranceParams, roughness)),
+];
+
+impl CookTorrance {
+    pub fn new(p: &ParamSet) -> Self {
+        CookTorrance {
+            diffuse: p.rgb("diffuse"),
+            specular: p.rgb("specular"),
+            ior: p.scalar("ior"),
+            roughness: p.scalar("roughness"),
+        }
+    }
+
+    pub fn gpu_params(&self) -> CookTorranceParams {
+        CookTorranceParams {
+            diffuse: f32x3(self.diffuse),
+            ior: self.ior as f32,
+            specular: f32x3(self.specular),
+            roughness: self.roughness as f32,
+        }
+    }
+}
+
+/// V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
+#[allow(non_snake_case)]
+pub fn G_v_cavity(c_h: f64, c_d: f64, c_i: f64, c_o: f64) -> f64 {
+    (2.0 * c_h * c_i.min(c_o) / c_d).min(1.0)
+}
+
+pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
+    let h = (wi + wo).normalize();
+    let (c_i, c_o) = (wi.z, wo.z);
+    let c_d = wi.dot(h);
+    let d = D_beckmann(h, p.roughness);
+    let g = G_v_cavity(h.z, c_d, c_i, c_o);
+    let f = F_specular(c_d, DVec3::splat(r0_from_ior(p.ior)), white_furnace);
+    p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))
+}

@@ -1,0 +1,66 @@
+//! Shirley et al. 1997, the coupled matte-specular model. The functions here return the non-delta
+//! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
+
+use super::params::ParamSpec;
+use super::terms::{pow5, r0_from_ior, F_schlick};
+use super::{f32x3, Layout, ParamSet};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::PI;
+use std::mem::offset_of;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::rgb("matte", 0.5, "reflectance of the matte substrate"),
+    ParamSpec::scalar(
+        "ior",
+        1.0,
+        5.0,
+        1.5,
+        "index of refraction of the smooth coat",
+    ),
+];
+
+#[derive(Clone, Copy, Debug)]
+pub struct Coupled {
+    pub matte: DVec3,
+    pub ior: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct CoupledParams {
+    pub matte: [f32; 3],
+    pub ior: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("matte", offset_of!(CoupledParams, matte)),
+    ("ior", offset_of!(CoupledParams, ior)),
+];
+
+impl Coupled {
+    pub fn new(p: &ParamSet) -> Self {
+        Coupled {
+            matte: p.rgb("matte"),
+            ior: p.scalar("ior"),
+        }
+    }
+
+    pub fn gpu_params(&self) -> CoupledParams {
+        CoupledParams {
+            matte: f32x3(self.matte),
+            ior: self.ior as f32,
+        }
+    }
+}
+
+pub fn coupled(p: &Coupled, wi: DVec3, wo: DVec3) -> DVec3 {
+    let r0 = r0_from_ior(p.ior);
+    let k = 21.0 / (20.0 * PI) * (1.0 - r0);
+    p.matte * (k * (1.0 - pow5(1.0 - wi.z)) * (1.0 - pow5(1.0 - wo.z)))
+}
+
+/// Albedo of the mirror spike seen from c_o: F_s(c_o).
+pub fn coupled_delta(p: &Coupled, c_o: f64) -> DVec3 {
+    F_schlick(c_o, DVec3::splat(r0_from_ior(p.ior)))
+}

@@ -1,0 +1,379 @@
+//! The CPU reference: every model in f64, with the parameter tables the host validates against.
+//! Each model lives in its own file beside its GLSL twin `glsl/brdf/<model>.glsl`.
+
+pub mod ashikhmin_shirley;
+pub mod blinn_phong;
+pub mod cook_torrance;
+pub mod coupled;
+pub mod lambert;
+pub mod oren_nayar;
+pub mod params;
+pub mod phong;
+pub mod smooth_layered;
+pub mod terms;
+
+use glam::DVec3;
+pub use params::{ParamError, ParamKind, ParamSpec, Value};
+use std::collections::BTreeMap;
+
+/// Field names and byte offsets of a std430 parameter block, checked against the SPIR-V.
+pub type Layout = &'static [(&'static str, usize)];
+
+pub(crate) fn f32x3(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The closed set of models; the GPU selects the same set by pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Model {
+    Lambert,
+    Phong,
+    BlinnPhong,
+    OrenNayar,
+    CookTorrance,
+    SmoothLayered,
+    Coupled,
+    AshikhminShirley,
+}
+
+impl Model {
+    pub const ALL: [Model; 8] = [
+        Model::Lambert,
+        Model::Phong,
+        Model::BlinnPhong,
+        Model::OrenNayar,
+        Model::CookTorrance,
+        Model::SmoothLayered,
+        Model::Coupled,
+        Model::AshikhminShirley,
+    ];
+
+    /// The name used on the command line, in file names and in the GLSL function.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Lambert => "lambert",
+            Model::Phong => "phong",
+            Model::BlinnPhong => "blinn_phong",
+            Model::OrenNayar => "oren_nayar",
+            Model::CookTorrance => "cook_torrance",
+            Model::SmoothLayered => "smooth_layered",
+            Model::Coupled => "coupled",
+            Model::AshikhminShirley => "ashikhmin_shirley",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Model, ParamError> {
+        Model::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| ParamError::UnknownModel {
+                name: name.to_string(),
+                list: Model::ALL.map(Model::name).join(", "),
+            })
+    }
+
+    pub fn description(self) -> &'static str {
+        match self {
+            Model::Lambert => "ideal diffuse: albedo/pi",
+            Model::Phong => "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
+            Model::BlinnPhong => "normalized Blinn-Phong: diffuse + (N+8)/(8pi) cos^N theta_h, N = 8192^(1-s)",
+            Model::OrenNayar => "Oren-Nayar qualitative model: rough diffuse with retro-reflection",
+            Model::CookTorrance => "Cook-Torrance: Beckmann D, V-cavity G, Schlick F, plus diffuse",
+            Model::SmoothLayered => "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
+            Model::Coupled => "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
+            Model::AshikhminShirley => "Ashikhmin-Shirley anisotropic Phong: rough coat over a coupled diffuse base",
+        }
+    }
+
+    pub fn params(self) -> &'static [ParamSpec] {
+        match self {
+            Model::Lambert => lambert::PARAMS,
+            Model::Phong => phong::PARAMS,
+            Model::BlinnPhong => blinn_phong::PARAMS,
+            Model::OrenNayar => oren_nayar::PARAMS,
+            Model::CookTorrance => cook_torrance::PARAMS,
+            Model::SmoothLayered => smooth_layered::PARAMS,
+            Model::Coupled => coupled::PARAMS,
+            Model::AshikhminShirley => ashikhmin_shirley::PARAMS,
+        }
+    }
+
+    /// Name of the std430 parameter struct on both sides (`CookTorranceParams`).
+    pub fn gpu_struct_name(self) -> &'static str {
+        match self {
+            Model::Lambert => "LambertParams",
+            Model::Phong => "PhongParams",
+            Model::BlinnPhong => "BlinnPhongParams",
+            Model::OrenNayar => "OrenNayarParams",
+            Model::CookTorrance => "CookTorranceParams",
+            Model::SmoothLayered => "SmoothLayeredParams",
+            Model::Coupled => "CoupledParams",
+            Model::AshikhminShirley => "AshikhminShirleyParams",
+        }
+    }
+
+    /// Field offsets and size of the parameter block, for the layout test.
+    pub fn gpu_layout(self) -> (Layout, usize) {
+        use std::mem::size_of;
+        match self {
+            Model::Lambert => (lambert::GPU_LAYOUT, size_of::<lambert::LambertParams>()),
+            Model::Phong => (phong::GPU_LAYOUT, size_of::<phong::PhongParams>()),
+            Model::BlinnPhong => (
+                blinn_phong::GPU_LAYOUT,
+                size_of::<blinn_phong::BlinnPhongParams>(),
+            ),
+            Model::OrenNayar => (
+                oren_nayar::GPU_LAYOUT,
+                size_of::<oren_nayar::OrenNayarParams>(),
+            ),
+            Model::CookTorrance => (
+                cook_torrance::GPU_LAYOUT,
+                size_of::<cook_torrance::CookTorranceParams>(),
+            ),
+            Model::SmoothLayered => (
+                smooth_layered::GPU_LAYOUT,
+                size_of::<smooth_layered::SmoothLayeredParams>(),
+            ),
+            Model::Coupled => (coupled::GPU_LAYOUT, size_of::<coupled::CoupledParams>()),
+            Model::AshikhminShirley => (
+                ashikhmin_shirley::GPU_LAYOUT,
+                size_of::<ashikhmin_shirley::AshikhminShirleyParams>(),
+            ),
+        }
+    }
+
+    /// Models with a mirror spike that tables cannot hold (DESIGN §3).
+    pub fn has_delta(self) -> bool {
+        matches!(self, Model::SmoothLayered | Model::Coupled)
+    }
+
+    /// Whether a Fresnel factor multiplies a specular lobe, i.e. the white furnace changes it.
+    pub fn has_specular_fresnel(self) -> bool {
+        matches!(self, Model::CookTorrance | Model::AshikhminShirley)
+    }
+}
+
+/// A validated, complete parameter set for one model: every key of the model's table, in range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamSet {
+    model: Model,
+    values: BTreeMap<&'static str, Value>,
+}
+
+impl ParamSet {
+    /// The model's defaults.
+    pub fn defaults(model: Model) -> ParamSet {
+        let values = model
+            .params()
+            .iter()
+            .map(|s| (s.key, Value::One(s.default)))
+            .collect();
+        ParamSet { model, values }
+    }
+
+    pub fn model(&self) -> Model {
+        self.model
+    }
+
+    fn spec(&self, key: &str) -> Result<&'static ParamSpec, ParamError> {
+        self.model
+            .params()
+            .iter()
+            .find(|s| s.key == key)
+            .ok_or_else(|| ParamError::UnknownKey {
+                key: key.to_string(),
+                model: self.model.name().to_string(),
+                list: self
+                    .model
+                    .params()
+                    .iter()
+                    .map(|s| s.key)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// Sets one parameter, validating the key, the shape and every channel's range.
+    pub fn set(&mut self, key: &str, value: Value) -> Result<(), ParamError> {
+        let spec = self.spec(key)?;
+        if spec.kind == ParamKind::Scalar {
+            if let Value::Three(_) = value {
+                return Err(ParamError::Malformed {
+                    key: key.to_string(),
+                    text: value.to_string(),
+                    expected: "a number".to_string(),
+                });
+            }
+        }
+        for v in value.rgb() {
+            spec.check(v)?;
+        }
+        self.values.insert(spec.key, value);
+        Ok(())
+    }
+
+    /// Parses and sets `key=value` as given to `--set`.
+    pub fn set_text(&mut self, assignment: &str) -> Result<(), ParamError> {
+        let (key, text) = assignment
+            .split_once('=')
+            .ok_or_else(|| ParamError::NotKeyValue {
+                text: assignment.to_string(),
+            })?;
+        let key = key.trim();
+        let spec = self.spec(key)?;
+        let value = Value::parse(spec, text.trim())?;
+        self.set(key, value)
+    }
+
+    pub fn get(&self, key: &str) -> Value {
+        self.values[key]
+    }
+
+    /// An RGB parameter as a vector (panics on an unknown key: the key lists are static).
+    pub fn rgb(&self, key: &str) -> DVec3 {
+        DVec3::from_array(self.values[key].rgb())
+    }
+
+    pub fn scalar(&self, key: &str) -> f64 {
+        self.values[key].rgb()[0]
+    }
+
+    /// (key, value) in the order of the model's table.
+    pub fn entries(&self) -> Vec<(&'static str, Value)> {
+        self.model
+            .params()
+            .iter()
+            .map(|s| (s.key, self.values[s.key]))
+            .collect()
+    }
+
+    /// The same set with every value rounded to f32, as the GPU receives it.
+    pub fn rounded_to_f32(&self) -> ParamSet {
+        let mut out = self.clone();
+        for v in out.values.values_mut() {
+            *v = match *v {
+                Value::One(x) => Value::One(x as f32 as f64),
+                Value::Three(c) => Value::Three(c.map(|x| x as f32 as f64)),
+            };
+        }
+        out
+    }
+
+    /// Whether f depends on φi and φo only through φo − φi. Only Ashikhmin–Shirley with nu ≠ nv
+    /// is anisotropic among the seed models.
+    pub fn is_isotropic(&self) -> bool {
+        match self.model {
+            Model::AshikhminShirley => self.scalar("nu") == self.scalar("nv"),
+            _ => true,
+        }
+    }
+
+    /// A compact one-line form, `diffuse=0.2 specular=0.8,0.7,0.1 roughness=0.3`.
+    pub fn to_text(&self) -> String {
+        self.entries()
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut map = serde_json::Map::new();
+        for (k, v) in self.entries() {
+            let j = match v {
+                Value::One(x) => serde_json::json!(x),
+                Value::Three(c) => serde_json::json!(c),
+            };
+            map.insert(k.to_string(), j);
+        }
+        serde_json::Value::Object(map)
+    }
+}
+
+/// A model with its parameters resolved into the typed struct the formulas take.
+#[derive(Clone, Copy, Debug)]
+pub enum Brdf {
+    Lambert(lambert::Lambert),
+    Phong(phong::Phong),
+    BlinnPhong(blinn_phong::BlinnPhong),
+    OrenNayar(oren_nayar::OrenNayar),
+    CookTorrance(cook_torrance::CookTorrance),
+    SmoothLayered(smooth_layered::SmoothLayered),
+    Coupled(coupled::Coupled),
+    AshikhminShirley(ashikhmin_shirley::AshikhminShirley),
+}
+
+/// A model ready to evaluate on the CPU: parameters plus the white-furnace switch.
+#[derive(Clone, Copy, Debug)]
+pub struct Reference {
+    pub brdf: Brdf,
+    pub white_furnace: bool,
+}
+
+impl Brdf {
+    pub fn new(p: &ParamSet) -> Brdf {
+        match p.model() {
+            Model::Lambert => Brdf::Lambert(lambert::Lambert::new(p)),
+            Model::Phong => Brdf::Phong(phong::Phong::new(p)),
+            Model::BlinnPhong => Brdf::BlinnPhong(blinn_phong::BlinnPhong::new(p)),
+            Model::OrenNayar => Brdf::OrenNayar(oren_nayar::OrenNayar::new(p)),
+            Model::CookTorrance => Brdf::CookTorrance(cook_torrance::CookTorrance::new(p)),
+            Model::SmoothLayered => Brdf::SmoothLayered(smooth_layered::SmoothLayered::new(p)),
+            Model::Coupled => Brdf::Coupled(coupled::Coupled::new(p)),
+            Model::AshikhminShirley => {
+                Brdf::AshikhminShirley(ashikhmin_shirley::AshikhminShirley::new(p))
+            }
+        }
+    }
+
+    /// The std430 parameter block the GPU kernels read, as bytes.
+    pub fn gpu_block(&self) -> Vec<u8> {
+        use bytemuck::bytes_of;
+        match self {
+            Brdf::Lambert(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::Phong(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::BlinnPhong(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::OrenNayar(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::CookTorrance(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::SmoothLayered(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::Coupled(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::AshikhminShirley(m) => bytes_of(&m.gpu_params()).to_vec(),
+        }
+    }
+}
+
+impl Reference {
+    pub fn new(p: &ParamSet, white_furnace: bool) -> Reference {
+        Reference {
+            brdf: Brdf::new(p),
+            white_furnace,
+        }
+    }
+
+    /// f(ωi, ωo) in 1/sr, without the cosine; 0 below the horizon (DESIGN §2). Delta lobes excluded.
+    pub fn eval(&self, wi: DVec3, wo: DVec3) -> DVec3 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return DVec3::ZERO;
+        }
+        let wf = self.white_furnace;
+        match &self.brdf {
+            Brdf::Lambert(p) => lambert::lambert(p, wi, wo),
+            Brdf::Phong(p) => phong::phong(p, wi, wo),
+            Brdf::BlinnPhong(p) => blinn_phong::blinn_phong(p, wi, wo),
+            Brdf::OrenNayar(p) => oren_nayar::oren_nayar(p, wi, wo),
+            Brdf::CookTorrance(p) => cook_torrance::cook_torrance(p, wi, wo, wf),
+            Brdf::SmoothLayered(p) => smooth_layered::smooth_layered(p, wi, wo),
+            Brdf::Coupled(p) => coupled::coupled(p, wi, wo),
+            Brdf::AshikhminShirley(p) => ashikhmin_shirley::ashikhmin_shirley(p, wi, wo, wf),
+        }
+    }
+
+    /// The albedo of the delta lobe seen from c_o (zero for models without one).
+    pub fn delta_albedo(&self, c_o: f64) -> DVec3 {
+        match &self.brdf {
+            Brdf::SmoothLayered(p) => smooth_layered::smooth_layered_delta(p, c_o),
+            Brdf::Coupled(p) => coupled::coupled_delta(p, c_o),
+            _ => DVec3::ZERO,
+        }
+    }
+}

@@ -1,0 +1,66 @@
+//! Oren & Nayar 1994, the qualitative model, written without angles.
+//! Twin of `glsl/brdf/oren_nayar.glsl`.
+
+use super::params::ParamSpec;
+use super::{f32x3, Layout, ParamSet};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::{FRAC_1_PI, FRAC_PI_2};
+use std::mem::offset_of;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::rgb("albedo", 0.8, "reflectance of the facets"),
+    ParamSpec::scalar(
+        "sigma",
+        0.0,
+        FRAC_PI_2,
+        0.3,
+        "roughness: standard deviation of facet slope angle, radians",
+    ),
+];
+
+#[derive(Clone, Copy, Debug)]
+pub struct OrenNayar {
+    pub albedo: DVec3,
+    pub sigma: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct OrenNayarParams {
+    pub albedo: [f32; 3],
+    pub sigma: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("albedo", offset_of!(OrenNayarParams, albedo)),
+    ("sigma", offset_of!(OrenNayarParams, sigma)),
+];
+
+impl OrenNayar {
+    pub fn new(p: &ParamSet) -> Self {
+        OrenNayar {
+            albedo: p.rgb("albedo"),
+            sigma: p.scalar("sigma"),
+        }
+    }
+
+    pub fn gpu_params(&self) -> OrenNayarParams {
+        OrenNayarParams {
+            albedo: f32x3(self.albedo),
+            sigma: self.sigma as f32,
+        }
+    }
+
+    /// The coefficients A and B of the qualitative model.
+    pub fn a_b(&self) -> (f64, f64) {
+        let s2 = self.sigma * self.sigma;
+        (1.0 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09))
+    }
+}
+
+pub fn oren_nayar(p: &OrenNayar, wi: DVec3, wo: DVec3) -> DVec3 {
+    let (a, b) = p.a_b();
+    let s = (wi.dot(wo) - wi.z * wo.z).max(0.0);
+    p.albedo * FRAC_1_PI * (a + b * s / wi.z.max(wo.z))
+}

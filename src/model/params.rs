@@ -1,0 +1,179 @@
+//! Parameters as data with a contract: each model lists its keys with kind, range and default;
+//! every value reaches a model only through [`ParamSet`], which validates it once, on the host.
+
+use std::fmt;
+
+/// Whether a parameter is one number or an RGB triple ("rgb" accepts one number for grey).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    Rgb,
+    Scalar,
+}
+
+/// One row of a model's parameter table.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    pub key: &'static str,
+    pub kind: ParamKind,
+    pub min: f64,
+    /// The lower bound itself is not allowed (for example a roughness must be > 0).
+    pub min_exclusive: bool,
+    pub max: f64,
+    pub default: f64,
+    pub doc: &'static str,
+}
+
+impl ParamSpec {
+    pub const fn rgb(key: &'static str, default: f64, doc: &'static str) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Rgb,
+            min: 0.0,
+            min_exclusive: false,
+            max: 1.0,
+            default,
+            doc,
+        }
+    }
+
+    pub const fn scalar(
+        key: &'static str,
+        min: f64,
+        max: f64,
+        default: f64,
+        doc: &'static str,
+    ) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Scalar,
+            min,
+            min_exclusive: false,
+            max,
+            default,
+            doc,
+        }
+    }
+
+    pub const fn positive(key: &'static str, max: f64, default: f64, doc: &'static str) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Scalar,
+            min: 0.0,
+            min_exclusive: true,
+            max,
+            default,
+            doc,
+        }
+    }
+
+    /// The valid range as people write it: `[0, 1]`, `(0, 1]`.
+    pub fn range_text(&self) -> String {
+        let open = if self.min_exclusive { "(" } else { "[" };
+        format!("{open}{}, {}]", fmt_num(self.min), fmt_num(self.max))
+    }
+
+    fn contains(&self, v: f64) -> bool {
+        v.is_finite()
+            && v <= self.max
+            && if self.min_exclusive {
+                v > self.min
+            } else {
+                v >= self.min
+            }
+    }
+
+    /// Validates one value (or one channel) of this parameter.
+    pub fn check(&self, v: f64) -> Result<f64, ParamError> {
+        if self.contains(v) {
+            Ok(v)
+        } else {
+            Err(ParamError::OutOfRange {
+                key: self.key.to_string(),
+                value: v,
+                range: self.range_text(),
+            })
+        }
+    }
+}
+
+fn fmt_num(x: f64) -> String {
+    if x == std::f64::consts::FRAC_PI_2 {
+        "pi/2".to_string()
+    } else {
+        format!("{x}")
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("unknown model '{name}'; the models are: {list}")]
+    UnknownModel { name: String, list: String },
+    #[error("unknown parameter '{key}' for model {model}; its parameters are: {list}")]
+    UnknownKey {
+        key: String,
+        model: String,
+        list: String,
+    },
+    #[error("parameter '{key}' = {value} is out of range; valid range is {range}")]
+    OutOfRange {
+        key: String,
+        value: f64,
+        range: String,
+    },
+    #[error("parameter '{key}': cannot read '{text}' as {expected}")]
+    Malformed {
+        key: String,
+        text: String,
+        expected: String,
+    },
+    #[error("'{text}' is not of the form key=value (for example --set roughness=0.3)")]
+    NotKeyValue { text: String },
+    #[error("unknown material '{name}'; the materials are: {list}")]
+    UnknownMaterial { name: String, list: String },
+}
+
+/// A value as given: one number, or three for an RGB parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    One(f64),
+    Three([f64; 3]),
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::One(v) => write!(f, "{v}"),
+            Value::Three([r, g, b]) => write!(f, "{r},{g},{b}"),
+        }
+    }
+}
+
+impl Value {
+    /// Parses `0.3` or `0.9,0.1,0.2` for the parameter `spec`.
+    pub fn parse(spec: &ParamSpec, text: &str) -> Result<Value, ParamError> {
+        let expected = match spec.kind {
+            ParamKind::Rgb => "one number or three comma-separated numbers (r,g,b)",
+            ParamKind::Scalar => "a number",
+        };
+        let malformed = || ParamError::Malformed {
+            key: spec.key.to_string(),
+            text: text.to_string(),
+            expected: expected.to_string(),
+        };
+        let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+        let nums: Result<Vec<f64>, _> = parts.iter().map(|s| s.parse::<f64>()).collect();
+        let nums = nums.map_err(|_| malformed())?;
+        match (spec.kind, nums.as_slice()) {
+            (_, [v]) => Ok(Value::One(*v)),
+            (ParamKind::Rgb, [r, g, b]) => Ok(Value::Three([*r, *g, *b])),
+            _ => Err(malformed()),
+        }
+    }
+
+    pub fn rgb(&self) -> [f64; 3] {
+        match *self {
+            Value::One(v) => [v, v, v],
+            Value::Three(c) => c,
+        }
+    }
+}

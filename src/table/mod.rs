@@ -1,0 +1,309 @@
+//! Lobe tables on disk: NumPy `.npy` (shape = the grid's axes, then 3) with a JSON sidecar, and an
+//! OpenEXR mosaic of 2D slices, one per light direction. Every file is written to a temporary file
+//! in the destination's folder and renamed into place only when complete, so a failed run leaves
+//! no partial file and never replaces a good one.
+//!
+//! EXR mosaic layout (also written into the EXR header as `lobe.layout`):
+//! - full grid: a slice per (θi, φi) is NPHI_O pixels wide (φo) and NTHETA_O tall (θo); slices
+//!   tile the image with φi across and θi down. Pixel (x, y) holds
+//!   θi = y / NTHETA_O, θo = y % NTHETA_O, φi = x / NPHI_O, φo = x % NPHI_O (cell indices).
+//! - isotropic grid: a slice per θi is NDPHI wide (Δφ) and NTHETA_O tall (θo); slices sit side by
+//!   side. Pixel (x, y) holds θi = x / NDPHI, Δφ = x % NDPHI, θo = y.
+
+pub mod npy;
+
+use crate::eval::Evaluator;
+use crate::grid::Grid;
+use crate::model::ParamSet;
+use anyhow::{bail, Context, Result};
+use exr::prelude::*;
+use serde_json::json;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// What a table holds, for headers and sidecars.
+pub struct TableMeta<'a> {
+    pub params: &'a ParamSet,
+    pub white_furnace: bool,
+    pub grid: Grid,
+    pub backend: String,
+}
+
+/// Paths of the three files of a table written at `exr_path`.
+pub fn sibling_paths(exr_path: &Path) -> (PathBuf, PathBuf) {
+    (
+        exr_path.with_extension("npy"),
+        exr_path.with_extension("json"),
+    )
+}
+
+/// A temporary file beside `dest`, renamed onto it by `persist`.
+pub fn temp_beside(dest: &Path) -> Result<tempfile::NamedTempFile> {
+    let dir = match dest.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "cannot write {}: the folder {} does not exist",
+            dest.display(),
+            dir.display()
+        );
+    }
+    tempfile::Builder::new()
+        .prefix(".lobe-")
+        .suffix(".partial")
+        .tempfile_in(dir)
+        .with_context(|| {
+            format!(
+                "cannot write {}: creating a file in {} failed",
+                dest.display(),
+                dir.display()
+            )
+        })
+}
+
+fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
+    tmp.persist(dest)
+        .map_err(|e| e.error)
+        .with_context(|| format!("renaming the finished file onto {}", dest.display()))?;
+    Ok(())
+}
+
+/// (width, height) of the EXR mosaic and the npy cell index of pixel (x, y).
+fn mosaic(grid: &Grid) -> (usize, usize, Box<dyn Fn(usize, usize) -> usize + Sync>) {
+    match *grid {
+        Grid::Full {
+            n_theta_i,
+            n_phi_i,
+            n_theta_o,
+            n_phi_o,
+        } => (
+            n_phi_i * n_phi_o,
+            n_theta_i * n_theta_o,
+            Box::new(move |x, y| {
+                let (ti, to, pi, po) = (y / n_theta_o, y % n_theta_o, x / n_phi_o, x % n_phi_o);
+                ((ti * n_phi_i + pi) * n_theta_o + to) * n_phi_o + po
+            }),
+        ),
+        Grid::Isotropic {
+            n_theta_i,
+            n_theta_o,
+            n_dphi,
+        } => (
+            n_theta_i * n_dphi,
+            n_theta_o,
+            Box::new(move |x, y| {
+                let (ti, d, to) = (x / n_dphi, x % n_dphi, y);
+                (ti * n_theta_o + to) * n_dphi + d
+            }),
+        ),
+    }
+}
+
+fn layout_text(grid: &Grid) -> &'static str {
+    match grid {
+        Grid::Full { .. } => {
+            "mosaic: x = phi_i*NPHI_O + phi_o, y = theta_i*NTHETA_O + theta_o (cell indices)"
+        }
+        Grid::Isotropic { .. } => "mosaic: x = theta_i*NDPHI + dphi, y = theta_o (cell indices)",
+    }
+}
+
+/// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json`. The npy is
+/// streamed chunk by chunk; the EXR is then written from a memory map of the npy, so no step holds
+/// the whole table in memory. `progress` receives (cells done, cells in all).
+pub fn write_table(
+    eval: &Evaluator,
+    meta: &TableMeta,
+    exr_path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<()> {
+    let (npy_path, json_path) = sibling_paths(exr_path);
+    let cells = meta.grid.cells().context("the grid has too many cells")?;
+    let mut shape = meta.grid.shape();
+    shape.push(3);
+
+    let npy_tmp = temp_beside(&npy_path)?;
+    let exr_tmp = temp_beside(exr_path)?;
+    let json_tmp = temp_beside(&json_path)?;
+    {
+        let mut w = BufWriter::new(npy_tmp.as_file());
+        w.write_all(&npy::header(&shape))
+            .with_context(|| format!("writing {}", npy_path.display()))?;
+        eval.eval_table(
+            meta.params,
+            meta.white_furnace,
+            &meta.grid,
+            &mut |first, values| {
+                npy::write_f32(&mut w, values)
+                    .with_context(|| format!("writing {}", npy_path.display()))?;
+                progress(first + values.len() as u64 / 3, cells);
+                Ok(())
+            },
+        )?;
+        w.flush()
+            .with_context(|| format!("writing {}", npy_path.display()))?;
+    }
+    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp.as_file())
+        .with_context(|| format!("writing {}", exr_path.display()))?;
+    let sidecar = sidecar_json(meta, exr_path);
+    std::fs::write(
+        json_tmp.path(),
+        serde_json::to_string_pretty(&sidecar)? + "\n",
+    )
+    .with_context(|| format!("writing {}", json_path.display()))?;
+    persist(npy_tmp, &npy_path)?;
+    persist(exr_tmp, exr_path)?;
+    persist(json_tmp, &json_path)?;
+    Ok(())
+}
+
+fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
+    json!({
+        "model": meta.params.model().name(),
+        "parameters": meta.params.to_json(),
+        "white_furnace": meta.white_furnace,
+        "grid": meta.grid.name(),
+        "shape": meta.grid.shape().into_iter().chain([3]).collect::<Vec<_>>(),
+        "axes": meta.grid.axes_json(),
+        "angles": "radians; cell-centred (DESIGN §4); theta from the normal +z, phi from +x counter-clockwise",
+        "values": "f(wi, wo) in 1/sr, linear RGB, without the cosine; delta lobes are not included",
+        "units": "1/sr",
+        "dtype": "float32",
+        "backend": meta.backend,
+        "exr": exr_path.file_name().map(|n| n.to_string_lossy().into_owned()),
+        "exr_layout": layout_text(&meta.grid),
+    })
+}
+
+fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) -> Result<()> {
+    let file = std::fs::File::open(npy_path)?;
+    // SAFETY: the temporary file is ours alone and is not modified while mapped.
+    let map = unsafe { memmap2::Mmap::map(&file)? };
+    let (_, offset) = npy::parse_header(&map)?;
+    let data: &[u8] = &map[offset..];
+    let (w, h, index) = mosaic(&meta.grid);
+    let value = |cell: usize, c: usize| {
+        let b = &data[(cell * 3 + c) * 4..(cell * 3 + c) * 4 + 4];
+        f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+    };
+    let channels = SpecificChannels::rgb(|Vec2(x, y)| {
+        let cell = index(x, y);
+        (value(cell, 0), value(cell, 1), value(cell, 2))
+    });
+    let mut layer = Layer::new(
+        (w, h),
+        LayerAttributes::named("lobe"),
+        Encoding::FAST_LOSSLESS,
+        channels,
+    );
+    let text = |s: &str| {
+        AttributeValue::Text(
+            Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
+        )
+    };
+    let attrs = [
+        ("lobe.model", meta.params.model().name().to_string()),
+        ("lobe.parameters", meta.params.to_text()),
+        ("lobe.white_furnace", meta.white_furnace.to_string()),
+        ("lobe.grid", meta.grid.name().to_string()),
+        (
+            "lobe.shape",
+            meta.grid
+                .shape()
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(","),
+        ),
+        ("lobe.layout", layout_text(&meta.grid).to_string()),
+        (
+            "lobe.units",
+            "1/sr, linear RGB, without the cosine".to_string(),
+        ),
+    ];
+    for (k, v) in attrs {
+        layer
+            .attributes
+            .other
+            .insert(Text::new_or_panic(k), text(&v));
+    }
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(BufWriter::new(out))
+        .map_err(|e| anyhow::anyhow!("EXR encoder: {e}"))?;
+    Ok(())
+}
+
+/// A table read back from disk, in npy order (cells × rgb).
+pub struct TableData {
+    pub shape: Vec<usize>,
+    pub values: Vec<f32>,
+    /// The EXR header's lobe.* attributes.
+    pub attributes: Vec<(String, String)>,
+}
+
+/// Reads the npy of a table.
+pub fn read_npy(npy_path: &Path) -> Result<TableData> {
+    let (shape, values) = npy::read(npy_path)?;
+    Ok(TableData {
+        shape,
+        values,
+        attributes: Vec::new(),
+    })
+}
+
+/// Reads the EXR mosaic of a table back into npy order, using its own header to undo the mosaic.
+pub fn read_exr(exr_path: &Path) -> Result<TableData> {
+    let image = read_first_flat_layer_from_file(exr_path)
+        .with_context(|| format!("reading {}", exr_path.display()))?;
+    let layer = &image.layer_data;
+    let mut attributes = Vec::new();
+    for (k, v) in &layer.attributes.other {
+        if let AttributeValue::Text(t) = v {
+            attributes.push((k.to_string(), t.to_string()));
+        }
+    }
+    let attr = |key: &str| {
+        attributes
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.clone())
+    };
+    let grid_name = attr("lobe.grid").context("the EXR has no lobe.grid attribute")?;
+    let shape_text = attr("lobe.shape").context("the EXR has no lobe.shape attribute")?;
+    let grid = Grid::parse(&grid_name, &shape_text).map_err(anyhow::Error::msg)?;
+    let (w, h, index) = mosaic(&grid);
+    if layer.size.0 != w || layer.size.1 != h {
+        bail!(
+            "{}: image is {}x{}, the grid needs {w}x{h}",
+            exr_path.display(),
+            layer.size.0,
+            layer.size.1
+        );
+    }
+    let cells = grid.cells().context("grid too large")? as usize;
+    let mut values = vec![0.0f32; cells * 3];
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let ch = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|ch| ch.name == Text::new_or_panic(*name))
+            .context("missing channel")?;
+        for y in 0..h {
+            for x in 0..w {
+                values[index(x, y) * 3 + c] =
+                    ch.sample_data.value_by_flat_index(y * w + x).to_f32();
+            }
+        }
+    }
+    let mut shape = grid.shape();
+    shape.push(3);
+    Ok(TableData {
+        shape,
+        values,
+        attributes,
+    })
+}
