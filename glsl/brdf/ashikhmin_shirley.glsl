@@ -20,9 +20,9 @@ float ashikhmin_shirley_exponent(vec3 h, float nu, float nv) {
 }
 
 vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
-    vec3 h = normalize(wi + wo);
+    float c_d;
+    vec3 h = half_vector(wi, wo, c_d);
     float c_i = wi.z, c_o = wo.z;
-    float c_d = dot(wi, h);
     float e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
     float spec = sqrt((p.nu + 1.0) * (p.nv + 1.0)) / (8.0 * PI) * pow_guarded(h.z, e)
                / (c_d * max(c_i, c_o));

@@ -15,9 +15,9 @@ float G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
 }
 
 vec3 cook_torrance(CookTorranceParams p, vec3 wi, vec3 wo) {
-    vec3 h = normalize(wi + wo);
+    float c_d;
+    vec3 h = half_vector(wi, wo, c_d);
     float c_i = wi.z, c_o = wo.z;
-    float c_d = dot(wi, h);
     float d = D_beckmann(h, p.roughness);
     float g = G_v_cavity(h.z, c_d, c_i, c_o);
     vec3 f = F_specular(c_d, vec3(r0_from_ior(p.ior)));

@@ -16,6 +16,16 @@ float pow_guarded(float x, float n) {
     return pow(x, n);
 }
 
+// Half vector h = normalize(wi + wo) and c_d = wi.h. For unit wi and wo,
+// wi.h = (1 + wi.wo) / |wi + wo| = |wi + wo| / 2: exactly symmetric in wi and wo, and free of the
+// cancellation that dot(wi, h) suffers when wi and wo are nearly opposite (grazing, h -> n).
+vec3 half_vector(vec3 wi, vec3 wo, out float c_d) {
+    vec3 s = wi + wo;
+    float len = length(s);
+    c_d = 0.5 * len;
+    return s / len;
+}
+
 // Normal-incidence reflectance of a dielectric with relative IOR eta.
 float r0_from_ior(float eta) {
     float r = (eta - 1.0) / (eta + 1.0);

@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{pow5, pow_guarded, F_specular};
+use super::terms::{half_vector, pow5, pow_guarded, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -84,9 +84,8 @@ pub fn ashikhmin_shirley_exponent(h: DVec3, nu: f64, nv: f64) -> f64 {
 }
 
 pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
-    let h = (wi + wo).normalize();
+    let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);
-    let c_d = wi.dot(h);
     let e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
     let spec = ((p.nu + 1.0) * (p.nv + 1.0)).sqrt() / (8.0 * PI) * pow_guarded(h.z, e)
         / (c_d * c_i.max(c_o));

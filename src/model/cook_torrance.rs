@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{r0_from_ior, D_beckmann, F_specular};
+use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -77,9 +77,8 @@ pub fn G_v_cavity(c_h: f64, c_d: f64, c_i: f64, c_o: f64) -> f64 {
 }
 
 pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
-    let h = (wi + wo).normalize();
+    let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);
-    let c_d = wi.dot(h);
     let d = D_beckmann(h, p.roughness);
     let g = G_v_cavity(h.z, c_d, c_i, c_o);
     let f = F_specular(c_d, DVec3::splat(r0_from_ior(p.ior)), white_furnace);

@@ -19,6 +19,13 @@ pub fn pow_guarded(x: f64, n: f64) -> f64 {
     x.powf(n)
 }
 
+/// Half vector h = normalize(ωi + ωo) and c_d = ωi·h = |ωi + ωo|/2 (see the GLSL twin for why).
+pub fn half_vector(wi: DVec3, wo: DVec3) -> (DVec3, f64) {
+    let s = wi + wo;
+    let len = s.length();
+    (s / len, 0.5 * len)
+}
+
 /// Normal-incidence reflectance of a dielectric with relative IOR `eta`.
 pub fn r0_from_ior(eta: f64) -> f64 {
     let r = (eta - 1.0) / (eta + 1.0);

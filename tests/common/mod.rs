@@ -1,0 +1,55 @@
+//! Shared by the integration tests: the GPU policy and a small deterministic random generator.
+#![allow(dead_code)]
+
+use lobe::gpu::{Device, DeviceOptions};
+
+/// GPU tests do not hide: without a Vulkan device they fail with the install hint. They skip
+/// only when LOBE_SKIP_GPU=1 is set (CI never sets it). Returns None when skipping.
+pub fn gpu_device(test: &str) -> Option<Device> {
+    if std::env::var("LOBE_SKIP_GPU").is_ok_and(|v| v == "1") {
+        eprintln!("{test}: skipped because LOBE_SKIP_GPU=1");
+        return None;
+    }
+    match Device::open(&DeviceOptions::default()) {
+        Ok(d) => Some(d),
+        Err(e) => {
+            panic!("{test} needs a Vulkan device: {e}\n(set LOBE_SKIP_GPU=1 to skip GPU tests)")
+        }
+    }
+}
+
+/// With LOBE_VALIDATION=1 the validation layer must have reported nothing.
+pub fn assert_validation_clean(test: &str) {
+    let n = lobe::gpu::validation_message_count();
+    assert_eq!(
+        n, 0,
+        "{test}: the Vulkan validation layer reported {n} warnings or errors (see stderr)"
+    );
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): deterministic, so a failure reproduces.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.uniform()
+    }
+
+    /// Log-uniform in [lo, hi], lo > 0.
+    pub fn log_range(&mut self, lo: f64, hi: f64) -> f64 {
+        (lo.ln() + (hi.ln() - lo.ln()) * self.uniform()).exp()
+    }
+}
