@@ -33,6 +33,8 @@ enum Command {
     Table(TableArgs),
     /// List every model with its parameters, ranges, defaults and a description.
     Models(ModelsArgs),
+    /// The main job on the built-in materials: gold lobe tables and evaluations on both backends.
+    Demo(DemoArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -116,6 +118,19 @@ struct TableArgs {
 }
 
 #[derive(Args)]
+struct DemoArgs {
+    /// Output folder.
+    #[arg(short = 'o', long = "output", default_value = "lobe-demo")]
+    output: PathBuf,
+    /// Where to evaluate.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+}
+
+#[derive(Args)]
 struct ModelsArgs {
     /// Print JSON instead of text.
     #[arg(long)]
@@ -128,6 +143,7 @@ fn main() {
         Command::Eval(a) => cmd_eval(a),
         Command::Table(a) => cmd_table(a),
         Command::Models(a) => cmd_models(a),
+        Command::Demo(a) => cmd_demo(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -374,4 +390,31 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
         material::names().join(", ")
     )?;
     Ok(())
+}
+
+fn cmd_demo(a: DemoArgs) -> Result<()> {
+    let model_args = ModelArgs {
+        model: "cook_torrance".into(),
+        sets: Vec::new(),
+        material: None,
+        white_furnace: false,
+        backend: a.backend,
+        device: a.device.clone(),
+    };
+    with_evaluator(&model_args, |e| {
+        let bar = indicatif::ProgressBar::new(1);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% eta {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let summary = lobe::demo::run(e, &a.output, &mut |name, done, all| {
+            bar.set_message(name.to_string());
+            bar.set_length(all);
+            bar.set_position(done);
+        })?;
+        bar.finish_and_clear();
+        println!("{summary}");
+        println!("lobe demo: files are in {}", a.output.display());
+        Ok(())
+    })
 }

@@ -63,7 +63,16 @@ pub fn temp_beside(dest: &Path) -> Result<tempfile::NamedTempFile> {
         })
 }
 
-fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
+/// Renames a finished temporary file onto `dest`, with the permissions a plainly created file gets
+/// (tempfile creates 0600).
+pub fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = tmp
+            .as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644));
+    }
     tmp.persist(dest)
         .map_err(|e| e.error)
         .with_context(|| format!("renaming the finished file onto {}", dest.display()))?;
