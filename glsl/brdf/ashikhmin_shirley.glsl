@@ -24,7 +24,7 @@ vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
     vec3 h = half_vector(wi, wo, c_d);
     float c_i = wi.z, c_o = wo.z;
     float e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
-    float spec = sqrt((p.nu + 1.0) * (p.nv + 1.0)) / (8.0 * PI) * pow_guarded(h.z, e)
+    float spec = sqrt((p.nu + 1.0) * (p.nv + 1.0)) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), e)
                / (c_d * max(c_i, c_o));
     vec3 rho_s = spec * F_specular(c_d, p.specular);
     vec3 rho_d = 28.0 / (23.0 * PI) * p.diffuse * (1.0 - p.specular)

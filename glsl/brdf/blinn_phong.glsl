@@ -16,6 +16,6 @@ float blinn_phong_exponent(float smoothness) {
 vec3 blinn_phong(BlinnPhongParams p, vec3 wi, vec3 wo) {
     vec3 h = normalize(wi + wo);
     float n = blinn_phong_exponent(p.smoothness);
-    float lobe = (n + 8.0) / (8.0 * PI) * pow_guarded(h.z, n);
+    float lobe = (n + 8.0) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), n);
     return p.diffuse * INV_PI + p.specular * lobe;
 }

@@ -11,7 +11,9 @@ struct PhongParams {
 
 vec3 phong(PhongParams p, vec3 wi, vec3 wo) {
     vec3 r = vec3(-wi.x, -wi.y, wi.z);  // mirror of wi about n = +z: 2 c_i n - wi
-    float cos_alpha = dot(r, wo);
-    float lobe = (p.shininess + 2.0) / (2.0 * PI) * pow_guarded(max(cos_alpha, 0.0), p.shininess);
+    // 1 - r.wo = |r - wo|^2 / 2 for unit vectors: no cancellation near the mirror direction.
+    vec3 d = r - wo;
+    float s = 0.5 * dot(d, d);
+    float lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
     return p.diffuse * INV_PI + p.specular * lobe;
 }

@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{half_vector, pow5, pow_guarded, F_specular};
+use super::terms::{half_vector, one_minus_cos_theta, pow1m, pow5, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -87,7 +87,7 @@ pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furna
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);
     let e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
-    let spec = ((p.nu + 1.0) * (p.nv + 1.0)).sqrt() / (8.0 * PI) * pow_guarded(h.z, e)
+    let spec = ((p.nu + 1.0) * (p.nv + 1.0)).sqrt() / (8.0 * PI) * pow1m(one_minus_cos_theta(h), e)
         / (c_d * c_i.max(c_o));
     let rho_s = spec * F_specular(c_d, p.specular, white_furnace);
     let rho_d = 28.0 / (23.0 * PI)

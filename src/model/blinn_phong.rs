@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::pow_guarded;
+use super::terms::{one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -70,6 +70,6 @@ pub fn blinn_phong_exponent(smoothness: f64) -> f64 {
 pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
     let h = (wi + wo).normalize();
     let n = blinn_phong_exponent(p.smoothness);
-    let lobe = (n + 8.0) / (8.0 * PI) * pow_guarded(h.z, n);
+    let lobe = (n + 8.0) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), n);
     p.diffuse * FRAC_1_PI + p.specular * lobe
 }

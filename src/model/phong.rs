@@ -2,7 +2,7 @@
 //! r = 2 c_i n − ωi. Twin of `glsl/brdf/phong.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::pow_guarded;
+use super::terms::pow1m;
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -64,7 +64,8 @@ impl Phong {
 
 pub fn phong(p: &Phong, wi: DVec3, wo: DVec3) -> DVec3 {
     let r = DVec3::new(-wi.x, -wi.y, wi.z); // mirror of wi about n = +z: 2 c_i n − wi
-    let cos_alpha = r.dot(wo);
-    let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow_guarded(cos_alpha.max(0.0), p.shininess);
+                                            // 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation near the mirror direction.
+    let s = 0.5 * (r - wo).length_squared();
+    let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
     p.diffuse * FRAC_1_PI + p.specular * lobe
 }

@@ -8,15 +8,25 @@ pub fn pow5(x: f64) -> f64 {
     x2 * x2 * x
 }
 
-/// x^n with x^0 = 1 (also at x = 0) and 0^n = 0 for n > 0, as the GLSL twin defines it.
-pub fn pow_guarded(x: f64, n: f64) -> f64 {
+/// log(1 − s) for 0 ≤ s < 1, accurate when s is tiny (see the GLSL twin for why and how).
+pub fn log1m(s: f64) -> f64 {
+    (-s).ln_1p()
+}
+
+/// (1 − s)^n, i.e. cos^n given s = 1 − cos, with x^0 = 1 even at x = 0 and 0^n = 0 for n > 0.
+pub fn pow1m(s: f64, n: f64) -> f64 {
     if n == 0.0 {
         return 1.0;
     }
-    if x <= 0.0 {
+    if s >= 1.0 {
         return 0.0;
     }
-    x.powf(n)
+    (n * log1m(s)).exp()
+}
+
+/// 1 − h_z for a unit vector h, as (h_x² + h_y²)/(1 + h_z): no cancellation near h = n.
+pub fn one_minus_cos_theta(h: DVec3) -> f64 {
+    (h.x * h.x + h.y * h.y) / (1.0 + h.z)
 }
 
 /// Half vector h = normalize(ωi + ωo) and c_d = ωi·h = |ωi + ωo|/2 (see the GLSL twin for why).
