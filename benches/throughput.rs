@@ -10,7 +10,11 @@ use lobe::Evaluator;
 use std::time::Instant;
 
 /// 1.6e7 evaluations per run: long enough to dwarf dispatch overhead on lavapipe.
-const GRID: Grid = Grid::Isotropic { n_theta_i: 200, n_theta_o: 200, n_dphi: 400 };
+const GRID: Grid = Grid::Isotropic {
+    n_theta_i: 200,
+    n_theta_o: 200,
+    n_dphi: 400,
+};
 const REPEATS: usize = 5;
 
 fn median_rate(e: &Evaluator, p: &ParamSet) -> f64 {
@@ -34,12 +38,27 @@ fn main() {
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = Gpu::new(&dev);
     let evaluators = [Evaluator::Gpu(&gpu), Evaluator::Cpu];
-    println!("evaluations per second, median of {REPEATS} runs of {} cells", GRID.cells().unwrap());
-    println!("{:<18} {:>22} {:>22} {:>8}", "model", evaluators[0].name(), "cpu f64", "ratio");
+    println!(
+        "evaluations per second, median of {REPEATS} runs of {} cells",
+        GRID.cells().unwrap()
+    );
+    println!(
+        "{:<18} {:>22} {:>22} {:>8}",
+        "model",
+        evaluators[0].name(),
+        "cpu f64",
+        "ratio"
+    );
     for model in Model::ALL {
         let p = ParamSet::defaults(model);
         let g = median_rate(&evaluators[0], &p);
         let c = median_rate(&evaluators[1], &p);
-        println!("{:<18} {:>20.1} M {:>20.1} M {:>8.2}", model.name(), g / 1e6, c / 1e6, g / c);
+        println!(
+            "{:<18} {:>20.1} M {:>20.1} M {:>8.2}",
+            model.name(),
+            g / 1e6,
+            c / 1e6,
+            g / c
+        );
     }
 }
