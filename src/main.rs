@@ -348,8 +348,8 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
                 let params: Vec<_> = m
                     .params()
                     .iter()
-                    .map(|p| serde_json::json!({"key": p.key, "kind": if p.kind == ParamKind::Rgb {"rgb"} else {"scalar"},
-                        "range": p.range_text(), "default": p.default, "description": p.doc}))
+                    .map(|p| serde_json::json!({"key": p.key, "kind": match p.kind { ParamKind::Rgb => "rgb", ParamKind::Scalar => "scalar", ParamKind::Choice(_) => "choice" },
+                        "range": p.range_text(), "default": p.default_value().to_string(), "description": p.doc}))
                     .collect();
                 serde_json::json!({"name": m.name(), "description": m.description(), "delta_lobe": m.has_delta(), "parameters": params})
             })
@@ -372,14 +372,18 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
             m.description()
         )?;
         for p in m.params() {
-            let kind = if p.kind == ParamKind::Rgb { "rgb" } else { "" };
+            let kind = match p.kind {
+                ParamKind::Rgb => "rgb",
+                ParamKind::Choice(_) => "one of",
+                ParamKind::Scalar => "",
+            };
             writeln!(
                 out,
                 "    {:<12} {:<4} {:<14} default {:<8} {}",
                 p.key,
                 kind,
                 p.range_text(),
-                p.default,
+                p.default_value().to_string(),
                 p.doc
             )?;
         }

@@ -58,10 +58,28 @@ fn from_toml(text: &str, model: Model) -> Result<ParamSet, ParamError> {
         })?;
     let mut set = ParamSet::defaults(model);
     let Some(section) = table.get(model.name()).and_then(toml::Value::as_table) else {
-        return Ok(set);
+        let name = table
+            .get("name")
+            .and_then(toml::Value::as_str)
+            .unwrap_or("?")
+            .to_string();
+        let defined: Vec<&str> = Model::ALL
+            .iter()
+            .map(|m| m.name())
+            .filter(|m| table.get(*m).is_some_and(toml::Value::is_table))
+            .collect();
+        return Err(ParamError::NoPreset {
+            material: name,
+            model: model.name().into(),
+            list: defined.join(", "),
+        });
     };
     for (key, v) in section {
         let value = match v {
+            toml::Value::String(text) => {
+                set.set_text(&format!("{key}={text}"))?;
+                continue;
+            }
             toml::Value::Float(x) => Value::One(*x),
             toml::Value::Integer(i) => Value::One(*i as f64),
             toml::Value::Array(a) if a.len() == 3 => {

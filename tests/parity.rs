@@ -12,6 +12,7 @@ use glam::DVec3;
 use lobe::gpu::{Gpu, GpuPair};
 use lobe::grid::direction;
 use lobe::model::ashikhmin_shirley::ashikhmin_shirley_exponent;
+use lobe::model::microfacet::MicrofacetConfig;
 use lobe::model::terms::{log1m, one_minus_cos_theta};
 use lobe::model::{
     blinn_phong::blinn_phong_exponent, Brdf, Model, ParamKind, ParamSet, Reference, Value,
@@ -23,6 +24,8 @@ use std::f64::consts::{FRAC_PI_2, PI};
 const RANDOM_SETS: usize = 200;
 /// Random direction pairs per parameter set, on top of the structured ones.
 const RANDOM_PAIRS: usize = 160;
+/// Random parameter sets per microfacet component combination (48 combinations).
+const MICROFACET_SETS: usize = 24;
 
 /// f32 machine epsilon.
 const EPS32: f64 = f32::EPSILON as f64;
@@ -65,6 +68,11 @@ fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
             let m = params.scalar("roughness");
             (h.x * h.x + h.y * h.y) / (h.z * h.z) / (m * m)
         }
+        Model::Microfacet(c) if c.distribution == 0 => {
+            let m = lobe::model::microfacet::Microfacet::new(params);
+            (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
+                / (h.z * h.z)
+        }
         _ => 0.0,
     }
 }
@@ -92,7 +100,14 @@ fn random_params(model: Model, rng: &mut common::Rng) -> ParamSet {
     let mut p = ParamSet::defaults(model);
     for spec in model.params() {
         let v = match (spec.kind, spec.key) {
-            (ParamKind::Rgb, _) => Value::Three([rng.uniform(), rng.uniform(), rng.uniform()]),
+            // Component choices are part of the model (its pipeline): keep them.
+            (ParamKind::Choice(_), _) => continue,
+            // Parameters whose absence means something: set them half of the time.
+            (_, "alpha_x" | "alpha_y" | "f0") if rng.uniform() < 0.5 => continue,
+            (_, "alpha" | "alpha_x" | "alpha_y") => Value::One(rng.log_range(0.01, 1.0)),
+            (ParamKind::Rgb, _) => {
+                Value::Three([0; 3].map(|_| rng.range(spec.min, spec.max.min(8.0))))
+            }
             // Exponents span decades: sample log-uniformly up to the seed's maximum, 8192, and
             // include 0 now and then.
             (_, "shininess" | "nu" | "nv") => Value::One(if rng.uniform() < 0.05 {
@@ -184,95 +199,46 @@ fn gpu_matches_cpu_reference_for_every_model() {
         for k in 0..RANDOM_SETS {
             sets.push((format!("random #{k}"), random_params(model, &mut rng)));
         }
-        for white_furnace in [false, true] {
-            if white_furnace && !model.has_specular_fresnel() {
-                continue;
-            }
-            let mut blocks = Vec::new();
-            let mut pairs = Vec::new();
-            let mut refs = Vec::new();
-            for (k, (_, p)) in sets.iter().enumerate() {
-                let p32 = p.rounded_to_f32();
-                blocks.push(Brdf::new(&p32).gpu_block());
-                for (wi, wo) in direction_pairs(&mut rng) {
-                    pairs.push(GpuPair {
-                        wi: [wi.x as f32, wi.y as f32, wi.z as f32],
-                        param_index: k as u32,
-                        wo: [wo.x as f32, wo.y as f32, wo.z as f32],
-                        pad: 0,
-                    });
-                    refs.push((k, wi, wo));
-                }
-            }
-            let got = gpu
-                .eval_pairs(model, &blocks, &pairs, white_furnace)
-                .expect("GPU evaluation");
-            let mut worst = Worst {
-                ratio: 0.0,
-                text: String::new(),
-                rel: 0.0,
-                rel_text: String::new(),
-            };
-            let mut n = 0usize;
-            for ((k, wi, wo), g) in refs.iter().zip(&got) {
-                let (label, p) = &sets[*k];
-                let p32 = p.rounded_to_f32();
-                let reference = Reference::new(&p32, white_furnace);
-                let c = reference.eval(*wi, *wo);
-                let conditioning = spread(&reference, *wi, *wo, c);
-                let rtol = RTOL_BASE + EXPONENT_FACTOR * EPS32 * exponent_at(&p32, *wi, *wo);
-                for ch in 0..3 {
-                    let (gv, cv) = (g[ch] as f64, c[ch]);
-                    n += 1;
-                    let describe = || {
-                        format!(
-                            "{} ({label}, white_furnace={white_furnace}) {}: wi={wi:?} (θ={:.4}°) wo={wo:?} (θ={:.4}°) \
-                             channel {ch}: gpu={gv:e} cpu={cv:e} |diff|={:e} allowed={:e}",
-                            model.name(),
-                            p.to_text(),
-                            wi.z.acos().to_degrees(),
-                            wo.z.acos().to_degrees(),
-                            (gv - cv).abs(),
-                            ATOL + rtol * cv.abs() + conditioning[ch]
-                        )
-                    };
-                    if !gv.is_finite() || gv < 0.0 {
-                        failures.push(format!("non-finite or negative GPU value: {}", describe()));
-                        continue;
-                    }
-                    let diff = (gv - cv).abs();
-                    let allowed = ATOL + rtol * cv.abs() + conditioning[ch];
-                    if diff > allowed {
-                        failures.push(describe());
-                    }
-                    let rel = if cv.abs() > ATOL {
-                        diff / cv.abs()
-                    } else {
-                        0.0
-                    };
-                    if diff / allowed > worst.ratio {
-                        (worst.ratio, worst.text) = (diff / allowed, describe());
-                    }
-                    if rel > worst.rel {
-                        (worst.rel, worst.rel_text) = (rel, describe());
-                    }
-                }
-            }
-            summary.push(format!(
-                "{:<18} wf={:<5} {} sets x {} values: worst relative error {:.2e} at {}\n    closest to the tolerance ({:.0}% of it): {}",
-                model.name(),
-                white_furnace,
-                sets.len(),
-                n,
-                worst.rel,
-                worst.rel_text,
-                worst.ratio * 100.0,
-                worst.text
-            ));
+        // A preset may choose other components (another pipeline): one comparison per model.
+        let mut models: Vec<Model> = sets.iter().map(|(_, p)| p.model()).collect();
+        models.sort();
+        models.dedup();
+        for m in models {
+            let group: Vec<_> = sets
+                .iter()
+                .filter(|(_, p)| p.model() == m)
+                .cloned()
+                .collect();
+            compare(&gpu, m, &group, &mut rng, &mut failures, &mut summary);
         }
     }
-    eprintln!("parity summary on {}:\n{}", dev.name(), summary.join("\n"));
-    common::assert_validation_clean("parity");
+    report(&dev, "parity", &summary, &failures);
+}
+
+/// Every combination of the microfacet model's components (each its own pipeline), at random
+/// parameter sets.
+#[test]
+fn microfacet_every_component_combination() {
+    let Some(dev) = common::gpu_device("microfacet parity") else {
+        return;
+    };
+    let gpu = Gpu::new(&dev);
+    let mut rng = common::Rng(0x00c0_ffee);
+    let mut failures = Vec::new();
+    let mut summary = Vec::new();
+    for config in MicrofacetConfig::all() {
+        let model = Model::Microfacet(config);
+        let sets: Vec<(String, ParamSet)> = (0..MICROFACET_SETS)
+            .map(|k| (format!("random #{k}"), random_params(model, &mut rng)))
+            .collect();
+        compare(&gpu, model, &sets, &mut rng, &mut failures, &mut summary);
+    }
+    report(&dev, "microfacet parity", &summary, &failures);
+}
+
+fn report(dev: &lobe::gpu::Device, test: &str, summary: &[String], failures: &[String]) {
+    eprintln!("{test} summary on {}:\n{}", dev.name(), summary.join("\n"));
+    common::assert_validation_clean(test);
     assert!(
         failures.is_empty(),
         "{} GPU values outside tolerance; first 20:\n{}",
@@ -284,6 +250,108 @@ fn gpu_matches_cpu_reference_for_every_model() {
             .collect::<Vec<_>>()
             .join("\n")
     );
+}
+
+/// Evaluates every (parameter set, direction pair) on the GPU in one dispatch per white-furnace
+/// setting and compares each channel with the f64 reference.
+fn compare(
+    gpu: &Gpu,
+    model: Model,
+    sets: &[(String, ParamSet)],
+    rng: &mut common::Rng,
+    failures: &mut Vec<String>,
+    summary: &mut Vec<String>,
+) {
+    let model_label = match model {
+        Model::Microfacet(c) => format!("microfacet[{}]", c.label()),
+        m => m.name().to_string(),
+    };
+    for white_furnace in [false, true] {
+        if white_furnace && !model.has_specular_fresnel() {
+            continue;
+        }
+        let mut blocks = Vec::new();
+        let mut pairs = Vec::new();
+        let mut refs = Vec::new();
+        for (k, (_, p)) in sets.iter().enumerate() {
+            let p32 = p.rounded_to_f32();
+            blocks.push(Brdf::new(&p32).gpu_block());
+            for (wi, wo) in direction_pairs(rng) {
+                pairs.push(GpuPair {
+                    wi: [wi.x as f32, wi.y as f32, wi.z as f32],
+                    param_index: k as u32,
+                    wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+                    pad: 0,
+                });
+                refs.push((k, wi, wo));
+            }
+        }
+        let got = gpu
+            .eval_pairs(model, &blocks, &pairs, white_furnace)
+            .expect("GPU evaluation");
+        let mut worst = Worst {
+            ratio: 0.0,
+            text: String::new(),
+            rel: 0.0,
+            rel_text: String::new(),
+        };
+        let mut n = 0usize;
+        for ((k, wi, wo), g) in refs.iter().zip(&got) {
+            let (label, p) = &sets[*k];
+            let p32 = p.rounded_to_f32();
+            let reference = Reference::new(&p32, white_furnace);
+            let c = reference.eval(*wi, *wo);
+            let conditioning = spread(&reference, *wi, *wo, c);
+            let rtol = RTOL_BASE + EXPONENT_FACTOR * EPS32 * exponent_at(&p32, *wi, *wo);
+            for ch in 0..3 {
+                let (gv, cv) = (g[ch] as f64, c[ch]);
+                n += 1;
+                let describe = || {
+                    format!(
+                        "{} ({label}, white_furnace={white_furnace}) {}: wi={wi:?} (θ={:.4}°) wo={wo:?} (θ={:.4}°) \
+                         channel {ch}: gpu={gv:e} cpu={cv:e} |diff|={:e} allowed={:e}",
+                        model_label,
+                        p.to_text(),
+                        wi.z.acos().to_degrees(),
+                        wo.z.acos().to_degrees(),
+                        (gv - cv).abs(),
+                        ATOL + rtol * cv.abs() + conditioning[ch]
+                    )
+                };
+                if !gv.is_finite() || gv < 0.0 {
+                    failures.push(format!("non-finite or negative GPU value: {}", describe()));
+                    continue;
+                }
+                let diff = (gv - cv).abs();
+                let allowed = ATOL + rtol * cv.abs() + conditioning[ch];
+                if diff > allowed {
+                    failures.push(describe());
+                }
+                let rel = if cv.abs() > ATOL {
+                    diff / cv.abs()
+                } else {
+                    0.0
+                };
+                if diff / allowed > worst.ratio {
+                    (worst.ratio, worst.text) = (diff / allowed, describe());
+                }
+                if rel > worst.rel {
+                    (worst.rel, worst.rel_text) = (rel, describe());
+                }
+            }
+        }
+        summary.push(format!(
+            "{:<18} wf={:<5} {} sets x {} values: worst relative error {:.2e} at {}\n    closest to the tolerance ({:.0}% of it): {}",
+            model_label,
+            white_furnace,
+            sets.len(),
+            n,
+            worst.rel,
+            worst.rel_text,
+            worst.ratio * 100.0,
+            worst.text
+        ));
+    }
 }
 
 /// Closed form: Lambert is albedo/π on both backends (the GPU to f32 rounding of 1/π·albedo).

@@ -9,16 +9,11 @@ struct CookTorranceParams {
     float roughness;
 };
 
-// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
-float G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
-    return min(1.0, 2.0 * c_h * min(c_i, c_o) / c_d);
-}
-
 vec3 cook_torrance(CookTorranceParams p, vec3 wi, vec3 wo) {
     float c_d;
     vec3 h = half_vector(wi, wo, c_d);
     float c_i = wi.z, c_o = wo.z;
-    float d = D_beckmann(h, p.roughness);
+    float d = D_beckmann(h, p.roughness, p.roughness);
     float g = G_v_cavity(h.z, c_d, c_i, c_o);
     vec3 f = F_specular(c_d, vec3(r0_from_ior(p.ior)));
     return p.diffuse * INV_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));

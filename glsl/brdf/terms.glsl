@@ -66,15 +66,103 @@ vec3 F_specular(float c, vec3 r0) {
     return WHITE_FURNACE ? vec3(1.0) : F_schlick(c, r0);
 }
 
-// Beckmann distribution (Beckmann & Spizzichino 1963; Cook & Torrance 1982, eq. 4) with RMS slope m:
-// D = exp(-tan^2(theta_h) / m^2) / (pi m^2 cos^4(theta_h)).
-// tan^2 is taken as (h_x^2 + h_y^2) / h_z^2 rather than (1 - c_h^2) / c_h^2, which cancels
-// catastrophically in f32 when h is close to n.
-float D_beckmann(vec3 h, float m) {
+// Beckmann distribution (Beckmann & Spizzichino 1963; Cook & Torrance 1982, eq. 4), anisotropic
+// as in Heitz 2014 ("Understanding the masking-shadowing function", eq. 84), RMS slopes ax, ay:
+// D = exp(-(h_x^2/ax^2 + h_y^2/ay^2) / h_z^2) / (pi ax ay h_z^4).
+// The exponent is tan^2(theta_h) weighted by azimuth, taken from h_x^2 and h_y^2 over h_z^2
+// rather than (1 - c_h^2) / c_h^2, which cancels catastrophically in f32 when h is close to n.
+float D_beckmann(vec3 h, float ax, float ay) {
     float ch2 = h.z * h.z;
-    float tan2 = (h.x * h.x + h.y * h.y) / ch2;
-    float m2 = m * m;
-    return exp(-tan2 / m2) / (PI * m2 * ch2 * ch2);
+    float e = (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / ch2;
+    return exp(-e) / (PI * ax * ay * ch2 * ch2);
+}
+
+// GGX / Trowbridge-Reitz (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):
+// D = 1 / (pi ax ay (h_x^2/ax^2 + h_y^2/ay^2 + h_z^2)^2).
+float D_ggx(vec3 h, float ax, float ay) {
+    float q = h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay) + h.z * h.z;
+    return 1.0 / (PI * ax * ay * q * q);
+}
+
+// (alpha tan theta)^2 of a direction for anisotropic roughness: (ax^2 w_x^2 + ay^2 w_y^2) / w_z^2
+// (Heitz 2014, eq. 80 with the projected roughness of eq. 81).
+float alpha_tan2(vec3 w, float ax, float ay) {
+    return (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
+}
+
+// Smith Lambda for GGX (Heitz 2014, eq. 86): (sqrt(1 + t2) - 1) / 2, written as
+// t2 / (2 (sqrt(1 + t2) + 1)) so that it does not cancel when t2 is small.
+float lambda_ggx(float t2) {
+    return t2 / (2.0 * (sqrt(1.0 + t2) + 1.0));
+}
+
+// erfc(x) for x >= 0 (Press et al., Numerical Recipes, 2nd ed., section 6.2, erfcc): a Chebyshev
+// fit with fractional error below 1.2e-7 everywhere, i.e. about one f32 ulp. GLSL has no erf.
+float erfc_approx(float x) {
+    float t = 1.0 / (1.0 + 0.5 * x);
+    return t * exp(-x * x - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418
+        + t * (-0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587
+        + t * (-0.82215223 + t * 0.17087277)))))))));
+}
+
+// Smith Lambda for Beckmann, exact (Walter et al. 2007, eq. 25 integrated; Heitz 2014, eq. 83):
+// a = 1 / sqrt(t2); Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)).
+// Written with erfc so that erf(a) - 1 does not cancel for large a. Lambda = 0 at w = n.
+float lambda_beckmann(float t2) {
+    if (t2 <= 0.0) return 0.0;
+    float a = inversesqrt(t2);
+    return 0.5 * (exp(-a * a) / (a * 1.7724538509055160) - erfc_approx(a));
+}
+
+// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1.
+float G1_beckmann_rational(float t2) {
+    if (t2 <= 0.0) return 1.0;
+    float a = inversesqrt(t2);
+    if (a >= 1.6) return 1.0;
+    return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+}
+
+// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
+float G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
+    return min(1.0, 2.0 * c_h * min(c_i, c_o) / c_d);
+}
+
+// Exact unpolarized Fresnel reflectance of a dielectric with relative IOR eta (Walter et al.
+// 2007, eq. 22): g^2 = eta^2 - 1 + c^2; F = 1/2 ((g-c)/(g+c))^2 (1 + ((c(g+c)-1)/(c(g-c)+1))^2).
+// g^2 < 0 is total internal reflection (only possible for eta < 1).
+float F_dielectric(float c, float eta) {
+    // eta^2 - 1 as (eta - 1)(eta + 1), and g - c as (eta^2 - 1) / (g + c) (g^2 - c^2 = eta^2 - 1):
+    // as eta -> 1 both differences would otherwise cancel and F, which is O((eta - 1)^2), would
+    // lose every digit in f32.
+    float e2m1 = (eta - 1.0) * (eta + 1.0);
+    float g2 = e2m1 + c * c;
+    if (g2 < 0.0) return 1.0;
+    float g = sqrt(g2);
+    float gpc = g + c;
+    // g + c = 0 only for eta = 1 at grazing: no interface, no reflection.
+    if (gpc == 0.0) return 0.0;
+    float a = e2m1 / (gpc * gpc);
+    float s2 = 1.0 - c * c;
+    float b = (c * g - s2) / (c * g + s2);
+    return 0.5 * a * a * (1.0 + b * b);
+}
+
+// Exact unpolarized Fresnel reflectance of a conductor with complex IOR eta + i k, per channel
+// (Born & Wolf, Principles of Optics, section 14.2; the a, b form as in Lagarde 2013, "Memo on
+// Fresnel equations"). With k = 0 it reduces to F_dielectric.
+vec3 F_conductor(float c, vec3 eta, vec3 k) {
+    float c2 = c * c, s2 = 1.0 - c2;
+    vec3 t0 = eta * eta - k * k - s2;
+    vec3 a2b2 = sqrt(t0 * t0 + 4.0 * eta * eta * k * k);
+    vec3 a = sqrt(max(0.5 * (a2b2 + t0), 0.0));
+    vec3 t1 = a2b2 + c2;
+    vec3 t2 = 2.0 * c * a;
+    // t1 + t2 = 0 only for eta = 1, k = 0 at grazing (no interface): the floor makes rs = 0 there.
+    vec3 rs = (t1 - t2) / max(t1 + t2, vec3(1e-30));
+    vec3 t3 = c2 * a2b2 + s2 * s2;
+    vec3 t4 = t2 * s2;
+    vec3 rp = rs * (t3 - t4) / (t3 + t4);
+    return 0.5 * (rp + rs);
 }
 
 #endif

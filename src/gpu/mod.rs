@@ -63,12 +63,7 @@ impl<'d> Gpu<'d> {
         if let Some(p) = self.pipelines.borrow().get(&key) {
             return Ok(p.clone());
         }
-        let p = Rc::new(Pipeline::new(
-            self.dev,
-            kernel,
-            model.name(),
-            white_furnace,
-        )?);
+        let p = Rc::new(Pipeline::new(self.dev, kernel, model, white_furnace)?);
         if std::env::var("LOBE_LOG").is_ok_and(|v| v != "0") {
             eprintln!(
                 "lobe: built pipeline {} in {:.1} ms",

@@ -6,6 +6,7 @@ use super::buffer::Buffer;
 use super::device::Device;
 use super::error::{Context, GpuError, Result};
 use super::shaders;
+use crate::model::Model;
 use ash::vk;
 use std::time::{Duration, Instant};
 
@@ -64,10 +65,11 @@ impl<'d> Pipeline<'d> {
     pub fn new(
         dev: &'d Device,
         kernel: Kernel,
-        model: &str,
+        model_kind: Model,
         white_furnace: bool,
     ) -> Result<Pipeline<'d>> {
         let start = Instant::now();
+        let model = model_kind.name();
         let bytes =
             shaders::spirv(kernel.name(), model).ok_or_else(|| GpuError::MissingKernel {
                 kernel: kernel.name().into(),
@@ -79,8 +81,12 @@ impl<'d> Pipeline<'d> {
         // On a CPU driver several evaluations per invocation amortise the invocation overhead;
         // on a GPU one per invocation keeps every lane busy.
         let evals_per_invocation = if dev.is_cpu() { 4 } else { 1 };
+        let components = match model_kind {
+            Model::Microfacet(c) => format!("[{}]", c.label()),
+            _ => String::new(),
+        };
         let label = format!(
-            "{}/{model}{}",
+            "{}/{model}{components}{}",
             kernel.name(),
             if white_furnace {
                 " (white furnace)"
@@ -135,8 +141,11 @@ impl<'d> Pipeline<'d> {
                     None,
                 )
                 .ctx("creating a pipeline layout")?;
-            let spec_data: [u32; 3] = [white_furnace as u32, LOCAL_SIZE, evals_per_invocation];
-            let entries: Vec<_> = (0..3)
+            // Constants 0-2 are every kernel's; 3.. are the model's component choices.
+            let mut spec_data: Vec<u32> =
+                vec![white_furnace as u32, LOCAL_SIZE, evals_per_invocation];
+            spec_data.extend(model_kind.spec_constants());
+            let entries: Vec<_> = (0..spec_data.len() as u32)
                 .map(|i| vk::SpecializationMapEntry {
                     constant_id: i,
                     offset: 4 * i,

@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular};
+use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -70,16 +70,10 @@ impl CookTorrance {
     }
 }
 
-/// V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
-#[allow(non_snake_case)]
-pub fn G_v_cavity(c_h: f64, c_d: f64, c_i: f64, c_o: f64) -> f64 {
-    (2.0 * c_h * c_i.min(c_o) / c_d).min(1.0)
-}
-
 pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);
-    let d = D_beckmann(h, p.roughness);
+    let d = D_beckmann(h, p.roughness, p.roughness);
     let g = G_v_cavity(h.z, c_d, c_i, c_o);
     let f = F_specular(c_d, DVec3::splat(r0_from_ior(p.ior)), white_furnace);
     p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))

@@ -6,6 +6,7 @@ pub mod blinn_phong;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod lambert;
+pub mod microfacet;
 pub mod oren_nayar;
 pub mod params;
 pub mod phong;
@@ -13,8 +14,9 @@ pub mod smooth_layered;
 pub mod terms;
 
 use glam::DVec3;
+use microfacet::MicrofacetConfig;
 pub use params::{ParamError, ParamKind, ParamSpec, Value};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Field names and byte offsets of a std430 parameter block, checked against the SPIR-V.
 pub type Layout = &'static [(&'static str, usize)];
@@ -34,10 +36,13 @@ pub enum Model {
     SmoothLayered,
     Coupled,
     AshikhminShirley,
+    /// The general microfacet model; its components are part of the model because each choice
+    /// is a different pipeline (specialization constants).
+    Microfacet(MicrofacetConfig),
 }
 
 impl Model {
-    pub const ALL: [Model; 8] = [
+    pub const ALL: [Model; 9] = [
         Model::Lambert,
         Model::Phong,
         Model::BlinnPhong,
@@ -46,6 +51,7 @@ impl Model {
         Model::SmoothLayered,
         Model::Coupled,
         Model::AshikhminShirley,
+        Model::Microfacet(MicrofacetConfig::DEFAULT),
     ];
 
     /// The name used on the command line, in file names and in the GLSL function.
@@ -59,6 +65,7 @@ impl Model {
             Model::SmoothLayered => "smooth_layered",
             Model::Coupled => "coupled",
             Model::AshikhminShirley => "ashikhmin_shirley",
+            Model::Microfacet(_) => "microfacet",
         }
     }
 
@@ -82,6 +89,7 @@ impl Model {
             Model::SmoothLayered => "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
             Model::Coupled => "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
             Model::AshikhminShirley => "Ashikhmin-Shirley anisotropic Phong: rough coat over a coupled diffuse base",
+            Model::Microfacet(_) => "general microfacet: Beckmann or GGX D, V-cavity or Smith G, Schlick or exact Fresnel, plus diffuse",
         }
     }
 
@@ -95,6 +103,7 @@ impl Model {
             Model::SmoothLayered => smooth_layered::PARAMS,
             Model::Coupled => coupled::PARAMS,
             Model::AshikhminShirley => ashikhmin_shirley::PARAMS,
+            Model::Microfacet(_) => microfacet::PARAMS,
         }
     }
 
@@ -109,6 +118,7 @@ impl Model {
             Model::SmoothLayered => "SmoothLayeredParams",
             Model::Coupled => "CoupledParams",
             Model::AshikhminShirley => "AshikhminShirleyParams",
+            Model::Microfacet(_) => "MicrofacetParams",
         }
     }
 
@@ -139,6 +149,10 @@ impl Model {
                 ashikhmin_shirley::GPU_LAYOUT,
                 size_of::<ashikhmin_shirley::AshikhminShirleyParams>(),
             ),
+            Model::Microfacet(_) => (
+                microfacet::GPU_LAYOUT,
+                size_of::<microfacet::MicrofacetParams>(),
+            ),
         }
     }
 
@@ -149,7 +163,18 @@ impl Model {
 
     /// Whether a Fresnel factor multiplies a specular lobe, i.e. the white furnace changes it.
     pub fn has_specular_fresnel(self) -> bool {
-        matches!(self, Model::CookTorrance | Model::AshikhminShirley)
+        matches!(
+            self,
+            Model::CookTorrance | Model::AshikhminShirley | Model::Microfacet(_)
+        )
+    }
+
+    /// Specialization constants 3.. of this model's pipelines (its component choices).
+    pub fn spec_constants(self) -> Vec<u32> {
+        match self {
+            Model::Microfacet(c) => c.spec_constants().to_vec(),
+            _ => Vec::new(),
+        }
     }
 }
 
@@ -158,6 +183,9 @@ impl Model {
 pub struct ParamSet {
     model: Model,
     values: BTreeMap<&'static str, Value>,
+    /// Keys set explicitly (not left at their default), for parameters whose absence means
+    /// something (the microfacet model's alpha_x, alpha_y and f0).
+    explicit: BTreeSet<&'static str>,
 }
 
 impl ParamSet {
@@ -166,9 +194,32 @@ impl ParamSet {
         let values = model
             .params()
             .iter()
-            .map(|s| (s.key, Value::One(s.default)))
+            .map(|s| (s.key, s.default_value()))
             .collect();
-        ParamSet { model, values }
+        let mut set = ParamSet {
+            model,
+            values,
+            explicit: BTreeSet::new(),
+        };
+        // A model that carries component choices sets them; they stay defaults (not explicit).
+        if let Model::Microfacet(c) = model {
+            for (key, name) in c.choices() {
+                set.values.insert(key, Value::Choice(name));
+            }
+        }
+        set
+    }
+
+    /// Keeps a model that carries component choices in step with the values.
+    fn sync_model(&mut self) {
+        if let Model::Microfacet(_) = self.model {
+            self.model = Model::Microfacet(MicrofacetConfig::from_values(|k| self.values[k]));
+        }
+    }
+
+    /// Whether `key` was set explicitly rather than left at its default.
+    pub fn is_set(&self, key: &str) -> bool {
+        self.explicit.contains(key)
     }
 
     pub fn model(&self) -> Model {
@@ -196,19 +247,30 @@ impl ParamSet {
     /// Sets one parameter, validating the key, the shape and every channel's range.
     pub fn set(&mut self, key: &str, value: Value) -> Result<(), ParamError> {
         let spec = self.spec(key)?;
-        if spec.kind == ParamKind::Scalar {
-            if let Value::Three(_) = value {
-                return Err(ParamError::Malformed {
-                    key: key.to_string(),
-                    text: value.to_string(),
-                    expected: "a number".to_string(),
-                });
-            }
+        let shape_ok = match (spec.kind, value) {
+            (ParamKind::Choice(options), Value::Choice(name)) => options.contains(&name),
+            (ParamKind::Choice(_), _) | (_, Value::Choice(_)) => false,
+            (ParamKind::Scalar, Value::Three(_)) => false,
+            _ => true,
+        };
+        if !shape_ok {
+            let expected = match spec.kind {
+                ParamKind::Choice(options) => format!("one of: {}", options.join(", ")),
+                ParamKind::Scalar => "a number".to_string(),
+                ParamKind::Rgb => "one number or r,g,b".to_string(),
+            };
+            return Err(ParamError::Malformed {
+                key: key.to_string(),
+                text: value.to_string(),
+                expected,
+            });
         }
-        for v in value.rgb() {
+        for v in value.numbers() {
             spec.check(v)?;
         }
         self.values.insert(spec.key, value);
+        self.explicit.insert(spec.key);
+        self.sync_model();
         Ok(())
     }
 
@@ -238,11 +300,13 @@ impl ParamSet {
         self.values[key].rgb()[0]
     }
 
-    /// (key, value) in the order of the model's table.
+    /// (key, value) in the order of the model's table; optional keys (whose absence means
+    /// something, such as the microfacet model's alpha_x) only when set.
     pub fn entries(&self) -> Vec<(&'static str, Value)> {
         self.model
             .params()
             .iter()
+            .filter(|s| !microfacet::OPTIONAL_KEYS.contains(&s.key) || self.is_set(s.key))
             .map(|s| (s.key, self.values[s.key]))
             .collect()
     }
@@ -254,6 +318,7 @@ impl ParamSet {
             *v = match *v {
                 Value::One(x) => Value::One(x as f32 as f64),
                 Value::Three(c) => Value::Three(c.map(|x| x as f32 as f64)),
+                Value::Choice(name) => Value::Choice(name),
             };
         }
         out
@@ -264,6 +329,7 @@ impl ParamSet {
     pub fn is_isotropic(&self) -> bool {
         match self.model {
             Model::AshikhminShirley => self.scalar("nu") == self.scalar("nv"),
+            Model::Microfacet(_) => microfacet::Microfacet::new(self).is_isotropic(),
             _ => true,
         }
     }
@@ -283,6 +349,7 @@ impl ParamSet {
             let j = match v {
                 Value::One(x) => serde_json::json!(x),
                 Value::Three(c) => serde_json::json!(c),
+                Value::Choice(name) => serde_json::json!(name),
             };
             map.insert(k.to_string(), j);
         }
@@ -301,6 +368,7 @@ pub enum Brdf {
     SmoothLayered(smooth_layered::SmoothLayered),
     Coupled(coupled::Coupled),
     AshikhminShirley(ashikhmin_shirley::AshikhminShirley),
+    Microfacet(microfacet::Microfacet),
 }
 
 /// A model ready to evaluate on the CPU: parameters plus the white-furnace switch.
@@ -323,6 +391,7 @@ impl Brdf {
             Model::AshikhminShirley => {
                 Brdf::AshikhminShirley(ashikhmin_shirley::AshikhminShirley::new(p))
             }
+            Model::Microfacet(_) => Brdf::Microfacet(microfacet::Microfacet::new(p)),
         }
     }
 
@@ -338,6 +407,7 @@ impl Brdf {
             Brdf::SmoothLayered(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::Coupled(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::AshikhminShirley(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::Microfacet(m) => bytes_of(&m.gpu_params()).to_vec(),
         }
     }
 }
@@ -365,6 +435,7 @@ impl Reference {
             Brdf::SmoothLayered(p) => smooth_layered::smooth_layered(p, wi, wo),
             Brdf::Coupled(p) => coupled::coupled(p, wi, wo),
             Brdf::AshikhminShirley(p) => ashikhmin_shirley::ashikhmin_shirley(p, wi, wo, wf),
+            Brdf::Microfacet(p) => microfacet::microfacet(p, wi, wo, wf),
         }
     }
 

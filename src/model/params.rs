@@ -3,11 +3,13 @@
 
 use std::fmt;
 
-/// Whether a parameter is one number or an RGB triple ("rgb" accepts one number for grey).
+/// Whether a parameter is one number, an RGB triple ("rgb" accepts one number for grey), or one
+/// of a list of named options (a model component such as `distribution = ggx`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamKind {
     Rgb,
     Scalar,
+    Choice(&'static [&'static str]),
 }
 
 /// One row of a model's parameter table.
@@ -33,6 +35,51 @@ impl ParamSpec {
             max: 1.0,
             default,
             doc,
+        }
+    }
+
+    /// An RGB parameter with its own range (for example a conductor's complex IOR).
+    pub const fn rgb_range(
+        key: &'static str,
+        min: f64,
+        max: f64,
+        default: f64,
+        doc: &'static str,
+    ) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Rgb,
+            min,
+            min_exclusive: false,
+            max,
+            default,
+            doc,
+        }
+    }
+
+    /// One of `options`; `default` is an index into them.
+    pub const fn choice(
+        key: &'static str,
+        options: &'static [&'static str],
+        default: usize,
+        doc: &'static str,
+    ) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Choice(options),
+            min: 0.0,
+            min_exclusive: false,
+            max: 0.0,
+            default: default as f64,
+            doc,
+        }
+    }
+
+    /// The default as a value.
+    pub fn default_value(&self) -> Value {
+        match self.kind {
+            ParamKind::Choice(options) => Value::Choice(options[self.default as usize]),
+            _ => Value::One(self.default),
         }
     }
 
@@ -68,6 +115,9 @@ impl ParamSpec {
 
     /// The valid range as people write it: `[0, 1]`, `(0, 1]`.
     pub fn range_text(&self) -> String {
+        if let ParamKind::Choice(options) = self.kind {
+            return options.join(" | ");
+        }
         let open = if self.min_exclusive { "(" } else { "[" };
         format!("{open}{}, {}]", fmt_num(self.min), fmt_num(self.max))
     }
@@ -128,15 +178,22 @@ pub enum ParamError {
     },
     #[error("'{text}' is not of the form key=value (for example --set roughness=0.3)")]
     NotKeyValue { text: String },
+    #[error("material '{material}' has no parameters for model {model}; it defines: {list}")]
+    NoPreset {
+        material: String,
+        model: String,
+        list: String,
+    },
     #[error("unknown material '{name}'; the materials are: {list}")]
     UnknownMaterial { name: String, list: String },
 }
 
-/// A value as given: one number, or three for an RGB parameter.
+/// A value as given: one number, three for an RGB parameter, or a named option.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Value {
     One(f64),
     Three([f64; 3]),
+    Choice(&'static str),
 }
 
 impl fmt::Display for Value {
@@ -144,6 +201,7 @@ impl fmt::Display for Value {
         match self {
             Value::One(v) => write!(f, "{v}"),
             Value::Three([r, g, b]) => write!(f, "{r},{g},{b}"),
+            Value::Choice(name) => write!(f, "{name}"),
         }
     }
 }
@@ -151,9 +209,20 @@ impl fmt::Display for Value {
 impl Value {
     /// Parses `0.3` or `0.9,0.1,0.2` for the parameter `spec`.
     pub fn parse(spec: &ParamSpec, text: &str) -> Result<Value, ParamError> {
+        if let ParamKind::Choice(options) = spec.kind {
+            return options
+                .iter()
+                .find(|o| **o == text)
+                .map(|o| Value::Choice(o))
+                .ok_or_else(|| ParamError::Malformed {
+                    key: spec.key.to_string(),
+                    text: text.to_string(),
+                    expected: format!("one of: {}", options.join(", ")),
+                });
+        }
         let expected = match spec.kind {
             ParamKind::Rgb => "one number or three comma-separated numbers (r,g,b)",
-            ParamKind::Scalar => "a number",
+            _ => "a number",
         };
         let malformed = || ParamError::Malformed {
             key: spec.key.to_string(),
@@ -170,10 +239,20 @@ impl Value {
         }
     }
 
+    /// The numbers of the value: a grey value repeated, or the three channels; none for a choice.
+    pub fn numbers(&self) -> Vec<f64> {
+        match *self {
+            Value::One(v) => vec![v],
+            Value::Three(c) => c.to_vec(),
+            Value::Choice(_) => Vec::new(),
+        }
+    }
+
     pub fn rgb(&self) -> [f64; 3] {
         match *self {
             Value::One(v) => [v, v, v],
             Value::Three(c) => c,
+            Value::Choice(_) => [f64::NAN; 3],
         }
     }
 }

@@ -58,13 +58,95 @@ pub fn F_specular(c: f64, r0: DVec3, white_furnace: bool) -> DVec3 {
     }
 }
 
-/// Beckmann distribution with RMS slope m; tan^2 from h_x^2 + h_y^2 (see the GLSL twin).
+/// Anisotropic Beckmann distribution (Heitz 2014, eq. 84); see the GLSL twin.
 #[allow(non_snake_case)]
-pub fn D_beckmann(h: DVec3, m: f64) -> f64 {
+pub fn D_beckmann(h: DVec3, ax: f64, ay: f64) -> f64 {
     let ch2 = h.z * h.z;
-    let tan2 = (h.x * h.x + h.y * h.y) / ch2;
-    let m2 = m * m;
-    (-tan2 / m2).exp() / (PI * m2 * ch2 * ch2)
+    let e = (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / ch2;
+    (-e).exp() / (PI * ax * ay * ch2 * ch2)
+}
+
+/// Anisotropic GGX / Trowbridge–Reitz distribution (Walter et al. 2007 eq. 33; Heitz 2014 eq. 85).
+#[allow(non_snake_case)]
+pub fn D_ggx(h: DVec3, ax: f64, ay: f64) -> f64 {
+    let q = h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay) + h.z * h.z;
+    1.0 / (PI * ax * ay * q * q)
+}
+
+/// (α tanθ)² of a direction for anisotropic roughness (Heitz 2014, eqs. 80–81).
+pub fn alpha_tan2(w: DVec3, ax: f64, ay: f64) -> f64 {
+    (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z)
+}
+
+/// Smith Λ for GGX (Heitz 2014, eq. 86), without cancellation for small t².
+pub fn lambda_ggx(t2: f64) -> f64 {
+    t2 / (2.0 * ((1.0 + t2).sqrt() + 1.0))
+}
+
+/// Smith Λ for Beckmann, exact (Heitz 2014, eq. 83), with erfc from libm (f64; the GLSL twin uses
+/// Numerical Recipes' erfcc, 1.2e-7 relative).
+pub fn lambda_beckmann(t2: f64) -> f64 {
+    if t2 <= 0.0 {
+        return 0.0;
+    }
+    let a = 1.0 / t2.sqrt();
+    0.5 * ((-a * a).exp() / (a * PI.sqrt()) - libm::erfc(a))
+}
+
+/// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1.
+#[allow(non_snake_case)]
+pub fn G1_beckmann_rational(t2: f64) -> f64 {
+    if t2 <= 0.0 {
+        return 1.0;
+    }
+    let a = 1.0 / t2.sqrt();
+    if a >= 1.6 {
+        return 1.0;
+    }
+    (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
+}
+
+/// V-cavity masking-shadowing (Cook & Torrance 1982): min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
+#[allow(non_snake_case)]
+pub fn G_v_cavity(c_h: f64, c_d: f64, c_i: f64, c_o: f64) -> f64 {
+    (2.0 * c_h * c_i.min(c_o) / c_d).min(1.0)
+}
+
+/// Exact unpolarized dielectric Fresnel reflectance (Walter et al. 2007, eq. 22).
+#[allow(non_snake_case)]
+pub fn F_dielectric(c: f64, eta: f64) -> f64 {
+    // (η − 1)(η + 1) and g − c = (η² − 1)/(g + c): no cancellation as η → 1 (see the GLSL twin).
+    let e2m1 = (eta - 1.0) * (eta + 1.0);
+    let g2 = e2m1 + c * c;
+    if g2 < 0.0 {
+        return 1.0;
+    }
+    let g = g2.sqrt();
+    let gpc = g + c;
+    if gpc == 0.0 {
+        return 0.0; // η = 1 at grazing: no interface
+    }
+    let a = e2m1 / (gpc * gpc);
+    let s2 = 1.0 - c * c;
+    let b = (c * g - s2) / (c * g + s2);
+    0.5 * a * a * (1.0 + b * b)
+}
+
+/// Exact unpolarized conductor Fresnel reflectance for complex IOR η + iκ, per channel (Born &
+/// Wolf §14.2; Lagarde 2013). Equals [`F_dielectric`] when κ = 0.
+#[allow(non_snake_case)]
+pub fn F_conductor(c: f64, eta: DVec3, k: DVec3) -> DVec3 {
+    let (c2, s2) = (c * c, 1.0 - c * c);
+    let t0 = eta * eta - k * k - DVec3::splat(s2);
+    let a2b2 = (t0 * t0 + 4.0 * eta * eta * k * k).map(f64::sqrt);
+    let a = (0.5 * (a2b2 + t0)).max(DVec3::ZERO).map(f64::sqrt);
+    let t1 = a2b2 + DVec3::splat(c2);
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2).max(DVec3::splat(1e-30)); // see the GLSL twin
+    let t3 = c2 * a2b2 + DVec3::splat(s2 * s2);
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    0.5 * (rp + rs)
 }
 
 #[cfg(test)]
@@ -86,7 +168,7 @@ mod tests {
             for k in 0..n {
                 let t = (k as f64 + 0.5) * dt;
                 let h = DVec3::new(t.sin(), 0.0, t.cos());
-                sum += D_beckmann(h, m) * t.cos() * t.sin() * dt * 2.0 * PI;
+                sum += D_beckmann(h, m, m) * t.cos() * t.sin() * dt * 2.0 * PI;
             }
             assert!((sum - 1.0).abs() < TOL, "m = {m}: ∫ D c_h dω = {sum}");
         }

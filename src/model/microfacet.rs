@@ -1,0 +1,289 @@
+//! The general microfacet model (Cook & Torrance 1982; Walter et al. 2007; Heitz 2014):
+//! f = diffuse/π + specular · F(c_d) · D(h) · G(ωi, ωo) / (4 c_i c_o), with
+//! D ∈ {Beckmann, GGX}, isotropic or anisotropic α; G ∈ {V-cavity, separable Smith,
+//! height-correlated Smith}; for Beckmann's Smith G1 the exact erf form or Walter's rational fit;
+//! F ∈ {none, Schlick (from `ior` or `f0`), exact dielectric, exact conductor}.
+//! Twin of `glsl/brdf/microfacet.glsl`, where each component choice is a specialization constant,
+//! so a pipeline holds only the components it uses.
+
+use super::params::ParamSpec;
+use super::terms::{
+    alpha_tan2, half_vector, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
+    F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,
+};
+use super::{f32x3, Layout, ParamSet, Value};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use std::f64::consts::FRAC_1_PI;
+use std::mem::offset_of;
+
+pub const DISTRIBUTIONS: &[&str] = &["beckmann", "ggx"];
+pub const MASKINGS: &[&str] = &["v_cavity", "smith_separable", "smith_correlated"];
+pub const BECKMANN_G1S: &[&str] = &["exact", "rational"];
+pub const FRESNELS: &[&str] = &["none", "schlick", "dielectric", "conductor"];
+
+/// Keys whose absence means something: alpha_x and alpha_y fall back to alpha, f0 to the IOR.
+pub const OPTIONAL_KEYS: &[&str] = &["alpha_x", "alpha_y", "f0"];
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::choice("distribution", DISTRIBUTIONS, 1, "normal distribution D"),
+    ParamSpec::choice("masking", MASKINGS, 2, "masking-shadowing G"),
+    ParamSpec::choice(
+        "beckmann_g1",
+        BECKMANN_G1S,
+        0,
+        "Beckmann's Smith G1: erf form or Walter 2007's rational fit",
+    ),
+    ParamSpec::choice("fresnel", FRESNELS, 1, "Fresnel factor F"),
+    ParamSpec::positive(
+        "alpha",
+        1.0,
+        0.3,
+        "roughness (RMS slope for Beckmann, width for GGX)",
+    ),
+    ParamSpec::positive(
+        "alpha_x",
+        1.0,
+        0.3,
+        "roughness along +x; when set, overrides alpha (anisotropic)",
+    ),
+    ParamSpec::positive(
+        "alpha_y",
+        1.0,
+        0.3,
+        "roughness along +y; when set, overrides alpha (anisotropic)",
+    ),
+    ParamSpec::scalar(
+        "ior",
+        1.0,
+        5.0,
+        1.5,
+        "IOR for fresnel=dielectric, and for schlick unless f0 is set",
+    ),
+    ParamSpec::rgb(
+        "f0",
+        0.04,
+        "Schlick's R0 for fresnel=schlick; when set, overrides the one from ior",
+    ),
+    ParamSpec::rgb_range(
+        "eta",
+        0.01,
+        10.0,
+        0.2,
+        "real part of a conductor's IOR (fresnel=conductor)",
+    ),
+    ParamSpec::rgb_range(
+        "k",
+        0.0,
+        10.0,
+        3.0,
+        "imaginary part of a conductor's IOR (fresnel=conductor)",
+    ),
+    ParamSpec::rgb("specular", 1.0, "multiplier of the microfacet lobe"),
+    ParamSpec::rgb("diffuse", 0.0, "Lambertian base"),
+];
+
+/// The component choices, as indices into the option lists; they are the pipeline's
+/// specialization constants 3, 4, 5 and 6.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct MicrofacetConfig {
+    pub distribution: u8,
+    pub masking: u8,
+    pub beckmann_g1: u8,
+    pub fresnel: u8,
+}
+
+impl MicrofacetConfig {
+    /// GGX, height-correlated Smith, exact Beckmann G1 (unused with GGX), Schlick.
+    pub const DEFAULT: MicrofacetConfig = MicrofacetConfig {
+        distribution: 1,
+        masking: 2,
+        beckmann_g1: 0,
+        fresnel: 1,
+    };
+
+    pub fn from_values(get: impl Fn(&'static str) -> Value) -> MicrofacetConfig {
+        let index = |key: &'static str, options: &[&str]| match get(key) {
+            Value::Choice(name) => options.iter().position(|o| *o == name).unwrap_or(0) as u8,
+            _ => 0,
+        };
+        MicrofacetConfig {
+            distribution: index("distribution", DISTRIBUTIONS),
+            masking: index("masking", MASKINGS),
+            beckmann_g1: index("beckmann_g1", BECKMANN_G1S),
+            fresnel: index("fresnel", FRESNELS),
+        }
+    }
+
+    /// (key, option) of each component, as parameter values.
+    pub fn choices(&self) -> [(&'static str, &'static str); 4] {
+        [
+            ("distribution", DISTRIBUTIONS[self.distribution as usize]),
+            ("masking", MASKINGS[self.masking as usize]),
+            ("beckmann_g1", BECKMANN_G1S[self.beckmann_g1 as usize]),
+            ("fresnel", FRESNELS[self.fresnel as usize]),
+        ]
+    }
+
+    pub fn spec_constants(&self) -> [u32; 4] {
+        [
+            self.distribution as u32,
+            self.masking as u32,
+            self.beckmann_g1 as u32,
+            self.fresnel as u32,
+        ]
+    }
+
+    /// `ggx/smith_correlated/schlick` (the G1 variant only where it matters).
+    pub fn label(&self) -> String {
+        let d = DISTRIBUTIONS[self.distribution as usize];
+        let g1 = if self.distribution == 0 && self.masking != 0 {
+            format!("+{}", BECKMANN_G1S[self.beckmann_g1 as usize])
+        } else {
+            String::new()
+        };
+        format!(
+            "{d}/{}{g1}/{}",
+            MASKINGS[self.masking as usize], FRESNELS[self.fresnel as usize]
+        )
+    }
+
+    /// Every combination of components.
+    pub fn all() -> Vec<MicrofacetConfig> {
+        let mut out = Vec::new();
+        for distribution in 0..DISTRIBUTIONS.len() as u8 {
+            for masking in 0..MASKINGS.len() as u8 {
+                for beckmann_g1 in 0..BECKMANN_G1S.len() as u8 {
+                    for fresnel in 0..FRESNELS.len() as u8 {
+                        out.push(MicrofacetConfig {
+                            distribution,
+                            masking,
+                            beckmann_g1,
+                            fresnel,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Microfacet {
+    pub config: MicrofacetConfig,
+    pub alpha_x: f64,
+    pub alpha_y: f64,
+    pub ior: f64,
+    /// Schlick's R0: `f0` if set, else from `ior`.
+    pub f0: DVec3,
+    pub eta: DVec3,
+    pub k: DVec3,
+    pub specular: DVec3,
+    pub diffuse: DVec3,
+}
+
+/// std430 twin of the GLSL `MicrofacetParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct MicrofacetParams {
+    pub specular: [f32; 3],
+    pub alpha_x: f32,
+    pub diffuse: [f32; 3],
+    pub alpha_y: f32,
+    pub f0: [f32; 3],
+    pub ior: f32,
+    pub eta: [f32; 3],
+    pub _pad0: f32,
+    pub k: [f32; 3],
+    pub _pad1: f32,
+}
+
+pub const GPU_LAYOUT: Layout = &[
+    ("specular", offset_of!(MicrofacetParams, specular)),
+    ("alpha_x", offset_of!(MicrofacetParams, alpha_x)),
+    ("diffuse", offset_of!(MicrofacetParams, diffuse)),
+    ("alpha_y", offset_of!(MicrofacetParams, alpha_y)),
+    ("f0", offset_of!(MicrofacetParams, f0)),
+    ("ior", offset_of!(MicrofacetParams, ior)),
+    ("eta", offset_of!(MicrofacetParams, eta)),
+    ("k", offset_of!(MicrofacetParams, k)),
+];
+
+impl Microfacet {
+    pub fn new(p: &ParamSet) -> Self {
+        let alpha = p.scalar("alpha");
+        let pick = |key: &str| if p.is_set(key) { p.scalar(key) } else { alpha };
+        let ior = p.scalar("ior");
+        Microfacet {
+            config: MicrofacetConfig::from_values(|k| p.get(k)),
+            alpha_x: pick("alpha_x"),
+            alpha_y: pick("alpha_y"),
+            ior,
+            f0: if p.is_set("f0") {
+                p.rgb("f0")
+            } else {
+                DVec3::splat(r0_from_ior(ior))
+            },
+            eta: p.rgb("eta"),
+            k: p.rgb("k"),
+            specular: p.rgb("specular"),
+            diffuse: p.rgb("diffuse"),
+        }
+    }
+
+    pub fn is_isotropic(&self) -> bool {
+        self.alpha_x == self.alpha_y
+    }
+
+    pub fn gpu_params(&self) -> MicrofacetParams {
+        MicrofacetParams {
+            specular: f32x3(self.specular),
+            alpha_x: self.alpha_x as f32,
+            diffuse: f32x3(self.diffuse),
+            alpha_y: self.alpha_y as f32,
+            f0: f32x3(self.f0),
+            ior: self.ior as f32,
+            eta: f32x3(self.eta),
+            _pad0: 0.0,
+            k: f32x3(self.k),
+            _pad1: 0.0,
+        }
+    }
+
+    /// Smith Λ of direction w for the chosen distribution (and G1 variant for Beckmann).
+    fn lambda(&self, w: DVec3) -> f64 {
+        let t2 = alpha_tan2(w, self.alpha_x, self.alpha_y);
+        match (self.config.distribution, self.config.beckmann_g1) {
+            (1, _) => lambda_ggx(t2),
+            (_, 0) => lambda_beckmann(t2),
+            // Λ implied by the rational G1 = 1/(1 + Λ), so that both Smith forms can use it.
+            _ => 1.0 / G1_beckmann_rational(t2) - 1.0,
+        }
+    }
+}
+
+pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
+    let (h, c_d) = half_vector(wi, wo);
+    let (c_i, c_o) = (wi.z, wo.z);
+    let d = match p.config.distribution {
+        0 => D_beckmann(h, p.alpha_x, p.alpha_y),
+        _ => D_ggx(h, p.alpha_x, p.alpha_y),
+    };
+    let g = match p.config.masking {
+        0 => G_v_cavity(h.z, c_d, c_i, c_o),
+        1 => 1.0 / ((1.0 + p.lambda(wi)) * (1.0 + p.lambda(wo))),
+        _ => 1.0 / (1.0 + p.lambda(wi) + p.lambda(wo)),
+    };
+    let f = if white_furnace {
+        DVec3::ONE
+    } else {
+        match p.config.fresnel {
+            0 => DVec3::ONE,
+            1 => F_schlick(c_d, p.f0),
+            2 => DVec3::splat(F_dielectric(c_d, p.ior)),
+            _ => F_conductor(c_d, p.eta, p.k),
+        }
+    };
+    p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))
+}
