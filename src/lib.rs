@@ -5,6 +5,7 @@
 //! ωi points to the light, ωo to the viewer; f is in 1/sr, linear RGB, without the cosine, and 0
 //! whenever cosθi ≤ 0 or cosθo ≤ 0.
 
+pub mod bench;
 pub mod demo;
 pub mod eval;
 pub mod gpu;

@@ -35,6 +35,8 @@ enum Command {
     Models(ModelsArgs),
     /// The main job on the built-in materials: gold lobe tables and evaluations on both backends.
     Demo(DemoArgs),
+    /// Evaluations per second of every model on this device, GPU and CPU reference.
+    Bench(BenchArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -118,6 +120,35 @@ struct TableArgs {
 }
 
 #[derive(Args)]
+struct BenchArgs {
+    /// Models to measure (default: all), comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    models: Vec<String>,
+    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI of each timed table.
+    #[arg(long, default_value = "128,128,256")]
+    res: String,
+    /// Timed runs per measurement (the median is reported), after one warm-up run.
+    #[arg(long, default_value_t = 5)]
+    repeats: usize,
+    /// Backends to measure.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Backend::Gpu, Backend::Cpu])]
+    backend: Vec<Backend>,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = TableFormat::Table)]
+    format: TableFormat,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum TableFormat {
+    Table,
+    Csv,
+    Json,
+}
+
+#[derive(Args)]
 struct DemoArgs {
     /// Output folder.
     #[arg(short = 'o', long = "output", default_value = "lobe-demo")]
@@ -144,6 +175,7 @@ fn main() {
         Command::Table(a) => cmd_table(a),
         Command::Models(a) => cmd_models(a),
         Command::Demo(a) => cmd_demo(a),
+        Command::Bench(a) => cmd_bench(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -421,4 +453,92 @@ fn cmd_demo(a: DemoArgs) -> Result<()> {
         println!("lobe demo: files are in {}", a.output.display());
         Ok(())
     })
+}
+
+fn cmd_bench(a: BenchArgs) -> Result<()> {
+    let models: Vec<Model> = if a.models.is_empty() {
+        Model::ALL.to_vec()
+    } else {
+        a.models
+            .iter()
+            .map(|m| Model::from_name(m))
+            .collect::<Result<_, _>>()?
+    };
+    let grid = Grid::parse("isotropic", &a.res).map_err(anyhow::Error::msg)?;
+    let mut rows = Vec::new();
+    for backend in &a.backend {
+        let args = ModelArgs {
+            model: "lambert".into(),
+            sets: Vec::new(),
+            material: None,
+            white_furnace: false,
+            backend: *backend,
+            device: a.device.clone(),
+        };
+        with_evaluator(&args, |e| {
+            let bar = indicatif::ProgressBar::new(models.len() as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            for m in &models {
+                bar.set_message(format!("bench {} on {}", m.name(), e.name()));
+                rows.push(lobe::bench::measure(
+                    e,
+                    &ParamSet::defaults(*m),
+                    &grid,
+                    a.repeats,
+                )?);
+                bar.inc(1);
+            }
+            bar.finish_and_clear();
+            Ok(())
+        })?;
+    }
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?,
+        TableFormat::Csv => {
+            writeln!(
+                out,
+                "model,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
+            )?;
+            for r in &rows {
+                let k = r.kernel_per_s.map(|k| k.to_string()).unwrap_or_default();
+                writeln!(
+                    out,
+                    "{},{},{},{},{k}",
+                    r.model, r.backend, r.evaluations, r.wall_per_s
+                )?;
+            }
+        }
+        TableFormat::Table => {
+            writeln!(
+                out,
+                "evaluations per second (median of {} runs of {} cells each)",
+                a.repeats,
+                grid.cells().unwrap_or(0)
+            )?;
+            writeln!(
+                out,
+                "{:<18} {:<44} {:>14} {:>16}",
+                "model", "backend", "wall (M/s)", "kernel (M/s)"
+            )?;
+            for r in &rows {
+                let k = r
+                    .kernel_per_s
+                    .map(|k| format!("{:.1}", k / 1e6))
+                    .unwrap_or_else(|| "-".into());
+                writeln!(
+                    out,
+                    "{:<18} {:<44} {:>14.1} {:>16}",
+                    r.model,
+                    r.backend,
+                    r.wall_per_s / 1e6,
+                    k
+                )?;
+            }
+        }
+    }
+    Ok(())
 }

@@ -55,6 +55,8 @@ pub struct Device {
     pub(crate) device: ash::Device,
     pub(crate) queue: vk::Queue,
     pub(crate) queue_family: u32,
+    /// Valid bits of the compute queue's timestamps (0: no timestamp queries).
+    pub(crate) timestamp_bits: u32,
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) limits: vk::PhysicalDeviceLimits,
     name: String,
@@ -180,6 +182,10 @@ impl Device {
                         });
                     }
                 };
+                let timestamp_bits =
+                    unsafe { instance.get_physical_device_queue_family_properties(physical) }
+                        [queue_family as usize]
+                        .timestamp_valid_bits;
                 // SAFETY: queue 0 of a family we asked one queue of.
                 let queue = unsafe { device.get_device_queue(queue_family, 0) };
                 let (memory, props) = unsafe {
@@ -195,6 +201,7 @@ impl Device {
                     device,
                     queue,
                     queue_family,
+                    timestamp_bits,
                     memory,
                     limits: props.limits,
                     name: device_name(&props),

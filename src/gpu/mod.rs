@@ -78,6 +78,21 @@ impl<'d> Gpu<'d> {
         Ok(p)
     }
 
+    /// GPU time (from timestamp queries) of every dispatch since the last call, or None where
+    /// the device has no timestamps.
+    pub fn take_gpu_time(&self) -> Option<Duration> {
+        if self.dev.timestamp_bits == 0 {
+            return None;
+        }
+        let ns: f64 = self
+            .pipelines
+            .borrow()
+            .values()
+            .map(|p| p.gpu_ns.replace(0.0))
+            .sum();
+        Some(Duration::from_nanos(ns as u64))
+    }
+
     /// Every pipeline built so far, with its build time.
     pub fn built_pipelines(&self) -> Vec<(String, Duration)> {
         self.built.borrow().clone()

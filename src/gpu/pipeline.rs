@@ -59,6 +59,8 @@ pub struct Pipeline<'d> {
     /// How long creating the pipeline took (the driver compiles the shader here).
     pub build_time: Duration,
     pub label: String,
+    /// GPU time of every dispatch so far, from timestamp queries (nanoseconds).
+    pub gpu_ns: std::cell::Cell<f64>,
 }
 
 impl<'d> Pipeline<'d> {
@@ -105,6 +107,7 @@ impl<'d> Pipeline<'d> {
             evals_per_invocation,
             build_time: Duration::ZERO,
             label,
+            gpu_ns: std::cell::Cell::new(0.0),
         };
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
@@ -202,6 +205,8 @@ pub struct Dispatcher<'p, 'd> {
     cmd_pool: vk::CommandPool,
     cmd: vk::CommandBuffer,
     fence: vk::Fence,
+    /// Two timestamps around each dispatch; null where the queue has none.
+    queries: vk::QueryPool,
 }
 
 impl<'p, 'd> Dispatcher<'p, 'd> {
@@ -222,6 +227,7 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
             cmd_pool: vk::CommandPool::null(),
             cmd: vk::CommandBuffer::null(),
             fence: vk::Fence::null(),
+            queries: vk::QueryPool::null(),
         };
         // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
         unsafe {
@@ -286,6 +292,14 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
             s.fence = d
                 .create_fence(&vk::FenceCreateInfo::default(), None)
                 .ctx("creating a fence")?;
+            if pipe.dev.timestamp_bits > 0 {
+                let info = vk::QueryPoolCreateInfo::default()
+                    .query_type(vk::QueryType::TIMESTAMP)
+                    .query_count(2);
+                s.queries = d
+                    .create_query_pool(&info, None)
+                    .ctx("creating a timestamp query pool")?;
+            }
         }
         Ok(s)
     }
@@ -329,7 +343,24 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
                 0,
                 bytemuck::bytes_of(chunk),
             );
+            if self.queries != vk::QueryPool::null() {
+                d.cmd_reset_query_pool(self.cmd, self.queries, 0, 2);
+                d.cmd_write_timestamp(
+                    self.cmd,
+                    vk::PipelineStageFlags::TOP_OF_PIPE,
+                    self.queries,
+                    0,
+                );
+            }
             d.cmd_dispatch(self.cmd, groups as u32, 1, 1);
+            if self.queries != vk::QueryPool::null() {
+                d.cmd_write_timestamp(
+                    self.cmd,
+                    vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                    self.queries,
+                    1,
+                );
+            }
             // Make the shader's writes visible to the host's reads of the mapped output.
             let barrier = vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
@@ -351,7 +382,10 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
             d.queue_submit(pipe.dev.queue, &submit, self.fence)
                 .ctx(&format!("submitting {}", pipe.label))?;
             match d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64) {
-                Ok(()) => Ok(()),
+                Ok(()) => {
+                    self.record_gpu_time()?;
+                    Ok(())
+                }
                 Err(vk::Result::TIMEOUT) => Err(GpuError::Timeout {
                     what: pipe.label.clone(),
                     seconds: CHUNK_TIMEOUT.as_secs(),
@@ -359,6 +393,34 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
                 Err(r) => Err(r).ctx(&format!("running {}", pipe.label)),
             }
         }
+    }
+
+    /// Adds the last dispatch's GPU time, from its two timestamps, to the pipeline's total.
+    fn record_gpu_time(&self) -> Result<()> {
+        if self.queries == vk::QueryPool::null() {
+            return Ok(());
+        }
+        let mut stamps = [0u64; 2];
+        // SAFETY: both queries were written by the command buffer whose fence we waited on.
+        unsafe {
+            self.pipe.dev.device.get_query_pool_results(
+                self.queries,
+                0,
+                &mut stamps,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .ctx("reading timestamp queries")?;
+        let bits = self.pipe.dev.timestamp_bits;
+        let mask = if bits >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << bits) - 1
+        };
+        let ticks = stamps[1].wrapping_sub(stamps[0]) & mask;
+        let ns = ticks as f64 * self.pipe.dev.limits.timestamp_period as f64;
+        self.pipe.gpu_ns.set(self.pipe.gpu_ns.get() + ns);
+        Ok(())
     }
 
     pub fn run(&self, chunks: &[ChunkPush]) -> Result<()> {
@@ -371,6 +433,9 @@ impl Drop for Dispatcher<'_, '_> {
         let d = &self.pipe.dev.device;
         // SAFETY: the fence was waited on; release in reverse order of creation.
         unsafe {
+            if self.queries != vk::QueryPool::null() {
+                d.destroy_query_pool(self.queries, None);
+            }
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.cmd_pool, None);
             d.destroy_descriptor_pool(self.pool, None);

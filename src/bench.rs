@@ -1,0 +1,71 @@
+//! Throughput of each model on this machine: evaluations per second of a lobe table, on the GPU
+//! (kernel time from timestamp queries, and wall time including read-back) and on the CPU
+//! reference (wall time, all cores). The two backends never run at the same time: on lavapipe
+//! both would compete for the same cores.
+
+use crate::eval::Evaluator;
+use crate::grid::Grid;
+use crate::model::ParamSet;
+use anyhow::Result;
+use std::time::Instant;
+
+/// One measurement: the median over repeats.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Throughput {
+    pub model: String,
+    pub backend: String,
+    pub evaluations: u64,
+    /// Evaluations per second by wall clock, read-back included.
+    pub wall_per_s: f64,
+    /// Evaluations per second of kernel time (GPU timestamp queries), where available.
+    pub kernel_per_s: Option<f64>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Times `repeats` evaluations of the table on `grid` (output discarded) after one warm-up run,
+/// which also builds the pipeline.
+pub fn measure(
+    eval: &Evaluator,
+    params: &ParamSet,
+    grid: &Grid,
+    repeats: usize,
+) -> Result<Throughput> {
+    let cells = grid.cells().unwrap_or(0);
+    let run = || -> Result<(f64, Option<f64>)> {
+        if let Evaluator::Gpu(g) = eval {
+            g.take_gpu_time();
+        }
+        let t = Instant::now();
+        eval.eval_table(params, false, grid, &mut |_, v| {
+            std::hint::black_box(v);
+            Ok(())
+        })?;
+        let wall = t.elapsed().as_secs_f64();
+        let kernel = match eval {
+            Evaluator::Gpu(g) => g.take_gpu_time().map(|d| d.as_secs_f64()),
+            Evaluator::Cpu => None,
+        };
+        Ok((wall, kernel))
+    };
+    run()?;
+    let mut walls = Vec::new();
+    let mut kernels = Vec::new();
+    for _ in 0..repeats.max(1) {
+        let (w, k) = run()?;
+        walls.push(cells as f64 / w);
+        if let Some(k) = k.filter(|k| *k > 0.0) {
+            kernels.push(cells as f64 / k);
+        }
+    }
+    Ok(Throughput {
+        model: params.model().name().to_string(),
+        backend: eval.name(),
+        evaluations: cells,
+        wall_per_s: median(walls),
+        kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
+    })
+}
