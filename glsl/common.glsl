@@ -11,4 +11,8 @@ const float INV_PI = 0.31830988618379067154;
 // specular lobe by 1 (DESIGN §3). A constant, not a uniform, so the unused branch is compiled out.
 layout(constant_id = 0) const bool WHITE_FURNACE = false;
 
+// Specialization constant 10: evaluate cos^n lobes with GLSL's plain pow(cos, n) instead of the
+// careful exp(n log1m(s)) (brdf/terms.glsl). Only `lobe tradeoff` turns it on, to measure the trade.
+layout(constant_id = 10) const bool FAST_POW = false;
+
 #endif

@@ -31,6 +31,7 @@ float log1m(float s) {
 float pow1m(float s, float n) {
     if (n == 0.0) return 1.0;
     if (s >= 1.0) return 0.0;
+    if (FAST_POW) return pow(1.0 - s, n);  // the fast variant: exp2(n log2(cos)), cos rounded
     return exp(n * log1m(s));
 }
 

@@ -36,8 +36,9 @@ pub struct GpuPair {
 /// The pipelines built so far on one device; each is built on first use only.
 pub struct Gpu<'d> {
     dev: &'d Device,
-    pipelines: RefCell<HashMap<(Kernel, Model, bool), Rc<Pipeline<'d>>>>,
+    pipelines: RefCell<HashMap<(Kernel, Model, bool, bool), Rc<Pipeline<'d>>>>,
     built: RefCell<Vec<(String, Duration)>>,
+    fast_pow: std::cell::Cell<bool>,
 }
 
 impl<'d> Gpu<'d> {
@@ -46,6 +47,7 @@ impl<'d> Gpu<'d> {
             dev,
             pipelines: RefCell::default(),
             built: RefCell::default(),
+            fast_pow: std::cell::Cell::new(false),
         }
     }
 
@@ -59,11 +61,18 @@ impl<'d> Gpu<'d> {
         model: Model,
         white_furnace: bool,
     ) -> Result<Rc<Pipeline<'d>>> {
-        let key = (kernel, model, white_furnace);
+        let fast_pow = self.fast_pow.get();
+        let key = (kernel, model, white_furnace, fast_pow);
         if let Some(p) = self.pipelines.borrow().get(&key) {
             return Ok(p.clone());
         }
-        let p = Rc::new(Pipeline::new(self.dev, kernel, model, white_furnace)?);
+        let p = Rc::new(Pipeline::new(
+            self.dev,
+            kernel,
+            model,
+            white_furnace,
+            fast_pow,
+        )?);
         if std::env::var("LOBE_LOG").is_ok_and(|v| v != "0") {
             eprintln!(
                 "lobe: built pipeline {} in {:.1} ms",
@@ -76,6 +85,12 @@ impl<'d> Gpu<'d> {
             .push((p.label.clone(), p.build_time));
         self.pipelines.borrow_mut().insert(key, p.clone());
         Ok(p)
+    }
+
+    /// Evaluate cos^n lobes with GLSL's plain pow (exp2(n log2 x)) instead of the careful
+    /// formulation, from now on: a speed-for-accuracy variant that `lobe tradeoff` measures.
+    pub fn set_fast_pow(&self, fast: bool) {
+        self.fast_pow.set(fast);
     }
 
     /// GPU time (from timestamp queries) of every dispatch since the last call, or None where

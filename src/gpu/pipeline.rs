@@ -35,6 +35,9 @@ impl Kernel {
     }
 }
 
+/// Specialization constant id of FAST_POW (glsl/common.glsl).
+pub const FAST_POW_ID: u32 = 10;
+
 /// Workgroup size. 64 suits lavapipe (PLATFORM.md) and is a multiple of every GPU's wave width.
 pub const LOCAL_SIZE: u32 = 64;
 
@@ -69,6 +72,7 @@ impl<'d> Pipeline<'d> {
         kernel: Kernel,
         model_kind: Model,
         white_furnace: bool,
+        fast_pow: bool,
     ) -> Result<Pipeline<'d>> {
         let start = Instant::now();
         let model = model_kind.name();
@@ -144,14 +148,25 @@ impl<'d> Pipeline<'d> {
                     None,
                 )
                 .ctx("creating a pipeline layout")?;
-            // Constants 0-2 are every kernel's; 3.. are the model's component choices.
-            let mut spec_data: Vec<u32> =
-                vec![white_furnace as u32, LOCAL_SIZE, evals_per_invocation];
-            spec_data.extend(model_kind.spec_constants());
-            let entries: Vec<_> = (0..spec_data.len() as u32)
-                .map(|i| vk::SpecializationMapEntry {
-                    constant_id: i,
-                    offset: 4 * i,
+            // Constants 0-2 and FAST_POW_ID are every kernel's; 3.. are the model's component
+            // choices (glsl/common.glsl, glsl/brdf/<model>.glsl).
+            let mut ids: Vec<u32> = vec![0, 1, 2, FAST_POW_ID];
+            let mut spec_data: Vec<u32> = vec![
+                white_furnace as u32,
+                LOCAL_SIZE,
+                evals_per_invocation,
+                fast_pow as u32,
+            ];
+            for (k, v) in model_kind.spec_constants().into_iter().enumerate() {
+                ids.push(3 + k as u32);
+                spec_data.push(v);
+            }
+            let entries: Vec<_> = ids
+                .iter()
+                .enumerate()
+                .map(|(k, &id)| vk::SpecializationMapEntry {
+                    constant_id: id,
+                    offset: 4 * k as u32,
                     size: 4,
                 })
                 .collect();
