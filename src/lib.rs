@@ -13,6 +13,7 @@ pub mod grid;
 pub mod material;
 pub mod model;
 pub mod table;
+pub mod tradeoff;
 
 pub use eval::Evaluator;
 pub use model::{Model, ParamSet, Reference};

@@ -37,6 +37,8 @@ enum Command {
     Demo(DemoArgs),
     /// Evaluations per second of every model on this device, GPU and CPU reference.
     Bench(BenchArgs),
+    /// Cost and error of each speed-for-accuracy variant of a model, measured on this device.
+    Tradeoff(TradeoffArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -141,6 +143,25 @@ struct BenchArgs {
     format: TableFormat,
 }
 
+#[derive(Args)]
+struct TradeoffArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI on which errors are measured (full grid with the
+    /// same angular density for an anisotropic parameter set).
+    #[arg(long, default_value = "32,32,64")]
+    error_res: String,
+    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI on which costs are timed.
+    #[arg(long, default_value = "96,96,192")]
+    timing_res: String,
+    /// Timed runs per variant (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    repeats: usize,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = TableFormat::Table)]
+    format: TableFormat,
+}
+
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
 enum TableFormat {
     Table,
@@ -176,6 +197,7 @@ fn main() {
         Command::Models(a) => cmd_models(a),
         Command::Demo(a) => cmd_demo(a),
         Command::Bench(a) => cmd_bench(a),
+        Command::Tradeoff(a) => cmd_tradeoff(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -536,6 +558,133 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
                     r.backend,
                     r.wall_per_s / 1e6,
                     k
+                )?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
+    let params = params_of(&a.model)?;
+    let error_grid = match Grid::parse("isotropic", &a.error_res).map_err(anyhow::Error::msg)? {
+        Grid::Isotropic {
+            n_theta_i,
+            n_theta_o,
+            n_dphi,
+        } if !params.is_isotropic() => Grid::Full {
+            n_theta_i,
+            n_phi_i: 2 * n_dphi,
+            n_theta_o,
+            n_phi_o: 2 * n_dphi,
+        },
+        g => g,
+    };
+    let timing_grid = Grid::parse("isotropic", &a.timing_res).map_err(anyhow::Error::msg)?;
+    // A metal's exact Fresnel needs its complex IOR: take it from the material's microfacet
+    // preset where that uses the conductor Fresnel.
+    let conductor = a.model.material.as_deref().and_then(|m| {
+        let p = material::preset(
+            m,
+            Model::Microfacet(lobe::model::microfacet::MicrofacetConfig::DEFAULT),
+        )
+        .ok()?;
+        (p.get("fresnel") == lobe::model::Value::Choice("conductor"))
+            .then(|| (p.get("eta"), p.get("k")))
+    });
+    let (truth, variants) = lobe::tradeoff::eval_variants(&params, conductor);
+    let bar = indicatif::ProgressBar::new(variants.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let run = |gpu: Option<&Gpu>| {
+        lobe::tradeoff::measure_eval(
+            gpu,
+            &truth,
+            &variants,
+            &error_grid,
+            &timing_grid,
+            a.repeats,
+            &mut |name| {
+                bar.set_message(name.to_string());
+                bar.inc(1);
+            },
+        )
+    };
+    let rows = match a.model.backend {
+        Backend::Cpu => run(None)?,
+        Backend::Gpu => {
+            let dev = Device::open(&DeviceOptions {
+                name_contains: a.model.device.clone(),
+            })?;
+            let gpu = Gpu::new(&dev);
+            run(Some(&gpu))?
+        }
+    };
+    bar.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        TableFormat::Json => {
+            let doc = serde_json::json!({
+                "model": params.model().name(),
+                "parameters": params.to_json(),
+                "truth": {"model": truth.model().name(), "parameters": truth.to_json()},
+                "error_grid": error_grid.shape(),
+                "timing_grid": timing_grid.shape(),
+                "relative_error_floor": lobe::tradeoff::REL_FLOOR,
+                "rows": rows,
+            });
+            writeln!(out, "{}", serde_json::to_string_pretty(&doc)?)?;
+        }
+        TableFormat::Csv => {
+            writeln!(
+                out,
+                "variant,kind,backend,cost,cost_unit,max_rel_error,rms_rel_error,pareto"
+            )?;
+            for r in &rows {
+                writeln!(
+                    out,
+                    "{},{},{},{},{},{},{},{}",
+                    r.variant,
+                    r.kind,
+                    r.backend,
+                    r.cost,
+                    r.cost_unit,
+                    r.max_rel_error,
+                    r.rms_rel_error,
+                    r.pareto
+                )?;
+            }
+        }
+        TableFormat::Table => {
+            writeln!(out, "{} {}", params.model().name(), params.to_text())?;
+            writeln!(
+                out,
+                "truth: f64 {} {}",
+                truth.model().name(),
+                truth.to_text()
+            )?;
+            writeln!(
+                out,
+                "errors over {} cells ({} grid), relative with a floor of {} x max|f|; costs median of {} runs over {} cells",
+                error_grid.cells().unwrap_or(0), error_grid.name(), lobe::tradeoff::REL_FLOOR, a.repeats,
+                timing_grid.cells().unwrap_or(0)
+            )?;
+            writeln!(
+                out,
+                "{:<36} {:>12} {:>14} {:>14}  {}",
+                "variant", "ns/eval", "max rel err", "rms rel err", "pareto"
+            )?;
+            for r in &rows {
+                writeln!(
+                    out,
+                    "{:<36} {:>12.3} {:>14.3e} {:>14.3e}  {}",
+                    r.variant,
+                    r.cost,
+                    r.max_rel_error,
+                    r.rms_rel_error,
+                    if r.pareto { "*" } else { "" }
                 )?;
             }
         }
