@@ -12,6 +12,7 @@ pub mod gpu;
 pub mod grid;
 pub mod material;
 pub mod model;
+pub mod preview;
 pub mod table;
 pub mod tradeoff;
 

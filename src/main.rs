@@ -39,6 +39,9 @@ enum Command {
     Bench(BenchArgs),
     /// Cost and error of each speed-for-accuracy variant of a model, measured on this device.
     Tradeoff(TradeoffArgs),
+    /// A labelled contact sheet (rows materials, columns models) of shaded spheres or the lab's
+    /// icosahedron under the lab's four lights: PNG (sRGB) and EXR (linear radiance).
+    Preview(PreviewArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -198,6 +201,7 @@ fn main() {
         Command::Demo(a) => cmd_demo(a),
         Command::Bench(a) => cmd_bench(a),
         Command::Tradeoff(a) => cmd_tradeoff(a),
+        Command::Preview(a) => cmd_preview(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -690,4 +694,150 @@ fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum ShapeArg {
+    Sphere,
+    Icosahedron,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum LightsArg {
+    /// Point lights at the lab's positions, in the camera's space (OpenGL eye space, w = 1).
+    Point,
+    /// Directional lights toward the lab's vectors (OpenGL w = 0).
+    Directional,
+}
+
+#[derive(Args)]
+struct PreviewArgs {
+    /// Output PNG (tone-mapped, labelled); the linear radiance goes to the .exr beside it.
+    #[arg(short = 'o', long = "output", value_name = "PATH.png", default_value = "preview.png")]
+    output: PathBuf,
+    /// Models, one column each (repeatable or comma-separated; default: every model).
+    #[arg(long = "model", value_delimiter = ',')]
+    models: Vec<String>,
+    /// Material presets, one row each (repeatable or comma-separated; default: tin, gold, glazed_ceramic, granite).
+    #[arg(long = "material", value_delimiter = ',')]
+    materials: Vec<String>,
+    /// The object in every cell.
+    #[arg(long, value_enum, default_value_t = ShapeArg::Sphere)]
+    shape: ShapeArg,
+    /// How the lab's light vectors (0,0,1), (0,1,1), (1,0,1), (-1,0,1) are read.
+    #[arg(long, value_enum, default_value_t = LightsArg::Point)]
+    lights: LightsArg,
+    /// Cell size in pixels (square).
+    #[arg(long, default_value_t = lobe::preview::DEFAULT_CELL)]
+    cell: u32,
+    /// Exposure of the PNG in stops (EV): radiance is multiplied by 2^EV before sRGB encoding.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exposure: f64,
+    /// Radiance of a uniform white sky, one number or r,g,b (default 0: the lab has no ambient light).
+    /// Approximated as its irradiance pi*A arriving along the normal: exact for Lambert only.
+    #[arg(long, value_name = "A or R,G,B")]
+    ambient: Option<String>,
+    /// Where to render.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+}
+
+fn cmd_preview(a: PreviewArgs) -> Result<()> {
+    use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
+    if a.output.extension().and_then(|e| e.to_str()) != Some("png") {
+        bail!(
+            "-o {}: the output must end in .png (the .exr is written beside it)",
+            a.output.display()
+        );
+    }
+    if !a.exposure.is_finite() {
+        bail!("--exposure {}: expected a finite number of stops", a.exposure);
+    }
+    if !(1..=4096).contains(&a.cell) {
+        bail!("--cell {}: expected a cell size in [1, 4096] pixels", a.cell);
+    }
+    let ambient = match &a.ambient {
+        None => DVec3::ZERO,
+        Some(text) => {
+            let nums: Vec<f64> = text
+                .split(',')
+                .map(|s| s.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| anyhow::anyhow!("--ambient '{text}': expected one number or r,g,b"))?;
+            let v = match nums[..] {
+                [g] => DVec3::splat(g),
+                [r, g, b] => DVec3::new(r, g, b),
+                _ => bail!("--ambient '{text}': expected one number or r,g,b"),
+            };
+            if !v.is_finite() || v.min_element() < 0.0 {
+                bail!("--ambient '{text}': radiance must be finite and >= 0");
+            }
+            v
+        }
+    };
+    let models: Vec<Model> = if a.models.is_empty() {
+        Model::ALL.to_vec()
+    } else {
+        a.models
+            .iter()
+            .map(|m| Model::from_name(m))
+            .collect::<Result<_, _>>()?
+    };
+    let materials: Vec<String> = if a.materials.is_empty() {
+        material::names().into_iter().map(String::from).collect()
+    } else {
+        a.materials.clone()
+    };
+    let sheet = Sheet::new(&materials, &models)?;
+    let shape = match a.shape {
+        ShapeArg::Sphere => Shape::Sphere,
+        ShapeArg::Icosahedron => Shape::Icosahedron,
+    };
+    let kind = match a.lights {
+        LightsArg::Point => LightKind::Point,
+        LightsArg::Directional => LightKind::Directional,
+    };
+    let scene = Scene::lab(a.cell, shape, kind, ambient);
+    let exr_path = a.output.with_extension("exr");
+    let model_args = ModelArgs {
+        model: "lambert".into(),
+        sets: Vec::new(),
+        material: None,
+        white_furnace: false,
+        backend: a.backend,
+        device: a.device.clone(),
+    };
+    with_evaluator(&model_args, |e| {
+        let bar = indicatif::ProgressBar::new(models.len() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} columns")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(format!("preview on {}", e.name()));
+        let started = std::time::Instant::now();
+        let image = preview::render(e, &sheet, &scene, &mut |done, _| {
+            bar.set_position(done as u64)
+        })?;
+        let render_time = started.elapsed();
+        bar.finish_and_clear();
+        preview::write_exr(&image, &sheet, &scene, &e.name(), &exr_path)?;
+        let caption = preview::caption(&scene, a.exposure, &e.name());
+        let (png_w, png_h) = preview::write_png(&image, &sheet, a.exposure, &caption, &a.output)?;
+        eprintln!(
+            "lobe: rendered {} x {} cells of {} px in {:.2} s on {}; wrote {} ({png_w}x{png_h}, labelled) and {} ({}x{}, linear radiance)",
+            sheet.materials.len(),
+            sheet.models.len(),
+            a.cell,
+            render_time.as_secs_f64(),
+            e.name(),
+            a.output.display(),
+            exr_path.display(),
+            image.width(),
+            image.height()
+        );
+        Ok(())
+    })
 }

@@ -6,6 +6,7 @@ pub mod buffer;
 pub mod device;
 pub mod error;
 pub mod pipeline;
+pub mod preview;
 pub mod shaders;
 pub mod spirv;
 

@@ -17,6 +17,9 @@ pub enum Kernel {
     Table,
     /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
     Pairs,
+    /// `lobe preview`: one shaded pixel per evaluation (bindings 0 params, 1 scene, 2 objects,
+    /// 3 out); see glsl/kernels/preview.comp.
+    Preview,
 }
 
 impl Kernel {
@@ -24,6 +27,7 @@ impl Kernel {
         match self {
             Kernel::Table => "table",
             Kernel::Pairs => "pairs",
+            Kernel::Preview => "preview",
         }
     }
 
@@ -31,6 +35,7 @@ impl Kernel {
         match self {
             Kernel::Table => &[0, 1, 2, 3],
             Kernel::Pairs => &[0, 1, 3],
+            Kernel::Preview => &[0, 1, 2, 3],
         }
     }
 }
