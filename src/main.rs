@@ -698,7 +698,9 @@ fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
 enum ShapeArg {
+    /// A sphere of radius 1, three units in front of the camera.
     Sphere,
+    /// The lab's regular icosahedron (circumradius 1, flat faces) in the same place.
     Icosahedron,
 }
 

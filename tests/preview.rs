@@ -249,8 +249,8 @@ fn gpu_and_cpu_previews_agree_pixel_by_pixel() {
         let mut worst_rel = vec![(0.0f64, String::new()); g.cols];
         let (mut worst_abs, mut conditioned) = (0.0f64, 0usize);
         let mut failures = Vec::new();
-        for row in 0..g.rows {
-            for col in 0..g.cols {
+        for (col, worst) in worst_rel.iter_mut().enumerate() {
+            for row in 0..g.rows {
                 let r = Reference::new(&sheet.params[col][row], false);
                 for y in 0..g.cell_height {
                     for x in 0..g.cell_width {
@@ -264,9 +264,9 @@ fn gpu_and_cpu_previews_agree_pixel_by_pixel() {
                             for k in 0..3 {
                                 if cp[k].abs() > 100.0 * ATOL {
                                     let rel = err[k] / cp[k].abs();
-                                    let w = &mut worst_rel[col];
-                                    if rel > w.0 {
-                                        *w = (rel, format!("{} ({x}, {y})", sheet.materials[row]));
+                                    if rel > worst.0 {
+                                        *worst =
+                                            (rel, format!("{} ({x}, {y})", sheet.materials[row]));
                                     }
                                 }
                             }
