@@ -10,9 +10,11 @@ pub mod demo;
 pub mod eval;
 pub mod gpu;
 pub mod grid;
+pub mod interrupt;
 pub mod material;
 pub mod model;
 pub mod preview;
+pub mod stability;
 pub mod table;
 pub mod tradeoff;
 

@@ -42,6 +42,36 @@ enum Command {
     /// A labelled contact sheet (rows materials, columns models) of shaded spheres or the lab's
     /// icosahedron under the lab's four lights: PNG (sRGB) and EXR (linear radiance).
     Preview(PreviewArgs),
+    /// Sweep every model over the edges of its domain (extreme parameters, grazing, mirror and
+    /// opposite directions) on both backends; count NaN, Inf and negative values and report the
+    /// largest GPU-vs-CPU error. Exits non-zero if any NaN, Inf or negative value appears.
+    Stability(StabilityArgs),
+}
+
+#[derive(Args)]
+struct StabilityArgs {
+    /// Models to sweep, comma-separated (default: the seed models and every microfacet component
+    /// choice). `microfacet` means all its component choices.
+    #[arg(long, value_delimiter = ',')]
+    models: Vec<String>,
+    /// Sweep the CPU reference alone (no Vulkan device needed; no GPU-vs-CPU errors).
+    #[arg(long)]
+    cpu_only: bool,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+    /// Print a row for every parameter edge, not only those where something is off.
+    #[arg(long)]
+    all: bool,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = StabilityFormat::Table)]
+    format: StabilityFormat,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum StabilityFormat {
+    Table,
+    Json,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -202,6 +232,7 @@ fn main() {
         Command::Bench(a) => cmd_bench(a),
         Command::Tradeoff(a) => cmd_tradeoff(a),
         Command::Preview(a) => cmd_preview(a),
+        Command::Stability(a) => cmd_stability(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -842,4 +873,47 @@ fn cmd_preview(a: PreviewArgs) -> Result<()> {
         );
         Ok(())
     })
+}
+
+fn cmd_stability(a: StabilityArgs) -> Result<()> {
+    use lobe::stability;
+    lobe::interrupt::install()?;
+    let models = stability::models_named(&a.models)?;
+    let bar = indicatif::ProgressBar::new(models.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut progress = |label: &str| {
+        bar.set_message(format!("stability {label}"));
+        bar.inc(1);
+    };
+    let report = if a.cpu_only {
+        stability::sweep(stability::Options {
+            gpu: None,
+            models,
+            progress: &mut progress,
+        })?
+    } else {
+        let dev = Device::open(&DeviceOptions {
+            name_contains: a.device.clone(),
+        })?;
+        let gpu = Gpu::new(&dev);
+        stability::sweep(stability::Options {
+            gpu: Some(&gpu),
+            models,
+            progress: &mut progress,
+        })?
+    };
+    bar.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        StabilityFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?,
+        StabilityFormat::Table => write!(out, "{}", stability::format_table(&report, a.all))?,
+    }
+    let bad = report.bad_values();
+    if bad > 0 {
+        bail!("{bad} NaN, infinite or negative values on valid input (see the table)");
+    }
+    Ok(())
 }

@@ -1,0 +1,792 @@
+//! `lobe stability`: every model at the edges of its domain, on both backends.
+//!
+//! The sweep crosses two kinds of edge:
+//! - **parameter edges** ([`cases`]): roughness, σ and α down to 1e-4 and up to their maximum;
+//!   shininess 0, 8192 (the seed's maximum), 1e5 and 1e6; smoothness 0 and 1; IOR 1 and 5;
+//!   nu, nv at 0 and 1e5, alone and together (strong anisotropy); reflectances 0 and 1;
+//! - **direction regions** ([`regions`]): an interior reference set; θ → 90° with cos θ from 1e-7
+//!   to 1e-3 on either or both sides; ωi = ωo; ωi the mirror of ωo (h = n) and within 1e-6..1e-2
+//!   rad of it; opposite grazing directions, where |ωi + ωo| = 2 cos θ → 0 and h → n.
+//!
+//! Every input is valid (parameters in range, both directions above the horizon), so any NaN,
+//! infinity or negative value on either backend is a bug. Both backends see the same inputs: the
+//! GPU receives f32 directions and parameters, and the CPU reference evaluates at exactly those
+//! values widened to f64 (as the parity test does). The GPU-vs-CPU error is reported two ways: as
+//! a relative error with an absolute floor of [`REL_FLOOR`] (so that values far below anything a
+//! renderer resolves do not dominate), and as a fraction of the tolerance the parity test allows
+//! ([`parity_tolerance`]): a ratio above 1 is a value the parity test would reject.
+
+use crate::gpu::{Gpu, GpuPair};
+use crate::grid::direction;
+use crate::model::ashikhmin_shirley::ashikhmin_shirley_exponent;
+use crate::model::blinn_phong::blinn_phong_exponent;
+use crate::model::microfacet::{Microfacet, MicrofacetConfig};
+use crate::model::terms::{log1m, one_minus_cos_theta};
+use crate::model::{Brdf, Model, ParamSet, Reference};
+use anyhow::{Context, Result};
+use glam::DVec3;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// f32 machine epsilon.
+pub const EPS32: f64 = f32::EPSILON as f64;
+
+/// The parity test's tolerance model (tests/parity.rs states the same constants with their
+/// reasons; they are repeated here so that the sweep can express its errors in the test's units):
+/// |g − c| ≤ ATOL + (RTOL_BASE + EXPONENT_FACTOR·ε·|x|)·|c| + spread, per channel, where x is the
+/// argument of the exponential the model evaluates and spread is the f64 reference's change over
+/// an 8-ε neighbourhood of the directions (input conditioning).
+pub mod tolerance {
+    use super::EPS32;
+    /// A smooth formula in f32: a few dozen roundings plus exp/pow's 3 + 2|x| ulp: 64 ε ≈ 7.6e-6.
+    pub const RTOL_BASE: f64 = 64.0 * EPS32;
+    /// exp(x) may be off by 3 + 2|x| ulp on a conforming device; a margin of 2 over that bound.
+    pub const EXPONENT_FACTOR: f64 = 4.0;
+    /// The directions the GPU sees are off by a few ε: the reference's spread over 8 ε.
+    pub const PERTURBATION: f64 = 8.0 * EPS32;
+    /// 1/sr: far below anything a renderer resolves; an f32 exp underflows to 0 long before f64.
+    pub const ATOL: f64 = 1e-6;
+}
+
+/// Denominator floor of the relative error, 1/sr: the parity test's absolute tolerance.
+pub const REL_FLOOR: f64 = tolerance::ATOL;
+
+/// |x| of the exponential exp(x) the model evaluates at (ωi, ωo) (see the tolerance model).
+pub fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    let h = (wi + wo).normalize_or_zero();
+    let s_h = one_minus_cos_theta(h);
+    match params.model() {
+        Model::Phong => {
+            let r = DVec3::new(-wi.x, -wi.y, wi.z);
+            // 1 − r·ωo = |r − ωo|²/2 without cancellation; capped short of 1 where log → −∞
+            // (the lobe is 0 there on both sides).
+            let s = (0.5 * (r - wo).length_squared()).min(0.999_999);
+            params.scalar("shininess") * log1m(s).abs()
+        }
+        Model::BlinnPhong => blinn_phong_exponent(params.scalar("smoothness")) * log1m(s_h).abs(),
+        Model::AshikhminShirley => {
+            ashikhmin_shirley_exponent(h, params.scalar("nu"), params.scalar("nv"))
+                * log1m(s_h).abs()
+        }
+        Model::CookTorrance => {
+            let m = params.scalar("roughness");
+            (h.x * h.x + h.y * h.y) / (h.z * h.z) / (m * m)
+        }
+        Model::Microfacet(c) if c.distribution == 0 => {
+            let m = Microfacet::new(params);
+            (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
+                / (h.z * h.z)
+        }
+        _ => 0.0,
+    }
+}
+
+/// The largest change of the f64 reference when ωi or ωo moves by [`tolerance::PERTURBATION`]
+/// along each axis: the input conditioning that no f32 implementation can beat.
+pub fn conditioning(r: &Reference, wi: DVec3, wo: DVec3, c: DVec3) -> DVec3 {
+    let mut worst = DVec3::ZERO;
+    for axis in [
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        -DVec3::X,
+        -DVec3::Y,
+        -DVec3::Z,
+    ] {
+        let d = axis * tolerance::PERTURBATION;
+        for (a, b) in [((wi + d).normalize(), wo), (wi, (wo + d).normalize())] {
+            let v = r.eval(a, b) - c;
+            // A non-finite neighbour says nothing about conditioning; the sweep counts it apart.
+            if v.is_finite() {
+                worst = worst.max(v.abs());
+            }
+        }
+    }
+    worst
+}
+
+/// The per-channel tolerance the parity test allows for a GPU value at (ωi, ωo), given the
+/// reference value `c` there. `params` must be the f32-rounded set the GPU received.
+pub fn parity_tolerance(params: &ParamSet, r: &Reference, wi: DVec3, wo: DVec3, c: DVec3) -> DVec3 {
+    use tolerance::*;
+    let rtol = RTOL_BASE + EXPONENT_FACTOR * EPS32 * exponent_at(params, wi, wo);
+    DVec3::splat(ATOL) + rtol * c.abs() + conditioning(r, wi, wo, c)
+}
+
+/// One parameter edge of a model: a label and the (valid) parameter set.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub label: String,
+    pub params: ParamSet,
+}
+
+fn case(model: Model, sets: &[&str]) -> Result<Case> {
+    let mut params = ParamSet::defaults(model);
+    for s in sets {
+        params
+            .set_text(s)
+            .with_context(|| format!("stability case {} {s}", model.name()))?;
+    }
+    let label = if sets.is_empty() {
+        "defaults".to_string()
+    } else {
+        sets.join(" ")
+    };
+    Ok(Case { label, params })
+}
+
+/// The parameter edges swept for `model`.
+pub fn cases(model: Model) -> Result<Vec<Case>> {
+    let mut out: Vec<Result<Case>> = Vec::new();
+    let mut add = |sets: &[&str]| out.push(case(model, sets));
+    add(&[]);
+    match model {
+        Model::Lambert => {
+            add(&["albedo=0"]);
+            add(&["albedo=1"]);
+        }
+        Model::Phong => {
+            for n in ["0", "1e-4", "1", "8192", "1e5", "1e6"] {
+                let s = format!("shininess={n}");
+                add(&["diffuse=0", "specular=1", &s]);
+            }
+        }
+        Model::BlinnPhong => {
+            for s in ["0", "1e-4", "0.5", "0.9999", "1"] {
+                let s = format!("smoothness={s}");
+                add(&["diffuse=0", "specular=1", &s]);
+            }
+        }
+        Model::OrenNayar => {
+            add(&["sigma=0"]);
+            add(&["sigma=1e-4"]);
+            add(&["albedo=1", "sigma=1.5707963267948966"]);
+        }
+        Model::CookTorrance => {
+            for m in ["1e-4", "1e-2", "1"] {
+                for ior in ["1", "5"] {
+                    let (m, ior) = (format!("roughness={m}"), format!("ior={ior}"));
+                    add(&["diffuse=0", "specular=1", &m, &ior]);
+                }
+            }
+        }
+        Model::SmoothLayered => {
+            add(&["diffuse=1", "ior=1"]);
+            add(&["diffuse=0", "ior=5"]);
+        }
+        Model::Coupled => {
+            add(&["matte=1", "ior=1"]);
+            add(&["matte=1", "ior=5"]);
+            add(&["matte=0", "ior=5"]);
+        }
+        Model::AshikhminShirley => {
+            for (nu, nv) in [
+                ("0", "0"),
+                ("1e5", "1e5"),
+                ("0", "1e5"),
+                ("1e5", "0"),
+                ("1", "1e5"),
+                ("1e6", "1e6"),
+            ] {
+                let (nu, nv) = (format!("nu={nu}"), format!("nv={nv}"));
+                add(&["diffuse=0", "specular=1", &nu, &nv]);
+            }
+            add(&["diffuse=1", "specular=0", "nu=1e5", "nv=0"]);
+        }
+        Model::Microfacet(c) => {
+            for a in ["1e-4", "1"] {
+                let a = format!("alpha={a}");
+                add(&["diffuse=0", &a]);
+            }
+            add(&["diffuse=0", "alpha_x=1e-4", "alpha_y=1"]);
+            add(&["diffuse=0", "alpha_x=1", "alpha_y=1e-4"]);
+            match c.fresnel {
+                1 => {
+                    add(&["alpha=1e-4", "f0=0"]);
+                    add(&["alpha=1e-4", "f0=1"]);
+                    add(&["alpha=1e-4", "ior=1"]);
+                    add(&["alpha=1e-4", "ior=5"]);
+                }
+                2 => {
+                    add(&["alpha=1e-4", "ior=1"]);
+                    add(&["alpha=1e-4", "ior=5"]);
+                }
+                3 => {
+                    add(&["alpha=1e-4", "eta=0.01", "k=10"]);
+                    add(&["alpha=1e-4", "eta=10", "k=0"]);
+                    add(&["alpha=1e-4", "eta=1", "k=0"]);
+                }
+                _ => {}
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// One region of direction pairs.
+#[derive(Clone, Debug)]
+pub struct Region {
+    pub name: &'static str,
+    pub pairs: Vec<(DVec3, DVec3)>,
+}
+
+/// Cosines of θ toward the horizon: θ → 90°.
+pub const GRAZING_COS: [f64; 5] = [1e-7, 1e-6, 1e-5, 1e-4, 1e-3];
+/// Angular offsets from the mirror direction, radians.
+pub const MIRROR_OFFSETS: [f64; 5] = [1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
+
+/// Rounds to what the GPU receives, widened back to f64.
+fn as_f32(v: DVec3) -> DVec3 {
+    DVec3::new(v.x as f32 as f64, v.y as f32 as f64, v.z as f32 as f64)
+}
+
+/// The direction with cos θ = c exactly (sin θ from c without going through θ).
+fn dir_cos(c: f64, phi: f64) -> DVec3 {
+    let s = (1.0 - c * c).sqrt();
+    DVec3::new(s * phi.cos(), s * phi.sin(), c)
+}
+
+/// The direction regions, already rounded to f32 (see the module's notes).
+pub fn regions() -> Vec<Region> {
+    let deg = |d: f64| d.to_radians();
+    let phi0 = deg(20.0);
+    let mut interior = Vec::new();
+    for ti in [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0] {
+        for (to, dphi) in [
+            (0.0, 0.0),
+            (30.0, 90.0),
+            (60.0, 180.0),
+            (45.0, 135.0),
+            (80.0, 30.0),
+        ] {
+            interior.push((
+                direction(deg(ti), phi0),
+                direction(deg(to), phi0 + deg(dphi)),
+            ));
+        }
+    }
+    let mut grazing = Vec::new();
+    for c in GRAZING_COS {
+        for (to, dphi) in [
+            (0.0, 0.0),
+            (45.0, 180.0),
+            (45.0, 90.0),
+            (80.0, 180.0),
+            (80.0, 0.0),
+        ] {
+            let other = direction(deg(to), phi0 + deg(dphi));
+            grazing.push((dir_cos(c, phi0), other));
+            grazing.push((other, dir_cos(c, phi0)));
+        }
+        for c2 in GRAZING_COS {
+            for dphi in [90.0, 150.0] {
+                grazing.push((dir_cos(c, phi0), dir_cos(c2, phi0 + deg(dphi))));
+            }
+        }
+    }
+    let thetas = [0.0, 1e-4, deg(10.0), deg(45.0), deg(80.0), deg(89.9)];
+    let mut same = Vec::new();
+    for t in thetas {
+        for phi in [0.0, phi0, deg(200.0)] {
+            let w = direction(t, phi);
+            same.push((w, w));
+        }
+    }
+    for c in GRAZING_COS {
+        for phi in [0.0, phi0, deg(200.0)] {
+            let w = dir_cos(c, phi);
+            same.push((w, w));
+        }
+    }
+    let mut mirror = Vec::new();
+    let mut near_mirror = Vec::new();
+    for t in thetas {
+        for phi in [0.0, phi0] {
+            mirror.push((direction(t, phi), direction(t, phi + PI)));
+            for d in MIRROR_OFFSETS {
+                let to = (t + d).min(FRAC_PI_2 - 1e-7);
+                near_mirror.push((direction(t, phi), direction(to, phi + PI)));
+                near_mirror.push((direction(t, phi), direction(t, phi + PI + d)));
+            }
+        }
+    }
+    let mut opposite = Vec::new();
+    for c in GRAZING_COS {
+        for phi in [0.0, phi0] {
+            // Exactly opposite in azimuth: ωi + ωo = (0, 0, 2c), h = n, c_d = c.
+            opposite.push((dir_cos(c, phi), dir_cos(c, phi + PI)));
+            for c2 in GRAZING_COS {
+                if c2 != c {
+                    opposite.push((dir_cos(c, phi), dir_cos(c2, phi + PI)));
+                }
+            }
+            for d in MIRROR_OFFSETS {
+                opposite.push((dir_cos(c, phi), dir_cos(c, phi + PI + d)));
+            }
+        }
+    }
+    let round = |v: Vec<(DVec3, DVec3)>| -> Vec<(DVec3, DVec3)> {
+        v.into_iter().map(|(a, b)| (as_f32(a), as_f32(b))).collect()
+    };
+    vec![
+        Region {
+            name: "interior",
+            pairs: round(interior),
+        },
+        Region {
+            name: "grazing",
+            pairs: round(grazing),
+        },
+        Region {
+            name: "wi=wo",
+            pairs: round(same),
+        },
+        Region {
+            name: "mirror",
+            pairs: round(mirror),
+        },
+        Region {
+            name: "near-mirror",
+            pairs: round(near_mirror),
+        },
+        Region {
+            name: "opposite-grazing",
+            pairs: round(opposite),
+        },
+    ]
+}
+
+/// The models the sweep covers: the eight seed models and every microfacet component choice.
+pub fn sweep_models() -> Vec<Model> {
+    let mut out: Vec<Model> = Model::ALL
+        .into_iter()
+        .filter(|m| !matches!(m, Model::Microfacet(_)))
+        .collect();
+    // Configurations that differ only in a component their formula does not use (Beckmann's G1
+    // under V-cavity masking, for instance) evaluate the same function: sweep one of each.
+    let mut labels = std::collections::BTreeSet::new();
+    out.extend(
+        MicrofacetConfig::all()
+            .into_iter()
+            .map(Model::Microfacet)
+            .filter(|m| labels.insert(model_label(*m))),
+    );
+    out
+}
+
+/// The models named (as `lobe models` lists them); `microfacet` stands for every component
+/// choice. An empty list means [`sweep_models`].
+pub fn models_named(names: &[String]) -> Result<Vec<Model>> {
+    if names.is_empty() {
+        return Ok(sweep_models());
+    }
+    let all = sweep_models();
+    let mut out = Vec::new();
+    for name in names {
+        match Model::from_name(name.trim())? {
+            Model::Microfacet(_) => {
+                out.extend(all.iter().filter(|m| matches!(m, Model::Microfacet(_))))
+            }
+            m => out.push(m),
+        }
+    }
+    out.dedup();
+    Ok(out)
+}
+
+/// A model's name with its components.
+pub fn model_label(model: Model) -> String {
+    match model {
+        Model::Microfacet(c) => format!("microfacet[{}]", c.label()),
+        m => m.name().to_string(),
+    }
+}
+
+/// Counts and worst errors of one group of evaluations.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Stats {
+    /// Channel values evaluated per backend.
+    pub values: usize,
+    pub gpu_nan: usize,
+    pub gpu_inf: usize,
+    pub gpu_negative: usize,
+    pub cpu_nan: usize,
+    pub cpu_inf: usize,
+    pub cpu_negative: usize,
+    /// Largest |g − c| / max(|c|, REL_FLOOR) over values finite on both sides.
+    pub max_rel_error: f64,
+    /// Largest |g − c| / (the parity test's tolerance).
+    pub max_tolerance_ratio: f64,
+    /// GPU values outside the parity tolerance.
+    pub over_tolerance: usize,
+    /// Where the largest tolerance ratio occurred.
+    pub worst: Option<Sample>,
+    /// The first non-finite or negative value met, if any.
+    pub first_bad: Option<Sample>,
+}
+
+/// One evaluation, described well enough to reproduce it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Sample {
+    pub model: String,
+    pub case: String,
+    pub region: String,
+    pub white_furnace: bool,
+    pub wi: [f64; 3],
+    pub wo: [f64; 3],
+    pub channel: usize,
+    pub gpu: Option<f64>,
+    pub cpu: f64,
+    pub tolerance: Option<f64>,
+}
+
+impl Sample {
+    pub fn text(&self) -> String {
+        let g = self.gpu.map(|g| format!("gpu={g:e} ")).unwrap_or_default();
+        format!(
+            "{} [{}] wf={} wi={:?} wo={:?} ch{}: {g}cpu={:e}",
+            self.model, self.case, self.white_furnace, self.wi, self.wo, self.channel, self.cpu
+        )
+    }
+}
+
+impl Stats {
+    pub fn bad(&self) -> usize {
+        self.gpu_nan
+            + self.gpu_inf
+            + self.gpu_negative
+            + self.cpu_nan
+            + self.cpu_inf
+            + self.cpu_negative
+    }
+
+    fn merge(&mut self, o: &Stats) {
+        self.values += o.values;
+        self.gpu_nan += o.gpu_nan;
+        self.gpu_inf += o.gpu_inf;
+        self.gpu_negative += o.gpu_negative;
+        self.cpu_nan += o.cpu_nan;
+        self.cpu_inf += o.cpu_inf;
+        self.cpu_negative += o.cpu_negative;
+        self.over_tolerance += o.over_tolerance;
+        self.max_rel_error = self.max_rel_error.max(o.max_rel_error);
+        if o.max_tolerance_ratio > self.max_tolerance_ratio || self.worst.is_none() {
+            self.max_tolerance_ratio = self.max_tolerance_ratio.max(o.max_tolerance_ratio);
+            if o.worst.is_some() {
+                self.worst = o.worst.clone();
+            }
+        }
+        if self.first_bad.is_none() {
+            self.first_bad = o.first_bad.clone();
+        }
+    }
+}
+
+/// Classifies one value: (nan, inf, negative).
+fn classify(v: f64) -> (bool, bool, bool) {
+    (v.is_nan(), v.is_infinite(), v < 0.0)
+}
+
+/// One row of the report: a model with a parameter edge, or a model with a direction region.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub model: String,
+    /// "params" (grouped by parameter edge, over all regions) or "directions".
+    pub group: &'static str,
+    pub region: String,
+    #[serde(flatten)]
+    pub stats: Stats,
+}
+
+/// The sweep's result.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub backend: String,
+    pub gpu: bool,
+    pub rel_floor: f64,
+    pub rows: Vec<Row>,
+    pub total: Stats,
+}
+
+impl Report {
+    /// NaN, infinities and negatives on either backend: all inputs are valid, so each is a bug.
+    pub fn bad_values(&self) -> usize {
+        self.total.bad()
+    }
+}
+
+/// Options of a sweep.
+pub struct Options<'a, 'd> {
+    /// The GPU to compare with; None sweeps the CPU reference alone.
+    pub gpu: Option<&'a Gpu<'d>>,
+    /// Models to sweep (default: [`sweep_models`]).
+    pub models: Vec<Model>,
+    /// Called with a model's label before it is swept.
+    pub progress: &'a mut dyn FnMut(&str),
+}
+
+/// Runs the sweep: for each model, one GPU dispatch per white-furnace setting holding every
+/// parameter edge × every direction pair, compared value by value with the f64 reference.
+pub fn sweep(opts: Options<'_, '_>) -> Result<Report> {
+    let regions = regions();
+    let mut by_key: BTreeMap<(usize, &'static str, String), Stats> = BTreeMap::new();
+    let mut model_order: Vec<String> = Vec::new();
+    for (mi, &model) in opts.models.iter().enumerate() {
+        crate::interrupt::check()?;
+        let label = model_label(model);
+        (opts.progress)(&label);
+        model_order.push(label.clone());
+        let cases = cases(model)?;
+        for white_furnace in [false, true] {
+            if white_furnace && !model.has_specular_fresnel() {
+                continue;
+            }
+            let mut pairs = Vec::new();
+            let mut meta = Vec::new();
+            let mut blocks = Vec::new();
+            for (k, case) in cases.iter().enumerate() {
+                let p32 = case.params.rounded_to_f32();
+                // A preset may choose components of another pipeline; the sweep keeps each case
+                // on its model's pipeline (cases only set numbers).
+                debug_assert_eq!(p32.model(), model);
+                blocks.push(Brdf::new(&p32).gpu_block());
+                for (ri, region) in regions.iter().enumerate() {
+                    for &(wi, wo) in &region.pairs {
+                        pairs.push(GpuPair {
+                            wi: [wi.x as f32, wi.y as f32, wi.z as f32],
+                            param_index: k as u32,
+                            wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+                            pad: 0,
+                        });
+                        meta.push((k, ri, wi, wo));
+                    }
+                }
+            }
+            let gpu_values = match opts.gpu {
+                Some(gpu) => Some(
+                    gpu.eval_pairs(model, &blocks, &pairs, white_furnace)
+                        .with_context(|| format!("evaluating {label} on the GPU"))?,
+                ),
+                None => None,
+            };
+            let refs: Vec<(ParamSet, Reference)> = cases
+                .iter()
+                .map(|c| {
+                    let p32 = c.params.rounded_to_f32();
+                    let r = Reference::new(&p32, white_furnace);
+                    (p32, r)
+                })
+                .collect();
+            for (n, &(k, ri, wi, wo)) in meta.iter().enumerate() {
+                let (p32, r) = &refs[k];
+                let c = r.eval(wi, wo);
+                let g = gpu_values.as_ref().map(|v| v[n]);
+                let tol = g.map(|_| parity_tolerance(p32, r, wi, wo, c));
+                let mut s = Stats::default();
+                for ch in 0..3 {
+                    s.values += 1;
+                    let cv = c[ch];
+                    let gv = g.map(|g| g[ch] as f64);
+                    let sample = |tolerance: Option<f64>| Sample {
+                        model: label.clone(),
+                        case: cases[k].label.clone(),
+                        region: regions[ri].name.to_string(),
+                        white_furnace,
+                        wi: wi.to_array(),
+                        wo: wo.to_array(),
+                        channel: ch,
+                        gpu: gv,
+                        cpu: cv,
+                        tolerance,
+                    };
+                    let (nan, inf, neg) = classify(cv);
+                    s.cpu_nan += nan as usize;
+                    s.cpu_inf += inf as usize;
+                    s.cpu_negative += neg as usize;
+                    let mut bad = nan || inf || neg;
+                    if let Some(gv) = gv {
+                        let (nan, inf, neg) = classify(gv);
+                        s.gpu_nan += nan as usize;
+                        s.gpu_inf += inf as usize;
+                        s.gpu_negative += neg as usize;
+                        bad |= nan || inf || neg;
+                    }
+                    if bad {
+                        if s.first_bad.is_none() {
+                            s.first_bad = Some(sample(None));
+                        }
+                        continue;
+                    }
+                    if let (Some(gv), Some(tol)) = (gv, tol) {
+                        let diff = (gv - cv).abs();
+                        let rel = diff / cv.abs().max(REL_FLOOR);
+                        let ratio = diff / tol[ch];
+                        s.max_rel_error = s.max_rel_error.max(rel);
+                        if ratio > 1.0 {
+                            s.over_tolerance += 1;
+                        }
+                        if ratio > s.max_tolerance_ratio || s.worst.is_none() {
+                            s.max_tolerance_ratio = ratio;
+                            s.worst = Some(sample(Some(tol[ch])));
+                        }
+                    }
+                }
+                by_key
+                    .entry((mi, "params", cases[k].label.clone()))
+                    .or_default()
+                    .merge(&s);
+                by_key
+                    .entry((mi, "directions", regions[ri].name.to_string()))
+                    .or_default()
+                    .merge(&s);
+            }
+        }
+    }
+    let mut rows: Vec<Row> = Vec::new();
+    let mut total = Stats::default();
+    // Parameter rows in the order the cases were made, then direction rows in region order.
+    for (mi, &model) in opts.models.iter().enumerate() {
+        let case_labels: Vec<String> = cases(model)?.into_iter().map(|c| c.label).collect();
+        for (group, names) in [
+            ("params", case_labels),
+            (
+                "directions",
+                regions.iter().map(|r| r.name.to_string()).collect(),
+            ),
+        ] {
+            for name in names {
+                if let Some(stats) = by_key.remove(&(mi, group, name.clone())) {
+                    if group == "params" {
+                        total.merge(&stats);
+                    }
+                    rows.push(Row {
+                        model: model_order[mi].clone(),
+                        group,
+                        region: name,
+                        stats,
+                    });
+                }
+            }
+        }
+    }
+    Ok(Report {
+        backend: match opts.gpu {
+            Some(g) => format!("gpu ({}) vs cpu (f64 reference)", g.device().name()),
+            None => "cpu (f64 reference) only".to_string(),
+        },
+        gpu: opts.gpu.is_some(),
+        rel_floor: REL_FLOOR,
+        rows,
+        total,
+    })
+}
+
+/// The report as a text table: one line per (model, parameter edge) and per (model, direction
+/// region), then the worst case and any bad value.
+pub fn format_table(r: &Report, all_rows: bool) -> String {
+    let mut out = String::new();
+    out.push_str(&format!(
+        "lobe stability: {}; relative error = |gpu - cpu| / max(|cpu|, {:e}); tol = the parity test's tolerance\n",
+        r.backend, r.rel_floor
+    ));
+    out.push_str(&format!(
+        "{:<40} {:<11} {:<42} {:>7} {:>9} {:>9} {:>9} {:>10} {:>9} {:>6}\n",
+        "model",
+        "group",
+        "edge / region",
+        "values",
+        "NaN g/c",
+        "Inf g/c",
+        "neg g/c",
+        "max rel",
+        "max/tol",
+        ">tol"
+    ));
+    for row in &r.rows {
+        let s = &row.stats;
+        if !all_rows && row.group == "params" && s.bad() == 0 && s.max_tolerance_ratio <= 1.0 {
+            // Compact view: parameter rows only where something is off; the direction rows
+            // still cover every value.
+            continue;
+        }
+        let (rel, ratio) = if r.gpu {
+            (
+                format!("{:.2e}", s.max_rel_error),
+                format!("{:.3}", s.max_tolerance_ratio),
+            )
+        } else {
+            ("-".into(), "-".into())
+        };
+        out.push_str(&format!(
+            "{:<40} {:<11} {:<42} {:>7} {:>9} {:>9} {:>9} {:>10} {:>9} {:>6}\n",
+            row.model,
+            row.group,
+            row.region,
+            s.values,
+            format!("{}/{}", s.gpu_nan, s.cpu_nan),
+            format!("{}/{}", s.gpu_inf, s.cpu_inf),
+            format!("{}/{}", s.gpu_negative, s.cpu_negative),
+            rel,
+            ratio,
+            s.over_tolerance
+        ));
+    }
+    let t = &r.total;
+    out.push_str(&format!(
+        "total: {} values per backend; NaN {}/{}, Inf {}/{}, negative {}/{} (gpu/cpu); max relative error {:.2e}; max error/tolerance {:.3}; {} over tolerance\n",
+        t.values, t.gpu_nan, t.cpu_nan, t.gpu_inf, t.cpu_inf, t.gpu_negative, t.cpu_negative,
+        t.max_rel_error, t.max_tolerance_ratio, t.over_tolerance
+    ));
+    if let Some(w) = &t.worst {
+        if r.gpu {
+            out.push_str(&format!(
+                "closest to the tolerance: {} (allowed {:e})\n",
+                w.text(),
+                w.tolerance.unwrap_or(f64::NAN)
+            ));
+        }
+    }
+    for row in r.rows.iter().filter(|row| row.group == "params") {
+        if let Some(b) = &row.stats.first_bad {
+            out.push_str(&format!("bad value: {}\n", b.text()));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_case_is_valid() {
+        for m in sweep_models() {
+            let cs = cases(m).unwrap_or_else(|e| panic!("{}: {e:#}", model_label(m)));
+            assert!(cs.len() >= 2, "{}", model_label(m));
+            for c in cs {
+                assert_eq!(c.params.model(), m, "{}", c.label);
+            }
+        }
+    }
+
+    #[test]
+    fn regions_are_above_the_horizon() {
+        for r in regions() {
+            assert!(!r.pairs.is_empty());
+            for (wi, wo) in r.pairs {
+                assert!(wi.z > 0.0 && wo.z > 0.0, "{}: {wi:?} {wo:?}", r.name);
+                assert!((wi.length() - 1.0).abs() < 1e-6 && (wo.length() - 1.0).abs() < 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn opposite_grazing_has_h_at_n() {
+        let r = regions();
+        let opp = r.iter().find(|r| r.name == "opposite-grazing").unwrap();
+        let (wi, wo) = opp.pairs[0];
+        let s = wi + wo;
+        assert!(s.x.abs() < 1e-7 && s.y.abs() < 1e-7 && s.z > 0.0, "{s:?}");
+    }
+}
