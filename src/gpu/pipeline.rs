@@ -20,6 +20,9 @@ pub enum Kernel {
     /// `lobe preview`: one shaded pixel per evaluation (bindings 0 params, 1 scene, 2 objects,
     /// 3 out); see glsl/kernels/preview.comp.
     Preview,
+    /// Directional albedo as a workgroup reduction over quadrature nodes (bindings 0 params,
+    /// 1 nodes, 2 wo, 3 partial sums); see glsl/kernels/albedo.comp and src/gpu/albedo.rs.
+    Albedo,
 }
 
 impl Kernel {
@@ -28,6 +31,7 @@ impl Kernel {
             Kernel::Table => "table",
             Kernel::Pairs => "pairs",
             Kernel::Preview => "preview",
+            Kernel::Albedo => "albedo",
         }
     }
 
@@ -36,6 +40,7 @@ impl Kernel {
             Kernel::Table => &[0, 1, 2, 3],
             Kernel::Pairs => &[0, 1, 3],
             Kernel::Preview => &[0, 1, 2, 3],
+            Kernel::Albedo => &[0, 1, 2, 3],
         }
     }
 }
