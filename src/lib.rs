@@ -14,6 +14,7 @@ pub mod interrupt;
 pub mod material;
 pub mod model;
 pub mod preview;
+pub mod scene;
 pub mod stability;
 pub mod table;
 pub mod tradeoff;

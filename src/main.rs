@@ -46,6 +46,9 @@ enum Command {
     /// opposite directions) on both backends; count NaN, Inf and negative values and report the
     /// largest GPU-vs-CPU error. Exits non-zero if any NaN, Inf or negative value appears.
     Stability(StabilityArgs),
+    /// Produce everything a scene file asks for: lobe tables, albedos and previews. Only the
+    /// pipelines the scene needs are built; each is listed with its build time.
+    Run(RunArgs),
 }
 
 #[derive(Args)]
@@ -147,11 +150,40 @@ struct TableArgs {
     #[arg(long, default_value = "full")]
     grid: String,
     /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full) or NTHETA_I,NTHETA_O,NDPHI (isotropic).
-    #[arg(long)]
-    res: String,
+    #[arg(long, required_unless_present = "scene")]
+    res: Option<String>,
     /// Output EXR path; the .npy and .json are written beside it.
-    #[arg(short = 'o', long = "output", value_name = "PATH.exr")]
-    output: PathBuf,
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH.exr",
+        required_unless_present = "scene"
+    )]
+    output: Option<PathBuf>,
+    /// Write every table a scene file asks for instead (see `lobe run --help`); --model, --set,
+    /// --material, --white-furnace, --grid, --res and -o do not apply then.
+    #[arg(long, value_name = "SCENE.toml", conflicts_with_all = ["res", "output", "sets", "material"])]
+    scene: Option<PathBuf>,
+    /// With --scene: the folder the scene's output paths are relative to.
+    #[arg(long, value_name = "DIR", default_value = ".", requires = "scene")]
+    output_dir: PathBuf,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// The scene: materials, lights, camera and the tables, albedos and previews to produce
+    /// (see data/scenes/lab.toml).
+    #[arg(value_name = "SCENE.toml")]
+    scene: PathBuf,
+    /// The folder the scene's output paths are relative to.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    output_dir: PathBuf,
+    /// Where to evaluate.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
 }
 
 #[derive(Args)]
@@ -233,6 +265,7 @@ fn main() {
         Command::Tradeoff(a) => cmd_tradeoff(a),
         Command::Preview(a) => cmd_preview(a),
         Command::Stability(a) => cmd_stability(a),
+        Command::Run(a) => cmd_run(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -378,8 +411,21 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
 const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
 
 fn cmd_table(a: TableArgs) -> Result<()> {
+    lobe::interrupt::install()?;
+    if let Some(scene) = &a.scene {
+        return run_scene(
+            scene,
+            &a.output_dir,
+            a.model.backend,
+            a.model.device.clone(),
+            lobe::scene::Outputs::TABLES,
+        );
+    }
+    let (Some(res), Some(output)) = (&a.res, &a.output) else {
+        bail!("give --res and -o PATH.exr, or --scene FILE");
+    };
     let params = params_of(&a.model)?;
-    let grid = Grid::parse(&a.grid, &a.res).map_err(anyhow::Error::msg)?;
+    let grid = Grid::parse(&a.grid, res).map_err(anyhow::Error::msg)?;
     if matches!(grid, Grid::Isotropic { .. }) && !params.is_isotropic() {
         bail!(
             "--grid isotropic needs an isotropic parameter set, but {} with {} is anisotropic; use --grid full",
@@ -388,12 +434,12 @@ fn cmd_table(a: TableArgs) -> Result<()> {
         );
     }
     let cells = grid.cells().filter(|&c| c <= MAX_TABLE_CELLS).ok_or_else(|| {
-        anyhow::anyhow!("--res {}: the table would have more than {MAX_TABLE_CELLS} cells; lower the resolution", a.res)
+        anyhow::anyhow!("--res {}: the table would have more than {MAX_TABLE_CELLS} cells; lower the resolution", res)
     })?;
-    if a.output.extension().and_then(|e| e.to_str()) != Some("exr") {
+    if output.extension().and_then(|e| e.to_str()) != Some("exr") {
         bail!(
             "-o {}: the output must end in .exr (the .npy and .json are written beside it)",
-            a.output.display()
+            output.display()
         );
     }
     with_evaluator(&a.model, |e| {
@@ -412,12 +458,12 @@ fn cmd_table(a: TableArgs) -> Result<()> {
         );
         bar.set_message(format!("{} table", params.model().name()));
         let started = std::time::Instant::now();
-        write_table(e, &meta, &a.output, &mut |done, _| bar.set_position(done))?;
+        write_table(e, &meta, output, &mut |done, _| bar.set_position(done))?;
         bar.finish_and_clear();
-        let (npy, json) = lobe::table::sibling_paths(&a.output);
+        let (npy, json) = lobe::table::sibling_paths(output);
         eprintln!(
             "lobe: wrote {} ({} cells, {:.2} s on {}), {} and {}",
-            a.output.display(),
+            output.display(),
             cells,
             started.elapsed().as_secs_f64(),
             e.name(),
@@ -915,5 +961,66 @@ fn cmd_stability(a: StabilityArgs) -> Result<()> {
     if bad > 0 {
         bail!("{bad} NaN, infinite or negative values on valid input (see the table)");
     }
+    Ok(())
+}
+
+fn cmd_run(a: RunArgs) -> Result<()> {
+    lobe::interrupt::install()?;
+    run_scene(
+        &a.scene,
+        &a.output_dir,
+        a.backend,
+        a.device,
+        lobe::scene::Outputs::ALL,
+    )
+}
+
+/// Loads a scene, checks every output before any work, produces `what`, and lists the pipelines
+/// built with their build times.
+fn run_scene(
+    path: &std::path::Path,
+    out_dir: &std::path::Path,
+    backend: Backend,
+    device: Option<String>,
+    what: lobe::scene::Outputs,
+) -> Result<()> {
+    let scene = lobe::scene::load(path)?;
+    if what == lobe::scene::Outputs::TABLES && scene.tables.is_empty() {
+        bail!("{}: the scene asks for no tables", path.display());
+    }
+    let needed: Vec<&str> = scene.models_needed(what).iter().map(|m| m.name()).collect();
+    eprintln!(
+        "lobe: scene '{}' ({}): {} materials, {} lights; kernels needed for: {}",
+        scene.name,
+        path.display(),
+        scene.materials.len(),
+        scene.lights.len(),
+        needed.join(", ")
+    );
+    let mut log = |line: &str| println!("wrote {line}");
+    let summary = match backend {
+        Backend::Cpu => scene.run(&Evaluator::Cpu, out_dir, what, &mut log)?,
+        Backend::Gpu => {
+            let dev = Device::open(&DeviceOptions {
+                name_contains: device,
+            })?;
+            let gpu = Gpu::new(&dev);
+            let result = scene.run(&Evaluator::Gpu(&gpu), out_dir, what, &mut log);
+            let built = gpu.built_pipelines();
+            println!("pipelines built: {}", built.len());
+            for (label, time) in &built {
+                println!("  {label}: {:.1} ms", time.as_secs_f64() * 1e3);
+            }
+            result?
+        }
+    };
+    for line in &summary.unsupported {
+        println!("not yet supported: {line}");
+    }
+    println!(
+        "lobe run: {} files written, {} outputs not yet supported",
+        summary.written.len(),
+        summary.unsupported.len()
+    );
     Ok(())
 }

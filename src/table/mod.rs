@@ -145,6 +145,9 @@ pub fn write_table(
             meta.white_furnace,
             &meta.grid,
             &mut |first, values| {
+                // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
+                // way out and nothing is renamed into place.
+                crate::interrupt::check()?;
                 npy::write_f32(&mut w, values)
                     .with_context(|| format!("writing {}", npy_path.display()))?;
                 progress(first + values.len() as u64 / 3, cells);
