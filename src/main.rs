@@ -165,8 +165,8 @@ struct TableArgs {
     #[arg(long, value_name = "SCENE.toml", conflicts_with_all = ["res", "output", "sets", "material"])]
     scene: Option<PathBuf>,
     /// With --scene: the folder the scene's output paths are relative to.
-    #[arg(long, value_name = "DIR", default_value = ".", requires = "scene")]
-    output_dir: PathBuf,
+    #[arg(long, value_name = "DIR")]
+    output_dir: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -415,11 +415,14 @@ fn cmd_table(a: TableArgs) -> Result<()> {
     if let Some(scene) = &a.scene {
         return run_scene(
             scene,
-            &a.output_dir,
+            a.output_dir.as_deref().unwrap_or(std::path::Path::new(".")),
             a.model.backend,
             a.model.device.clone(),
             lobe::scene::Outputs::TABLES,
         );
+    }
+    if a.output_dir.is_some() {
+        bail!("--output-dir applies only with --scene; for one table give -o PATH.exr");
     }
     let (Some(res), Some(output)) = (&a.res, &a.output) else {
         bail!("give --res and -o PATH.exr, or --scene FILE");
