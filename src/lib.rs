@@ -11,6 +11,7 @@ pub mod eval;
 pub mod gpu;
 pub mod grid;
 pub mod interrupt;
+pub mod integrate;
 pub mod material;
 pub mod model;
 pub mod preview;

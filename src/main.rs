@@ -49,6 +49,35 @@ enum Command {
     /// Produce everything a scene file asks for: lobe tables, albedos and previews. Only the
     /// pipelines the scene needs are built; each is listed with its build time.
     Run(RunArgs),
+    /// Directional albedo E(mu) (delta lobes added exactly and also shown apart) and the
+    /// hemispherical albedo, with error estimates.
+    Albedo(AlbedoArgs),
+}
+
+#[derive(Args)]
+struct AlbedoArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// View directions as mu = cos(theta_o), comma-separated, each in (0, 1] (default 0.1,0.5,1).
+    #[arg(long, value_delimiter = ',', conflicts_with = "theta_deg")]
+    mu: Vec<f64>,
+    /// View directions as theta_o in degrees, comma-separated, each in [0, 90).
+    #[arg(long = "theta-deg", value_delimiter = ',')]
+    theta_deg: Vec<f64>,
+    /// View azimuth phi_o in degrees (matters for anisotropic models; E_avg is taken at it).
+    #[arg(long = "phi-deg", default_value_t = 0.0, allow_hyphen_values = true)]
+    phi_deg: f64,
+    /// Integrator: peak (graded Gauss-Legendre aligned with the mirror direction; default),
+    /// gauss (Gauss-Legendre in mu x uniform phi), midpoint (theta, phi cells), qmc
+    /// (cosine-weighted low-discrepancy points), reference (adaptive f64 Gauss-Kronrod, CPU only).
+    #[arg(long, default_value = "peak")]
+    method: String,
+    /// Quadrature nodes per view direction (default depends on the method; ignored by reference).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = TableFormat::Table)]
+    format: TableFormat,
 }
 
 #[derive(Args)]
@@ -266,6 +295,7 @@ fn main() {
         Command::Preview(a) => cmd_preview(a),
         Command::Stability(a) => cmd_stability(a),
         Command::Run(a) => cmd_run(a),
+        Command::Albedo(a) => cmd_albedo(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -795,7 +825,12 @@ enum LightsArg {
 #[derive(Args)]
 struct PreviewArgs {
     /// Output PNG (tone-mapped, labelled); the linear radiance goes to the .exr beside it.
-    #[arg(short = 'o', long = "output", value_name = "PATH.png", default_value = "preview.png")]
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH.png",
+        default_value = "preview.png"
+    )]
     output: PathBuf,
     /// Models, one column each (repeatable or comma-separated; default: every model).
     #[arg(long = "model", value_delimiter = ',')]
@@ -836,10 +871,16 @@ fn cmd_preview(a: PreviewArgs) -> Result<()> {
         );
     }
     if !a.exposure.is_finite() {
-        bail!("--exposure {}: expected a finite number of stops", a.exposure);
+        bail!(
+            "--exposure {}: expected a finite number of stops",
+            a.exposure
+        );
     }
     if !(1..=4096).contains(&a.cell) {
-        bail!("--cell {}: expected a cell size in [1, 4096] pixels", a.cell);
+        bail!(
+            "--cell {}: expected a cell size in [1, 4096] pixels",
+            a.cell
+        );
     }
     let ambient = match &a.ambient {
         None => DVec3::ZERO,
@@ -963,6 +1004,136 @@ fn cmd_stability(a: StabilityArgs) -> Result<()> {
     let bad = report.bad_values();
     if bad > 0 {
         bail!("{bad} NaN, infinite or negative values on valid input (see the table)");
+    }
+    Ok(())
+}
+
+fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
+    use lobe::integrate::{albedo_report, Method, Settings};
+    let params = params_of(&a.model)?;
+    let method = Method::from_name(&a.method)?;
+    if !a.phi_deg.is_finite() {
+        bail!(
+            "--phi-deg {}: expected a finite number of degrees",
+            a.phi_deg
+        );
+    }
+    let mus: Vec<f64> = if !a.theta_deg.is_empty() {
+        a.theta_deg
+            .iter()
+            .map(|&t| {
+                if (0.0..90.0).contains(&t) {
+                    Ok(t.to_radians().cos())
+                } else {
+                    bail!("--theta-deg {t}: expected theta_o in [0, 90) degrees")
+                }
+            })
+            .collect::<Result<_>>()?
+    } else if !a.mu.is_empty() {
+        for &m in &a.mu {
+            if !(m > 0.0 && m <= 1.0) {
+                bail!("--mu {m}: expected mu = cos(theta_o) in (0, 1]");
+            }
+        }
+        a.mu.clone()
+    } else {
+        vec![0.1, 0.5, 1.0]
+    };
+    if let Some(0) = a.samples {
+        bail!("--samples 0: expected a positive number of nodes per direction");
+    }
+    let settings = Settings {
+        method,
+        samples: a.samples.unwrap_or(method.default_samples()),
+        white_furnace: a.model.white_furnace,
+    };
+    let phi = a.phi_deg.to_radians();
+    let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, phi)).collect();
+    let (report, backend) = with_evaluator(&a.model, |e| {
+        Ok((
+            albedo_report(e, &params, &settings, &points, phi)?,
+            e.name(),
+        ))
+    })?;
+    let mut out = std::io::stdout().lock();
+    let rgb = |v: glam::DVec3| format!("{:.9},{:.9},{:.9}", v.x, v.y, v.z);
+    let h = &report.hemispherical;
+    match a.format {
+        TableFormat::Json => writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(&report.to_json(
+                &params,
+                a.model.white_furnace,
+                &backend
+            ))?
+        )?,
+        TableFormat::Csv => {
+            writeln!(out, "kind,mu,theta_deg,phi_deg,albedo_r,albedo_g,albedo_b,delta_r,delta_g,delta_b,error_r,error_g,error_b,samples")?;
+            for p in &report.points {
+                writeln!(
+                    out,
+                    "directional,{},{},{},{},{},{},{}",
+                    p.mu,
+                    p.mu.acos().to_degrees(),
+                    p.phi.to_degrees(),
+                    rgb(p.albedo),
+                    rgb(p.delta),
+                    rgb(p.error),
+                    p.samples
+                )?;
+            }
+            writeln!(
+                out,
+                "hemispherical,,,,{},{},{},{}",
+                rgb(h.albedo),
+                rgb(h.delta),
+                rgb(h.error),
+                h.samples
+            )?;
+        }
+        TableFormat::Table => {
+            writeln!(out, "{} {}", params.model().name(), params.to_text())?;
+            writeln!(
+                out,
+                "method {} ({} nodes per direction) on {}{}",
+                report.method.name(),
+                report.samples,
+                backend,
+                if a.model.white_furnace {
+                    ", white furnace"
+                } else {
+                    ""
+                }
+            )?;
+            writeln!(
+                out,
+                "{:>8} {:>8} {:>8}  {:<38} {:<38} {:>10}",
+                "mu", "theta", "phi", "albedo r,g,b (incl. delta)", "delta r,g,b", "error est"
+            )?;
+            for p in &report.points {
+                writeln!(
+                    out,
+                    "{:>8.4} {:>8.3} {:>8.3}  {:<38} {:<38} {:>10.2e}",
+                    p.mu,
+                    p.mu.acos().to_degrees(),
+                    p.phi.to_degrees(),
+                    rgb(p.albedo),
+                    rgb(p.delta),
+                    p.error.max_element()
+                )?;
+            }
+            writeln!(
+                out,
+                "hemispherical albedo {} (delta {}) error est {:.2e}; E_avg at phi {} deg {}",
+                rgb(h.albedo),
+                rgb(h.delta),
+                h.error.max_element(),
+                a.phi_deg,
+                rgb(h.e_avg)
+            )?;
+            writeln!(out, "{:.3} s", report.seconds)?;
+        }
     }
     Ok(())
 }
