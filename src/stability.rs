@@ -691,7 +691,7 @@ pub fn format_table(r: &Report, all_rows: bool) -> String {
         r.backend, r.rel_floor
     ));
     out.push_str(&format!(
-        "{:<40} {:<11} {:<42} {:>7} {:>9} {:>9} {:>9} {:>10} {:>9} {:>6}\n",
+        "{:<52} {:<10} {:<42} {:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>5}\n",
         "model",
         "group",
         "edge / region",
@@ -713,13 +713,17 @@ pub fn format_table(r: &Report, all_rows: bool) -> String {
         let (rel, ratio) = if r.gpu {
             (
                 format!("{:.2e}", s.max_rel_error),
-                format!("{:.3}", s.max_tolerance_ratio),
+                if s.max_tolerance_ratio < 1e4 {
+                    format!("{:.3}", s.max_tolerance_ratio)
+                } else {
+                    format!("{:.2e}", s.max_tolerance_ratio)
+                },
             )
         } else {
             ("-".into(), "-".into())
         };
         out.push_str(&format!(
-            "{:<40} {:<11} {:<42} {:>7} {:>9} {:>9} {:>9} {:>10} {:>9} {:>6}\n",
+            "{:<52} {:<10} {:<42} {:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>5}\n",
             row.model,
             row.group,
             row.region,
@@ -734,7 +738,7 @@ pub fn format_table(r: &Report, all_rows: bool) -> String {
     }
     let t = &r.total;
     out.push_str(&format!(
-        "total: {} values per backend; NaN {}/{}, Inf {}/{}, negative {}/{} (gpu/cpu); max relative error {:.2e}; max error/tolerance {:.3}; {} over tolerance\n",
+        "total: {} values per backend; NaN {}/{}, Inf {}/{}, negative {}/{} (gpu/cpu); max relative error {:.2e}; max error/tolerance {:.3e}; {} over tolerance\n",
         t.values, t.gpu_nan, t.cpu_nan, t.gpu_inf, t.cpu_inf, t.gpu_negative, t.cpu_negative,
         t.max_rel_error, t.max_tolerance_ratio, t.over_tolerance
     ));
