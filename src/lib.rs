@@ -14,6 +14,7 @@ pub mod interrupt;
 pub mod integrate;
 pub mod material;
 pub mod model;
+pub mod plot;
 pub mod preview;
 pub mod scene;
 pub mod stability;

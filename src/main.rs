@@ -52,6 +52,100 @@ enum Command {
     /// Directional albedo E(mu) (delta lobes added exactly and also shown apart) and the
     /// hemispherical albedo, with error estimates.
     Albedo(AlbedoArgs),
+    /// Pictures of a model: in-plane polar plot, hemisphere heat map, theta_h x theta_d slice,
+    /// 3D lobe or albedo curves, as PNG or SVG by the output's extension (fonts built in).
+    Plot(PlotArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum PlotKind {
+    /// f (or f*cos(theta_i) with --cos) in the plane of incidence, one curve per --theta-i-deg.
+    Polar,
+    /// Heat map of f over every wo for one wi (over every wi with --reverse), one panel per
+    /// --theta-i-deg.
+    Hemisphere,
+    /// The theta_h x theta_d image (Rusinkiewicz 1998) at --phi-d-deg, log colour.
+    Slice,
+    /// The lobe r(wo) = f * wo as a 3D wireframe, one panel per --theta-i-deg.
+    #[value(name = "3d")]
+    ThreeD,
+    /// Directional albedo E(mu) curves with E = 1 drawn.
+    Albedo,
+}
+
+#[derive(Args)]
+struct PlotArgs {
+    /// What to draw.
+    #[arg(long, value_enum, default_value_t = PlotKind::Polar)]
+    kind: PlotKind,
+    /// Output file; .png or .svg chooses the format.
+    #[arg(short = 'o', long = "output", value_name = "PATH.png|PATH.svg")]
+    output: PathBuf,
+    /// BRDF model (see `lobe models`); repeatable or comma-separated to overlay several
+    /// (default cook_torrance). Every model is drawn with every --material.
+    #[arg(long = "model", value_delimiter = ',')]
+    models: Vec<String>,
+    /// Material preset (tin, gold, glazed_ceramic, granite); repeatable or comma-separated.
+    #[arg(long = "material", value_delimiter = ',')]
+    materials: Vec<String>,
+    /// Set a parameter of every model drawn, KEY=VALUE; repeatable; applied after --material.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Replace every Fresnel factor of a specular lobe by 1 (shows the lobe's own energy).
+    #[arg(long)]
+    white_furnace: bool,
+    /// Where to evaluate.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long, value_name = "SUBSTRING")]
+    device: Option<String>,
+    /// Incidence angles theta_i in degrees, comma-separated, each in [0, 90) (polar, hemisphere,
+    /// 3d; with --reverse the fixed theta_o). Default 0,30,60,80 (3d: 45).
+    #[arg(long = "theta-i-deg", value_delimiter = ',')]
+    theta_i_deg: Vec<f64>,
+    /// Azimuth of the fixed direction in degrees (hemisphere, 3d; albedo: phi_o).
+    #[arg(long = "phi-i-deg", default_value_t = 0.0, allow_hyphen_values = true)]
+    phi_i_deg: f64,
+    /// Plot f*cos(theta_i) instead of f.
+    #[arg(long)]
+    cos: bool,
+    /// Logarithmic radius (polar, 3d; default linear) or colour (hemisphere; the default there).
+    /// The slice is always logarithmic.
+    #[arg(long, conflicts_with = "linear")]
+    log: bool,
+    /// Linear colour scale for the hemisphere map.
+    #[arg(long)]
+    linear: bool,
+    /// Decades a logarithmic scale spans below its maximum.
+    #[arg(long, default_value_t = 4.0)]
+    decades: f64,
+    /// Plotted channel: luminance, r, g, b or max.
+    #[arg(long, default_value = "luminance")]
+    channel: String,
+    /// Hemisphere: map f over wi for the fixed wo instead.
+    #[arg(long)]
+    reverse: bool,
+    /// Hemisphere projection: equal-area (Lambert azimuthal) or nusselt (sin theta).
+    #[arg(long, default_value = "equal-area")]
+    projection: String,
+    /// Resolution: hemisphere cells across (128), slice cells per axis (90), 3d rings (60),
+    /// albedo view directions (48), polar view angles per curve (1440).
+    #[arg(long)]
+    res: Option<usize>,
+    /// Slice: phi_d in degrees.
+    #[arg(long = "phi-d-deg", default_value_t = 90.0, allow_hyphen_values = true)]
+    phi_d_deg: f64,
+    /// Albedo: integration method (peak, gauss, midpoint, qmc, reference).
+    #[arg(long, default_value = "peak")]
+    method: String,
+    /// Albedo: quadrature nodes per view direction (default: the method's).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; hemisphere: height to fit its
+    /// panels).
+    #[arg(long)]
+    size: Option<String>,
 }
 
 #[derive(Args)]
@@ -296,6 +390,7 @@ fn main() {
         Command::Stability(a) => cmd_stability(a),
         Command::Run(a) => cmd_run(a),
         Command::Albedo(a) => cmd_albedo(a),
+        Command::Plot(a) => cmd_plot(a),
     };
     if let Err(e) = result {
         eprintln!("lobe: error: {e:#}");
@@ -1195,6 +1290,113 @@ fn run_scene(
         "lobe run: {} files written, {} outputs not yet supported",
         summary.written.len(),
         summary.unsupported.len()
+    );
+    Ok(())
+}
+
+fn cmd_plot(a: PlotArgs) -> Result<()> {
+    use lobe::plot::{self, Channel, Common, Request, Subject};
+    let models = if a.models.is_empty() {
+        vec!["cook_torrance".to_string()]
+    } else {
+        a.models.clone()
+    };
+    let materials: Vec<Option<&str>> = if a.materials.is_empty() {
+        vec![None]
+    } else {
+        a.materials.iter().map(|m| Some(m.as_str())).collect()
+    };
+    let mut subjects = Vec::new();
+    for material in &materials {
+        for model in &models {
+            let params = resolve_params(model, *material, &a.sets)?;
+            subjects.push(Subject::new(params, *material));
+        }
+    }
+    let size = match &a.size {
+        Some(text) => text
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)))
+            .with_context(|| format!("--size '{text}': expected WIDTHxHEIGHT, e.g. 1200x800"))?,
+        None if a.kind == PlotKind::Hemisphere => {
+            let cols = if a.theta_i_deg.is_empty() {
+                4
+            } else {
+                a.theta_i_deg.len()
+            };
+            let rows = models.len() * materials.len();
+            let side = (1090 / cols as u32).min(520);
+            (1200, (150 + rows as u32 * (side + 30)).min(8000))
+        }
+        None => (1200, 800),
+    };
+    let common = Common {
+        white_furnace: a.white_furnace,
+        cos: a.cos,
+        log: a.log || (a.kind == PlotKind::Hemisphere && !a.linear),
+        decades: a.decades,
+        channel: Channel::from_name(&a.channel)?,
+        size,
+    };
+    let angles = |default: &[f64]| {
+        if a.theta_i_deg.is_empty() {
+            default.to_vec()
+        } else {
+            a.theta_i_deg.clone()
+        }
+    };
+    let request = match a.kind {
+        PlotKind::Polar => Request::Polar(plot::polar::PolarOptions {
+            theta_i_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
+            samples: a.res.unwrap_or(plot::polar::DEFAULT_SAMPLES),
+        }),
+        PlotKind::Hemisphere => Request::Hemisphere(plot::hemisphere::HemisphereOptions {
+            theta_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
+            phi_deg: a.phi_i_deg,
+            reverse: a.reverse,
+            projection: plot::hemisphere::Projection::from_name(&a.projection)?,
+            res: a.res.unwrap_or(128),
+        }),
+        PlotKind::Slice => Request::Slice(plot::slice::SliceOptions {
+            res: a.res.unwrap_or(90),
+            phi_d_deg: a.phi_d_deg,
+        }),
+        PlotKind::ThreeD => {
+            let rings = a.res.unwrap_or(60);
+            Request::Surface3d(plot::surface3d::Surface3dOptions {
+                theta_i_deg: angles(&[45.0]),
+                phi_i_deg: a.phi_i_deg,
+                n_theta: rings,
+                n_phi: 2 * rings,
+            })
+        }
+        PlotKind::Albedo => Request::Albedo(plot::albedo::AlbedoOptions {
+            n_mu: a.res.unwrap_or(48),
+            method: lobe::integrate::Method::from_name(&a.method)?,
+            samples: a.samples,
+            phi_deg: a.phi_i_deg,
+        }),
+    };
+    let model_args = ModelArgs {
+        model: models[0].clone(),
+        sets: Vec::new(),
+        material: None,
+        white_furnace: a.white_furnace,
+        backend: a.backend,
+        device: a.device.clone(),
+    };
+    let start = std::time::Instant::now();
+    let plotted = with_evaluator(&model_args, |e| {
+        plot::plot(e, &subjects, &common, &request, &a.output)
+    })?;
+    let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "lobe plot: wrote {} ({} bytes, {} evaluations, {:.2} s): {}",
+        a.output.display(),
+        bytes,
+        plotted.evaluations(),
+        start.elapsed().as_secs_f64(),
+        plotted.title()
     );
     Ok(())
 }

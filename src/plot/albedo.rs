@@ -1,0 +1,218 @@
+//! Directional albedo curves E(μ), μ = cosθo, for several models or materials, with E = 1 drawn:
+//! a curve above it gains energy (the seed's smooth-layered model at grazing view), one below it
+//! loses energy (single-scattering microfacet models at high roughness).
+//!
+//! E comes from [`crate::integrate::directional`] on the same backend as every other plot; delta
+//! lobes are included exactly and their part is reported apart.
+
+use super::{header, legend, palette, render, Common, Dash, Drawn, LegendEntry, Subject};
+use crate::eval::Evaluator;
+use crate::integrate::{directional, Method, Settings};
+use anyhow::{bail, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct AlbedoOptions {
+    /// View directions, cell-centred in μ over (0, 1].
+    pub n_mu: usize,
+    pub method: Method,
+    /// Quadrature nodes per direction (None: the method's default).
+    pub samples: Option<usize>,
+    /// φo in degrees (matters only for anisotropic models).
+    pub phi_deg: f64,
+}
+
+impl Default for AlbedoOptions {
+    fn default() -> AlbedoOptions {
+        AlbedoOptions {
+            n_mu: 48,
+            method: Method::Peak,
+            samples: None,
+            phi_deg: 0.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct AlbedoCurve {
+    pub subject: usize,
+    pub mu: Vec<f64>,
+    /// E in the plotted channel, delta lobe included.
+    pub albedo: Vec<f64>,
+    /// E in RGB, delta lobe included.
+    pub rgb: Vec<[f64; 3]>,
+    /// The delta lobe's part (RGB).
+    pub delta: Vec<[f64; 3]>,
+    /// The integrator's error estimate (RGB).
+    pub error: Vec<[f64; 3]>,
+}
+
+#[derive(Clone, Debug)]
+pub struct AlbedoData {
+    pub title: String,
+    pub curves: Vec<AlbedoCurve>,
+    pub y_max: f64,
+    pub evaluations: u64,
+}
+
+pub fn albedo_data(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &AlbedoOptions,
+) -> Result<AlbedoData> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("an albedo plot needs at least one model");
+    }
+    if !(2..=4096).contains(&opts.n_mu) {
+        bail!(
+            "--res {}: an albedo plot takes 2 to 4096 view directions",
+            opts.n_mu
+        );
+    }
+    if !opts.phi_deg.is_finite() {
+        bail!(
+            "--phi-i-deg {}: expected a finite number of degrees",
+            opts.phi_deg
+        );
+    }
+    let settings = Settings {
+        method: opts.method,
+        samples: opts.samples.unwrap_or(opts.method.default_samples()),
+        white_furnace: common.white_furnace,
+    };
+    let phi = opts.phi_deg.to_radians();
+    let points: Vec<(f64, f64)> = (0..opts.n_mu)
+        .map(|k| ((k as f64 + 0.5) / opts.n_mu as f64, phi))
+        .collect();
+    let mut curves = Vec::new();
+    let mut evaluations = 0;
+    for (j, s) in subjects.iter().enumerate() {
+        let pts = directional(eval, &s.params, &settings, &points)?;
+        evaluations += pts.iter().map(|p| p.samples).sum::<u64>();
+        curves.push(AlbedoCurve {
+            subject: j,
+            mu: pts.iter().map(|p| p.mu).collect(),
+            albedo: pts
+                .iter()
+                .map(|p| common.channel.of(p.albedo.to_array()))
+                .collect(),
+            rgb: pts.iter().map(|p| p.albedo.to_array()).collect(),
+            delta: pts.iter().map(|p| p.delta.to_array()).collect(),
+            error: pts.iter().map(|p| p.error.to_array()).collect(),
+        });
+    }
+    let max = curves
+        .iter()
+        .flat_map(|c| c.albedo.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let title = format!(
+        "Directional albedo E(μ), μ = cosθo ({} rule): {}",
+        opts.method.name(),
+        names.join(" vs ")
+    );
+    Ok(AlbedoData {
+        title,
+        curves,
+        // Room above E = 1 (always drawn) and above the highest curve.
+        y_max: (max.max(1.0) * 1.08).max(0.1),
+        evaluations,
+    })
+}
+
+pub fn plot_albedo(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &AlbedoOptions,
+    path: &Path,
+) -> Result<AlbedoData> {
+    super::Format::of(path)?;
+    let data = albedo_data(eval, subjects, common, opts)?;
+    render(
+        path,
+        common.size,
+        |root| draw(root, &data, subjects, common),
+        |root| draw(root, &data, subjects, common),
+    )?;
+    Ok(data)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &AlbedoData,
+    subjects: &[Subject],
+    common: &Common,
+) -> Result<()> {
+    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut note =
+        "delta lobes included exactly; dashed grey: E = 1 (energy conserved); top axis: θo in degrees"
+            .to_string();
+    if common.white_furnace {
+        note = format!("{note}; white furnace (Fresnel of specular lobes = 1)");
+    }
+    lines.push(note);
+    let body = header(root, &data.title, &lines)?;
+    let (w, _) = body.dim_in_pixel();
+    let (plot_area, legend_area) = body.split_horizontally(w - (w / 4).clamp(180, 340));
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(16)
+        .x_label_area_size(44)
+        .top_x_label_area_size(36)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..1.0, 0.0..data.y_max)
+        .drawing("the albedo chart")?
+        .set_secondary_coord(0.0..1.0, 0.0..data.y_max);
+    chart
+        .configure_mesh()
+        .x_desc("μ = cos θo")
+        .y_desc(format!("E ({})", common.channel.label()))
+        .label_style((super::FONT, 13))
+        .axis_desc_style((super::FONT, 14))
+        .light_line_style(BLACK.mix(0.05))
+        .draw()
+        .drawing("the albedo axes")?;
+    // Top axis: θo = acos μ in degrees at the bottom axis's μ ticks.
+    chart
+        .configure_secondary_axes()
+        .x_labels(10)
+        .x_label_formatter(&|mu: &f64| format!("{:.0}°", mu.clamp(0.0, 1.0).acos().to_degrees()))
+        .x_desc("θo (degrees)")
+        .label_style((super::FONT, 12))
+        .axis_desc_style((super::FONT, 13))
+        .draw()
+        .drawing("the θo axis")?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(0.0, 1.0), (1.0, 1.0)],
+            8,
+            6,
+            RGBColor(120, 120, 120).stroke_width(2),
+        ))
+        .drawing("E = 1")?;
+    for c in &data.curves {
+        chart
+            .draw_series(LineSeries::new(
+                c.mu.iter().copied().zip(c.albedo.iter().copied()),
+                palette(c.subject).stroke_width(2),
+            ))
+            .drawing("an albedo curve")?;
+    }
+    let entries: Vec<LegendEntry> = subjects
+        .iter()
+        .enumerate()
+        .map(|(j, s)| LegendEntry {
+            label: s.label.clone(),
+            colour: palette(j),
+            dash: Dash::Solid,
+        })
+        .collect();
+    legend(&legend_area, &entries)?;
+    Ok(())
+}

@@ -1,0 +1,428 @@
+//! Hemisphere heat map: f over every ωo for one ωi (or, with `reverse`, over every ωi for one
+//! ωo), seen from above the surface, with the horizon as the unit circle.
+//!
+//! Projections of a direction (θ, φ) to the disc point r·(cosφ, sinφ), both with r(90°) = 1 so
+//! that the horizon stays visible:
+//! - equal-area (Lambert azimuthal): r = √2·sin(θ/2); equal areas of solid angle cover equal
+//!   areas of the picture, so the picture's mean colour is the lobe's mean over the hemisphere;
+//! - Nusselt: r = sinθ, the orthographic view from above; areas are weighted by cosθ, so the
+//!   picture shows what each direction contributes to an irradiance-type integral.
+//!
+//! Every panel is one (model, fixed direction); all panels share one colour scale.
+
+use super::{
+    check_deg, colour_bar, colour_map, fmt_value, header, rad, render, text_style, Common, Drawn,
+    Scale, Subject,
+};
+use crate::eval::Evaluator;
+use crate::grid::direction;
+use anyhow::{bail, Result};
+use glam::DVec3;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::f64::consts::SQRT_2;
+use std::path::Path;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    EqualArea,
+    Nusselt,
+}
+
+impl Projection {
+    pub fn name(self) -> &'static str {
+        match self {
+            Projection::EqualArea => "equal-area",
+            Projection::Nusselt => "nusselt",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Projection> {
+        match name {
+            "equal-area" => Ok(Projection::EqualArea),
+            "nusselt" => Ok(Projection::Nusselt),
+            _ => bail!("unknown projection '{name}'; the projections are: equal-area, nusselt"),
+        }
+    }
+
+    /// Disc radius of the polar angle θ.
+    pub fn radius(self, theta: f64) -> f64 {
+        match self {
+            Projection::EqualArea => SQRT_2 * (theta / 2.0).sin(),
+            Projection::Nusselt => theta.sin(),
+        }
+    }
+
+    /// θ of the disc radius r ∈ [0, 1].
+    pub fn theta(self, r: f64) -> f64 {
+        let r = r.clamp(0.0, 1.0);
+        match self {
+            Projection::EqualArea => 2.0 * (r / SQRT_2).asin(),
+            Projection::Nusselt => r.asin(),
+        }
+    }
+
+    /// The disc point of a direction given by its angles.
+    pub fn point(self, theta: f64, phi: f64) -> (f64, f64) {
+        let r = self.radius(theta);
+        (r * phi.cos(), r * phi.sin())
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct HemisphereOptions {
+    /// θ of the fixed direction in degrees (ωi, or ωo with `reverse`): one panel each.
+    pub theta_deg: Vec<f64>,
+    /// φ of the fixed direction in degrees.
+    pub phi_deg: f64,
+    /// Map f over ωi for a fixed ωo instead.
+    pub reverse: bool,
+    pub projection: Projection,
+    /// Cells across the disc's diameter.
+    pub res: usize,
+}
+
+impl Default for HemisphereOptions {
+    fn default() -> HemisphereOptions {
+        HemisphereOptions {
+            theta_deg: vec![0.0, 30.0, 60.0, 80.0],
+            phi_deg: 0.0,
+            reverse: false,
+            projection: Projection::EqualArea,
+            res: 128,
+        }
+    }
+}
+
+/// One heat map.
+#[derive(Clone, Debug)]
+pub struct HemispherePanel {
+    pub subject: usize,
+    /// The fixed direction, degrees.
+    pub theta_deg: f64,
+    pub phi_deg: f64,
+    /// res × res cells, row-major from the top (+y) row, left (−x) first; NaN outside the disc.
+    pub values: Vec<f64>,
+    /// Angles (θ, φ) in degrees of the cell with the largest value.
+    pub peak_deg: (f64, f64),
+    /// The mirror direction of the fixed one, (θ, φ + 180°) in degrees, φ in [0, 360).
+    pub mirror_deg: (f64, f64),
+}
+
+#[derive(Clone, Debug)]
+pub struct HemisphereData {
+    pub title: String,
+    pub res: usize,
+    pub projection: Projection,
+    pub reverse: bool,
+    pub panels: Vec<HemispherePanel>,
+    pub scale: Scale,
+    pub evaluations: u64,
+}
+
+/// Centre of cell (row, col) in disc coordinates.
+pub fn cell_point(res: usize, row: usize, col: usize) -> (f64, f64) {
+    let h = 2.0 / res as f64;
+    (-1.0 + (col as f64 + 0.5) * h, 1.0 - (row as f64 + 0.5) * h)
+}
+
+/// The direction at a disc point, or None outside the horizon.
+pub fn cell_direction(projection: Projection, x: f64, y: f64) -> Option<DVec3> {
+    let r = x.hypot(y);
+    if r > 1.0 {
+        return None;
+    }
+    Some(direction(projection.theta(r), y.atan2(x)))
+}
+
+pub fn hemisphere_data(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &HemisphereOptions,
+) -> Result<HemisphereData> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a hemisphere plot needs at least one model");
+    }
+    if opts.theta_deg.is_empty() {
+        bail!("--theta-i-deg: give at least one angle for the fixed direction");
+    }
+    for &t in &opts.theta_deg {
+        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+    }
+    if !opts.phi_deg.is_finite() {
+        bail!(
+            "--phi-i-deg {}: expected a finite number of degrees",
+            opts.phi_deg
+        );
+    }
+    if !(8..=2048).contains(&opts.res) {
+        bail!(
+            "--res {}: a hemisphere map takes 8 to 2048 cells across",
+            opts.res
+        );
+    }
+    let n = opts.res;
+    let cells: Vec<Option<DVec3>> = (0..n * n)
+        .map(|k| {
+            let (x, y) = cell_point(n, k / n, k % n);
+            cell_direction(opts.projection, x, y)
+        })
+        .collect();
+    let inside: Vec<DVec3> = cells.iter().flatten().copied().collect();
+    let mut panels = Vec::new();
+    let mut evaluations = 0u64;
+    for (j, subject) in subjects.iter().enumerate() {
+        let mut pairs = Vec::with_capacity(inside.len() * opts.theta_deg.len());
+        for &t in &opts.theta_deg {
+            let fixed = direction(rad(t), rad(opts.phi_deg));
+            pairs.extend(inside.iter().map(
+                |&d| {
+                    if opts.reverse {
+                        (d, fixed)
+                    } else {
+                        (fixed, d)
+                    }
+                },
+            ));
+        }
+        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        evaluations += f.len() as u64;
+        for (a, &t) in opts.theta_deg.iter().enumerate() {
+            let part = &f[a * inside.len()..(a + 1) * inside.len()];
+            let mut next = part.iter().zip(&pairs[a * inside.len()..]);
+            let values: Vec<f64> = cells
+                .iter()
+                .map(|c| match c {
+                    None => f64::NAN,
+                    Some(_) => {
+                        let (rgb, (wi, _)) = next.next().expect("one value per inside cell");
+                        let w = if common.cos { wi.z } else { 1.0 };
+                        common.channel.of(rgb.map(|x| x * w))
+                    }
+                })
+                .collect();
+            let mut best: Option<usize> = None;
+            for (k, v) in values.iter().enumerate() {
+                if v.is_finite() && best.is_none_or(|b| *v > values[b]) {
+                    best = Some(k);
+                }
+            }
+            let peak_deg = match best.and_then(|k| cells[k]) {
+                Some(d) => angles_deg(d),
+                None => (f64::NAN, f64::NAN),
+            };
+            panels.push(HemispherePanel {
+                subject: j,
+                theta_deg: t,
+                phi_deg: opts.phi_deg,
+                values,
+                peak_deg,
+                mirror_deg: (t, (opts.phi_deg + 180.0).rem_euclid(360.0)),
+            });
+        }
+    }
+    let max = panels
+        .iter()
+        .flat_map(|p| p.values.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let scale = Scale::from_max(max, common.log, common.decades);
+    let (fixed, over) = if opts.reverse {
+        ("ωo", "ωi")
+    } else {
+        ("ωi", "ωo")
+    };
+    let what = if common.cos { "f·cosθi" } else { "f" };
+    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let title = format!(
+        "{what} over every {over} for fixed {fixed} ({} projection): {}",
+        opts.projection.name(),
+        names.join(" vs ")
+    );
+    Ok(HemisphereData {
+        title,
+        res: n,
+        projection: opts.projection,
+        reverse: opts.reverse,
+        panels,
+        scale,
+        evaluations,
+    })
+}
+
+/// (θ, φ) of a direction in degrees, φ in [0, 360).
+pub fn angles_deg(d: DVec3) -> (f64, f64) {
+    (
+        d.z.clamp(-1.0, 1.0).acos().to_degrees(),
+        d.y.atan2(d.x).to_degrees().rem_euclid(360.0),
+    )
+}
+
+pub fn plot_hemisphere(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &HemisphereOptions,
+    path: &Path,
+) -> Result<HemisphereData> {
+    super::Format::of(path)?;
+    let data = hemisphere_data(eval, subjects, common, opts)?;
+    render(
+        path,
+        common.size,
+        |root| draw(root, &data, subjects, common, opts),
+        |root| draw(root, &data, subjects, common, opts),
+    )?;
+    Ok(data)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &HemisphereData,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &HemisphereOptions,
+) -> Result<()> {
+    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut note = format!(
+        "seen from above: +x (φ = 0°) right, +y (φ = 90°) up; rings at θ = 30°, 60°, horizon 90°; \
+         × mirror direction, ○ the fixed {}",
+        if data.reverse { "ωo" } else { "ωi" }
+    );
+    if !common.switches().is_empty() {
+        note = format!("{note}; {}", common.switches());
+    }
+    lines.push(note);
+    let body = header(root, &data.title, &lines)?;
+    let (w, _) = body.dim_in_pixel();
+    let (maps, bar) = body.split_horizontally(w - 110);
+    let rows = subjects.len();
+    let cols = opts.theta_deg.len();
+    let areas = maps.split_evenly((rows, cols));
+    for (panel, area) in data.panels.iter().zip(areas.iter()) {
+        draw_panel(area, panel, data, subjects, opts)?;
+    }
+    let caption = format!(
+        "{}{}",
+        common.quantity(),
+        if data.scale.log { ", log scale" } else { "" }
+    );
+    colour_bar(&bar, &data.scale, &caption)?;
+    Ok(())
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &HemispherePanel,
+    data: &HemisphereData,
+    subjects: &[Subject],
+    opts: &HemisphereOptions,
+) -> Result<()> {
+    let (w, h) = area.dim_in_pixel();
+    let caption_h = 22u32;
+    let side = w.min(h.saturating_sub(caption_h)).saturating_sub(8).max(20);
+    let left = (w - side) / 2;
+    let spare = h.saturating_sub(caption_h + side);
+    let fixed = if data.reverse { "ωo" } else { "ωi" };
+    let caption = if subjects.len() > 1 {
+        format!(
+            "{}, {fixed} = ({}°, {}°)",
+            subjects[panel.subject].label,
+            fmt_value(panel.theta_deg),
+            fmt_value(panel.phi_deg)
+        )
+    } else {
+        format!(
+            "{fixed}: θ = {}°, φ = {}°",
+            fmt_value(panel.theta_deg),
+            fmt_value(panel.phi_deg)
+        )
+    };
+    area.draw(&Text::new(
+        caption,
+        (w as i32 / 2, (spare / 2) as i32 + 2),
+        text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+    ))
+    .drawing("a panel caption")?;
+    let square = area.margin(
+        (caption_h + spare / 2) as i32,
+        (spare - spare / 2) as i32,
+        left as i32,
+        (w - left - side) as i32,
+    );
+    let lim = 1.16;
+    let chart = ChartBuilder::on(&square)
+        .build_cartesian_2d(-lim..lim, -lim..lim)
+        .drawing("a hemisphere chart")?;
+    let pa = chart.plotting_area();
+    let n = data.res;
+    let cell = 2.0 / n as f64;
+    // Runs of cells of one colour along a row are drawn as one rectangle (smaller SVG files).
+    for row in 0..n {
+        let mut col = 0;
+        while col < n {
+            let v = panel.values[row * n + col];
+            if !v.is_finite() {
+                col += 1;
+                continue;
+            }
+            let colour = colour_map(data.scale.unit(v));
+            let mut end = col + 1;
+            while end < n {
+                let u = panel.values[row * n + end];
+                if !u.is_finite() || colour_map(data.scale.unit(u)) != colour {
+                    break;
+                }
+                end += 1;
+            }
+            let (x0, y0) = (-1.0 + col as f64 * cell, 1.0 - row as f64 * cell);
+            let (x1, y1) = (-1.0 + end as f64 * cell, 1.0 - (row + 1) as f64 * cell);
+            pa.draw(&Rectangle::new([(x0, y0), (x1, y1)], colour.filled()))
+                .drawing("the heat map")?;
+            col = end;
+        }
+    }
+    let circle = |theta_deg: f64| -> Vec<(f64, f64)> {
+        (0..=180)
+            .map(|k| opts.projection.point(rad(theta_deg), rad(k as f64 * 2.0)))
+            .collect()
+    };
+    for t in [30.0, 60.0] {
+        pa.draw(&PathElement::new(circle(t), WHITE.mix(0.6).stroke_width(1)))
+            .drawing("a ring")?;
+    }
+    pa.draw(&PathElement::new(circle(90.0), BLACK.stroke_width(1)))
+        .drawing("the horizon")?;
+    for k in 0..4 {
+        let phi = 90.0 * k as f64;
+        let (x, y) = (1.08 * rad(phi).cos(), 1.08 * rad(phi).sin());
+        pa.draw(&Text::new(
+            format!("{}°", k * 90),
+            (x, y),
+            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .drawing("an azimuth label")?;
+    }
+    let marker = |theta: f64, phi: f64| opts.projection.point(rad(theta), rad(phi));
+    let (mx, my) = marker(panel.mirror_deg.0, panel.mirror_deg.1);
+    let d = 0.05;
+    for (a, b) in [
+        ((mx - d, my - d), (mx + d, my + d)),
+        ((mx - d, my + d), (mx + d, my - d)),
+    ] {
+        pa.draw(&PathElement::new(vec![a, b], WHITE.stroke_width(4)))
+            .drawing("the mirror marker")?;
+        pa.draw(&PathElement::new(vec![a, b], RED.stroke_width(2)))
+            .drawing("the mirror marker")?;
+    }
+    let (fx, fy) = marker(panel.theta_deg, panel.phi_deg);
+    pa.draw(&Circle::new((fx, fy), 5, WHITE.stroke_width(3)))
+        .drawing("the fixed direction")?;
+    pa.draw(&Circle::new((fx, fy), 5, BLACK.stroke_width(1)))
+        .drawing("the fixed direction")?;
+    Ok(())
+}

@@ -1,0 +1,818 @@
+//! `lobe plot`: pictures of a BRDF, written as PNG or SVG by the output's extension.
+//!
+//! Each kind is one library function that evaluates every point it draws through an
+//! [`Evaluator`] (one `eval_pairs` call per model), draws the picture, and returns the plotted
+//! data so that tests and other programs can check what the picture shows:
+//!
+//! - [`polar`]: f (or f·cosθi) in the plane of incidence for several θi, delta lobes marked;
+//! - [`hemisphere`]: a heat map of f over the hemisphere of ωo for one ωi (or the reverse), in an
+//!   equal-area or Nusselt projection;
+//! - [`slice`]: the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
+//! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
+//! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn.
+//!
+//! Text is drawn with DejaVu Sans, embedded in the binary and registered with plotters' ab_glyph
+//! backend at the first plot: no system fonts are read.
+//!
+//! The plotted scalar is one channel of the RGB value ([`Channel`]); luminance by default.
+
+pub mod albedo;
+pub mod hemisphere;
+pub mod polar;
+pub mod slice;
+pub mod surface3d;
+
+use crate::model::ParamSet;
+use anyhow::{anyhow, bail, Context, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// The font family name every text style uses.
+pub const FONT: &str = "sans-serif";
+
+/// Registers the embedded DejaVu Sans once; plotters' ab_glyph backend knows no other fonts.
+pub fn register_fonts() -> Result<()> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
+            .and_then(|_| {
+                plotters::style::register_font(FONT, FontStyle::Bold, dejavu::sans::bold())
+            })
+            .map_err(|_| "the embedded DejaVu Sans font could not be parsed".to_string())
+    })
+    .clone()
+    .map_err(|e| anyhow!(e))
+}
+
+/// The picture kinds of `lobe plot --kind`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Polar,
+    Hemisphere,
+    Slice,
+    Surface3d,
+    Albedo,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 5] = [
+        Kind::Polar,
+        Kind::Hemisphere,
+        Kind::Slice,
+        Kind::Surface3d,
+        Kind::Albedo,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Polar => "polar",
+            Kind::Hemisphere => "hemisphere",
+            Kind::Slice => "slice",
+            Kind::Surface3d => "3d",
+            Kind::Albedo => "albedo",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Kind> {
+        Kind::ALL
+            .into_iter()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| {
+                anyhow!(
+                    "unknown plot kind '{name}'; the kinds are: {}",
+                    Kind::ALL.map(Kind::name).join(", ")
+                )
+            })
+    }
+}
+
+/// The output file format, chosen by the extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Svg,
+}
+
+impl Format {
+    pub fn of(path: &Path) -> Result<Format> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("png") => Ok(Format::Png),
+            Some("svg") => Ok(Format::Svg),
+            _ => bail!(
+                "{}: the plot's format follows the output's extension, which must be .png or .svg",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// Which scalar of the RGB value a plot shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channel {
+    /// Y = 0.2126 R + 0.7152 G + 0.0722 B (linear Rec. 709 primaries, as the RGB values are).
+    Luminance,
+    R,
+    G,
+    B,
+    /// max(R, G, B): the channel that gains energy first.
+    Max,
+}
+
+impl Channel {
+    pub fn name(self) -> &'static str {
+        match self {
+            Channel::Luminance => "luminance",
+            Channel::R => "r",
+            Channel::G => "g",
+            Channel::B => "b",
+            Channel::Max => "max",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Channel> {
+        [
+            Channel::Luminance,
+            Channel::R,
+            Channel::G,
+            Channel::B,
+            Channel::Max,
+        ]
+        .into_iter()
+        .find(|c| c.name() == name)
+        .ok_or_else(|| {
+            anyhow!("unknown channel '{name}'; the channels are: luminance, r, g, b, max")
+        })
+    }
+
+    pub fn of(self, c: [f64; 3]) -> f64 {
+        match self {
+            Channel::Luminance => 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2],
+            Channel::R => c[0],
+            Channel::G => c[1],
+            Channel::B => c[2],
+            Channel::Max => c[0].max(c[1]).max(c[2]),
+        }
+    }
+
+    /// How the axis and colour-bar labels name the plotted value.
+    pub fn label(self) -> &'static str {
+        match self {
+            Channel::Luminance => "luminance Y",
+            Channel::R => "red channel",
+            Channel::G => "green channel",
+            Channel::B => "blue channel",
+            Channel::Max => "max of R, G, B",
+        }
+    }
+}
+
+/// One model with its parameters, as a plot overlays or tiles it.
+#[derive(Clone, Debug)]
+pub struct Subject {
+    /// `gold cook_torrance`, or the model's name without a material.
+    pub label: String,
+    pub params: ParamSet,
+}
+
+impl Subject {
+    pub fn new(params: ParamSet, material: Option<&str>) -> Subject {
+        let label = match material {
+            Some(m) => format!("{m} {}", params.model().name()),
+            None => params.model().name().to_string(),
+        };
+        Subject { label, params }
+    }
+
+    /// `gold cook_torrance: diffuse=… specular=…`, for the header.
+    pub fn describe(&self) -> String {
+        format!("{}: {}", self.label, self.params.to_text())
+    }
+}
+
+/// Settings every kind shares.
+#[derive(Clone, Debug)]
+pub struct Common {
+    pub white_furnace: bool,
+    /// Plot f·cosθi instead of f.
+    pub cos: bool,
+    /// Logarithmic radius (polar, 3d) or colour (hemisphere; the slice is always logarithmic).
+    pub log: bool,
+    /// Decades a logarithmic scale spans below its maximum.
+    pub decades: f64,
+    pub channel: Channel,
+    /// Image size in pixels (SVG: user units).
+    pub size: (u32, u32),
+}
+
+impl Default for Common {
+    fn default() -> Common {
+        Common {
+            white_furnace: false,
+            cos: false,
+            log: false,
+            decades: 4.0,
+            channel: Channel::Luminance,
+            size: (1200, 800),
+        }
+    }
+}
+
+impl Common {
+    /// `f` or `f·cosθi`, with the channel, for labels.
+    pub fn quantity(&self) -> String {
+        let q = if self.cos { "f·cosθi" } else { "f" };
+        format!("{q} ({}, 1/sr)", self.channel.label())
+    }
+
+    /// Words for the title: the switches that change what is drawn.
+    pub fn switches(&self) -> String {
+        let mut s = Vec::new();
+        if self.white_furnace {
+            s.push("white furnace (Fresnel of specular lobes = 1)");
+        }
+        if self.log {
+            s.push("log scale");
+        }
+        s.join(", ")
+    }
+
+    pub fn check(&self) -> Result<()> {
+        if !(self.decades > 0.0 && self.decades <= 30.0) {
+            bail!(
+                "--decades {}: a logarithmic scale spans between 0 and 30 decades",
+                self.decades
+            );
+        }
+        let (w, h) = self.size;
+        if !(200..=8000).contains(&w) || !(150..=8000).contains(&h) {
+            bail!("--size {w}x{h}: width must lie in [200, 8000] and height in [150, 8000] pixels");
+        }
+        Ok(())
+    }
+}
+
+/// A value-to-[0, 1] map, linear or logarithmic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scale {
+    pub lo: f64,
+    pub hi: f64,
+    pub log: bool,
+}
+
+impl Scale {
+    /// From the largest plotted value: [0, max] or [max·10^-decades, max]. A zero maximum (a
+    /// black lobe) still gets a usable range.
+    pub fn from_max(max: f64, log: bool, decades: f64) -> Scale {
+        let hi = if max.is_finite() && max > 0.0 {
+            max
+        } else {
+            1.0
+        };
+        if log {
+            Scale {
+                lo: hi * 10f64.powf(-decades),
+                hi,
+                log,
+            }
+        } else {
+            Scale { lo: 0.0, hi, log }
+        }
+    }
+
+    /// Position in [0, 1]; values below the range map to 0 (NaN stays NaN).
+    pub fn unit(&self, v: f64) -> f64 {
+        let t = if self.log {
+            if v <= 0.0 {
+                0.0
+            } else {
+                (v / self.lo).log10() / (self.hi / self.lo).log10()
+            }
+        } else {
+            (v - self.lo) / (self.hi - self.lo)
+        };
+        t.clamp(0.0, 1.0)
+    }
+
+    /// The value at position t in [0, 1].
+    pub fn value(&self, t: f64) -> f64 {
+        if self.log {
+            self.lo * (self.hi / self.lo).powf(t)
+        } else {
+            self.lo + t * (self.hi - self.lo)
+        }
+    }
+
+    /// Tick values inside the range: powers of ten (log) or round steps (linear).
+    pub fn ticks(&self) -> Vec<f64> {
+        if self.log {
+            let a = self.lo.log10().ceil() as i32;
+            let b = self.hi.log10().floor() as i32;
+            let step = ((b - a) / 6).max(1);
+            (a..=b)
+                .step_by(step as usize)
+                .map(|e| 10f64.powi(e))
+                .collect()
+        } else {
+            let step = nice_step(self.hi - self.lo, 5);
+            let mut v = Vec::new();
+            let mut x = (self.lo / step).ceil() * step;
+            while x <= self.hi * (1.0 + 1e-9) {
+                v.push(x);
+                x += step;
+            }
+            v
+        }
+    }
+}
+
+/// A round step (1, 2 or 5 times a power of ten) giving about `n` intervals over `span`.
+pub fn nice_step(span: f64, n: usize) -> f64 {
+    let raw = span / n as f64;
+    let p = 10f64.powf(raw.log10().floor());
+    let m = raw / p;
+    let k = if m < 1.5 {
+        1.0
+    } else if m < 3.5 {
+        2.0
+    } else if m < 7.5 {
+        5.0
+    } else {
+        10.0
+    };
+    k * p
+}
+
+/// A short number for a tick label: `0.25`, `12`, `3e-4`.
+pub fn fmt_value(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".to_string()
+    } else if (0.01..1e4).contains(&a) {
+        let s = format!("{v:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        let s = format!("{v:.1e}");
+        s.replace(".0e", "e")
+    }
+}
+
+/// Matplotlib's viridis at t = 0, 1/8, …, 1 (sRGB 8-bit), interpolated linearly: perceptually
+/// ordered and readable in grey and by colour-blind readers.
+const VIRIDIS: [(u8, u8, u8); 9] = [
+    (68, 1, 84),
+    (71, 44, 122),
+    (59, 81, 139),
+    (44, 113, 142),
+    (33, 145, 140),
+    (39, 173, 129),
+    (92, 200, 99),
+    (170, 220, 50),
+    (253, 231, 37),
+];
+
+/// The colour map at t in [0, 1].
+pub fn colour_map(t: f64) -> RGBColor {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = t * (VIRIDIS.len() - 1) as f64;
+    let k = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let u = x - k as f64;
+    let (a, b) = (VIRIDIS[k], VIRIDIS[k + 1]);
+    let mix = |p: u8, q: u8| (p as f64 + u * (q as f64 - p as f64)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Line colours for overlaid series (Okabe–Ito, distinguishable by colour-blind readers).
+pub const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+    RGBColor(240, 228, 66),
+];
+
+pub fn palette(k: usize) -> RGBColor {
+    PALETTE[k % PALETTE.len()]
+}
+
+/// Line patterns for a second overlaid dimension (θi when several models share a colour).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dash {
+    Solid,
+    Dashed,
+    Dotted,
+    Long,
+}
+
+impl Dash {
+    pub fn nth(k: usize) -> Dash {
+        [Dash::Solid, Dash::Dashed, Dash::Dotted, Dash::Long][k % 4]
+    }
+
+    /// (dash length, gap) in pixels; None for a solid line.
+    fn pattern(self) -> Option<(u32, u32)> {
+        match self {
+            Dash::Solid => None,
+            Dash::Dashed => Some((10, 6)),
+            Dash::Dotted => Some((3, 4)),
+            Dash::Long => Some((22, 6)),
+        }
+    }
+}
+
+/// Splits a polyline in pixel space into dashes; returns the pieces to draw.
+pub fn dash_pieces(points: &[(i32, i32)], dash: Dash) -> Vec<Vec<(i32, i32)>> {
+    let Some((on, off)) = dash.pattern() else {
+        return vec![points.to_vec()];
+    };
+    let period = (on + off) as f64;
+    let mut pieces = Vec::new();
+    let mut cur: Vec<(i32, i32)> = Vec::new();
+    let mut s = 0.0f64;
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+        let len = dx.hypot(dy);
+        let mut t = 0.0;
+        while t < len {
+            let phase = s % period;
+            let (inside, left) = if phase < on as f64 {
+                (true, on as f64 - phase)
+            } else {
+                (false, period - phase)
+            };
+            let step = left.min(len - t);
+            let p = |u: f64| {
+                (
+                    (a.0 as f64 + dx * u / len).round() as i32,
+                    (a.1 as f64 + dy * u / len).round() as i32,
+                )
+            };
+            if inside {
+                if cur.is_empty() {
+                    cur.push(p(t));
+                }
+                cur.push(p(t + step));
+            } else if !cur.is_empty() {
+                pieces.push(std::mem::take(&mut cur));
+            }
+            t += step;
+            s += step;
+        }
+    }
+    if cur.len() > 1 {
+        pieces.push(cur);
+    }
+    pieces
+}
+
+/// One entry of a hand-drawn legend.
+#[derive(Clone, Debug)]
+pub struct LegendEntry {
+    pub label: String,
+    pub colour: RGBColor,
+    pub dash: Dash,
+}
+
+/// Maps plotters' errors (whose types depend on the backend) to anyhow with what was drawn.
+pub(crate) trait Drawn<T> {
+    fn drawing(self, what: &str) -> Result<T>;
+}
+
+impl<T, E: std::fmt::Display> Drawn<T> for std::result::Result<T, E> {
+    fn drawing(self, what: &str) -> Result<T> {
+        self.map_err(|e| anyhow!("drawing {what}: {e}"))
+    }
+}
+
+pub(crate) fn text_style(size: u32, colour: RGBColor) -> TextStyle<'static> {
+    TextStyle {
+        font: (FONT, size).into_font(),
+        color: colour.to_backend_color(),
+        pos: Pos::new(HPos::Left, VPos::Top),
+    }
+}
+
+pub(crate) fn anchored(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
+    text_style(size, BLACK).pos(Pos::new(h, v))
+}
+
+/// Characters of `size`-pixel DejaVu Sans that fit in `width` pixels (its mean advance is about
+/// 0.55 em for mixed text).
+fn chars_in(width: u32, size: u32) -> usize {
+    ((width as f64) / (0.55 * size as f64)).max(10.0) as usize
+}
+
+/// Greedy word wrap.
+fn wrap(text: &str, max: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut cur = String::new();
+    for w in text.split(' ') {
+        if !cur.is_empty() && cur.chars().count() + 1 + w.chars().count() > max {
+            lines.push(std::mem::take(&mut cur));
+            cur.push_str("    ");
+        }
+        if !cur.is_empty() && !cur.ends_with("    ") {
+            cur.push(' ');
+        }
+        cur.push_str(w);
+    }
+    if !cur.trim().is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// Draws a bold title and smaller wrapped lines at the top of `root`; returns the area below.
+pub(crate) fn header<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    lines: &[String],
+) -> Result<DrawingArea<DB, Shift>> {
+    let (w, _) = root.dim_in_pixel();
+    let title_size = 22;
+    let small = 14;
+    let mut y = 8i32;
+    let title_style = TextStyle {
+        font: (FONT, title_size, FontStyle::Bold).into_font(),
+        color: BLACK.to_backend_color(),
+        pos: Pos::new(HPos::Center, VPos::Top),
+    };
+    for line in wrap(title, chars_in(w - 20, title_size)) {
+        root.draw(&Text::new(line, (w as i32 / 2, y), title_style.clone()))
+            .drawing("the title")?;
+        y += title_size as i32 + 4;
+    }
+    let style = anchored(small, HPos::Center, VPos::Top);
+    for text in lines {
+        for line in wrap(text, chars_in(w - 20, small)) {
+            root.draw(&Text::new(line, (w as i32 / 2, y), style.clone()))
+                .drawing("the title")?;
+            y += small as i32 + 3;
+        }
+    }
+    Ok(root.split_vertically(y + 6).1)
+}
+
+/// A legend in its own column: a line sample and the label for each entry.
+pub(crate) fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+) -> Result<()> {
+    let size = 14;
+    let row = 22;
+    let (w, h) = area.dim_in_pixel();
+    let top = ((h as i32 - row * entries.len() as i32) / 2).max(10);
+    for (k, e) in entries.iter().enumerate() {
+        let y = top + row * k as i32 + row / 2;
+        for piece in dash_pieces(&[(8, y), (44, y)], e.dash) {
+            area.draw(&PathElement::new(piece, e.colour.stroke_width(2)))
+                .drawing("the legend")?;
+        }
+        let max = chars_in(w.saturating_sub(56), size);
+        let label: String = if e.label.chars().count() > max {
+            e.label
+                .chars()
+                .take(max.saturating_sub(1))
+                .collect::<String>()
+                + "…"
+        } else {
+            e.label.clone()
+        };
+        area.draw(&Text::new(
+            label,
+            (52, y),
+            anchored(size, HPos::Left, VPos::Center),
+        ))
+        .drawing("the legend")?;
+    }
+    Ok(())
+}
+
+/// A vertical colour bar with tick labels and a caption, filling `area`.
+pub(crate) fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: &Scale,
+    caption: &str,
+) -> Result<()> {
+    let (w, h) = area.dim_in_pixel();
+    let (x0, x1) = (10i32, 34i32);
+    let (y0, y1) = (30i32, h as i32 - 30);
+    let steps = (y1 - y0).max(1);
+    for k in 0..steps {
+        let t = 1.0 - (k as f64 + 0.5) / steps as f64;
+        area.draw(&Rectangle::new(
+            [(x0, y0 + k), (x1, y0 + k + 1)],
+            colour_map(t).filled(),
+        ))
+        .drawing("the colour bar")?;
+    }
+    area.draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))
+        .drawing("the colour bar")?;
+    for v in scale.ticks() {
+        let t = scale.unit(v);
+        let y = y1 - (t * (y1 - y0) as f64).round() as i32;
+        area.draw(&PathElement::new(vec![(x1, y), (x1 + 5, y)], BLACK))
+            .drawing("the colour bar")?;
+        area.draw(&Text::new(
+            fmt_value(v),
+            (x1 + 8, y),
+            anchored(13, HPos::Left, VPos::Center),
+        ))
+        .drawing("the colour bar")?;
+    }
+    let style = text_style(14, BLACK)
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Bottom));
+    area.draw(&Text::new(
+        caption.to_string(),
+        (w as i32 - 4, (y0 + y1) / 2),
+        style,
+    ))
+    .drawing("the colour bar")?;
+    Ok(())
+}
+
+/// Draws with `draw` on a PNG or SVG canvas of `size` by `path`'s extension. The picture is
+/// drawn into a temporary file beside `path` and renamed over it only when complete: a failed
+/// plot leaves no file.
+pub(crate) fn render(
+    path: &Path,
+    size: (u32, u32),
+    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+) -> Result<()> {
+    register_fonts()?;
+    let format = Format::of(path)?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let suffix = match format {
+        Format::Png => ".png",
+        Format::Svg => ".svg",
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".lobe-plot-")
+        .suffix(suffix)
+        .tempfile_in(&dir)
+        .with_context(|| format!("creating a file in {}", dir.display()))?;
+    let tmp_path = tmp.path().to_path_buf();
+    match format {
+        Format::Png => {
+            let root = BitMapBackend::new(&tmp_path, size).into_drawing_area();
+            root.fill(&WHITE).drawing("the background")?;
+            draw_png(&root)?;
+            root.present()
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        Format::Svg => {
+            let root = SVGBackend::new(&tmp_path, size).into_drawing_area();
+            root.fill(&WHITE).drawing("the background")?;
+            draw_svg(&root)?;
+            root.present()
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+    }
+    // A temporary file is private (0600); a picture is as readable as any other output.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    tmp.persist(path)
+        .map_err(|e| anyhow!("writing {}: {}", path.display(), e.error))?;
+    Ok(())
+}
+
+/// What to plot: the kind with its own options.
+#[derive(Clone, Debug)]
+pub enum Request {
+    Polar(polar::PolarOptions),
+    Hemisphere(hemisphere::HemisphereOptions),
+    Slice(slice::SliceOptions),
+    Surface3d(surface3d::Surface3dOptions),
+    Albedo(albedo::AlbedoOptions),
+}
+
+/// What a plot drew, by kind.
+#[derive(Clone, Debug)]
+pub enum Plotted {
+    Polar(polar::PolarData),
+    Hemisphere(hemisphere::HemisphereData),
+    Slice(slice::SliceData),
+    Surface3d(surface3d::Surface3dData),
+    Albedo(albedo::AlbedoData),
+}
+
+impl Plotted {
+    pub fn title(&self) -> &str {
+        match self {
+            Plotted::Polar(d) => &d.title,
+            Plotted::Hemisphere(d) => &d.title,
+            Plotted::Slice(d) => &d.title,
+            Plotted::Surface3d(d) => &d.title,
+            Plotted::Albedo(d) => &d.title,
+        }
+    }
+
+    /// BRDF evaluations spent (albedo: integrand evaluations).
+    pub fn evaluations(&self) -> u64 {
+        match self {
+            Plotted::Polar(d) => d.series.iter().map(|s| s.value.len() as u64).sum(),
+            Plotted::Hemisphere(d) => d.evaluations,
+            Plotted::Slice(d) => d.evaluations,
+            Plotted::Surface3d(d) => d.evaluations,
+            Plotted::Albedo(d) => d.evaluations,
+        }
+    }
+}
+
+/// Evaluates and draws `request` into `path` (.png or .svg by its extension).
+pub fn plot(
+    eval: &crate::eval::Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    request: &Request,
+    path: &Path,
+) -> Result<Plotted> {
+    Ok(match request {
+        Request::Polar(o) => Plotted::Polar(polar::plot_polar(eval, subjects, common, o, path)?),
+        Request::Hemisphere(o) => Plotted::Hemisphere(hemisphere::plot_hemisphere(
+            eval, subjects, common, o, path,
+        )?),
+        Request::Slice(o) => Plotted::Slice(slice::plot_slice(eval, subjects, common, o, path)?),
+        Request::Surface3d(o) => {
+            Plotted::Surface3d(surface3d::plot_surface3d(eval, subjects, common, o, path)?)
+        }
+        Request::Albedo(o) => {
+            Plotted::Albedo(albedo::plot_albedo(eval, subjects, common, o, path)?)
+        }
+    })
+}
+
+/// Degrees to radians, for the CLI's angles.
+pub(crate) fn rad(deg: f64) -> f64 {
+    deg.to_radians()
+}
+
+/// Checks angles given in degrees against [lo, hi).
+pub(crate) fn check_deg(flag: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if !(v >= lo && v < hi) {
+        bail!("{flag} {v}: must lie in [{lo}, {hi}) degrees");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_scale_maps_its_ends_and_ticks_are_inside() {
+        let s = Scale::from_max(10.0, true, 3.0);
+        assert!((s.unit(10.0) - 1.0).abs() < 1e-12);
+        assert!((s.unit(0.01) - 0.0).abs() < 1e-12);
+        assert_eq!(s.unit(0.0), 0.0);
+        assert!((s.value(s.unit(0.5)) - 0.5).abs() < 1e-12);
+        for t in s.ticks() {
+            assert!(t >= s.lo * 0.999 && t <= s.hi * 1.001);
+        }
+        let l = Scale::from_max(0.318, false, 3.0);
+        assert_eq!(l.ticks().first(), Some(&0.0));
+    }
+
+    #[test]
+    fn dashes_cover_about_their_share() {
+        let pieces = dash_pieces(&[(0, 0), (160, 0)], Dash::Dashed);
+        let on: i32 = pieces.iter().map(|p| p.last().unwrap().0 - p[0].0).sum();
+        // 10 on, 6 off: 10/16 of the length, give or take one dash at the end.
+        assert!((on - 100).abs() <= 10, "{on}");
+    }
+
+    #[test]
+    fn formats_and_extensions() {
+        assert_eq!(fmt_value(0.25), "0.25");
+        assert_eq!(fmt_value(1e-4), "1e-4");
+        assert!(Format::of(Path::new("a.PNG")).is_ok());
+        assert!(Format::of(Path::new("a.jpg")).is_err());
+        assert_eq!(colour_map(0.0), RGBColor(68, 1, 84));
+        assert_eq!(colour_map(1.0), RGBColor(253, 231, 37));
+    }
+}

@@ -1,0 +1,426 @@
+//! In-plane polar plot: f (or f·cosθi) in the plane of incidence, one curve per model and θi.
+//!
+//! Geometry: the plane of incidence is the x–z plane. The light sits at φi = 180° (drawn on the
+//! left), ωi = (−sinθi, 0, cosθi); the view sweeps a signed angle s ∈ (−90°, 90°),
+//! ωo = (sin s, 0, cos s), so positive s is φo = 0 (the mirror side, drawn on the right) and
+//! the mirror direction of ωi is s = +θi. A curve is the point at radius ρ(value) along ωo.
+
+use super::{
+    check_deg, dash_pieces, fmt_value, header, legend, palette, rad, render, text_style, Common,
+    Dash, Drawn, LegendEntry, Scale, Subject,
+};
+use crate::eval::Evaluator;
+use crate::model::Reference;
+use anyhow::{bail, Result};
+use glam::DVec3;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::Path;
+
+/// View angles per curve: cell-centred over (−90°, 90°), 0.125° apart, fine enough that a
+/// Phong lobe of exponent 8192 (half-width ≈ 1/√n rad ≈ 0.6°) is drawn with ~10 points.
+pub const DEFAULT_SAMPLES: usize = 1440;
+
+#[derive(Clone, Debug)]
+pub struct PolarOptions {
+    /// Incidence angles θi in degrees, each in [0, 90).
+    pub theta_i_deg: Vec<f64>,
+    /// View angles per curve.
+    pub samples: usize,
+}
+
+impl Default for PolarOptions {
+    fn default() -> PolarOptions {
+        PolarOptions {
+            theta_i_deg: vec![0.0, 30.0, 60.0, 80.0],
+            samples: DEFAULT_SAMPLES,
+        }
+    }
+}
+
+/// One plotted curve.
+#[derive(Clone, Debug)]
+pub struct PolarSeries {
+    /// Index into the subjects.
+    pub subject: usize,
+    pub theta_i_deg: f64,
+    /// Signed view angle s in degrees (positive: the mirror side).
+    pub theta_o_deg: Vec<f64>,
+    /// The plotted value (the channel of f or f·cosθi) at each angle, in 1/sr.
+    pub value: Vec<f64>,
+    /// f (or f·cosθi) in RGB at each angle.
+    pub rgb: Vec<[f64; 3]>,
+}
+
+impl PolarSeries {
+    /// The signed angle where the plotted value is largest (the first, if several tie).
+    pub fn peak_deg(&self) -> f64 {
+        let mut best = 0;
+        for (k, v) in self.value.iter().enumerate() {
+            if *v > self.value[best] {
+                best = k;
+            }
+        }
+        self.theta_o_deg[best]
+    }
+}
+
+/// A delta lobe drawn as an arrow at the mirror direction.
+#[derive(Clone, Debug)]
+pub struct DeltaMark {
+    pub subject: usize,
+    pub theta_i_deg: f64,
+    /// Signed angle of the mirror direction (= θi).
+    pub mirror_deg: f64,
+    /// The spike's albedo (RGB), Reference::delta_albedo at c_o = cosθi.
+    pub albedo: [f64; 3],
+}
+
+/// What a polar plot shows.
+#[derive(Clone, Debug)]
+pub struct PolarData {
+    pub title: String,
+    pub series: Vec<PolarSeries>,
+    pub deltas: Vec<DeltaMark>,
+    /// The radial scale the curves were drawn with.
+    pub scale: Scale,
+}
+
+/// ωi for θi (light at φi = 180°).
+pub fn light_direction(theta_i: f64) -> DVec3 {
+    DVec3::new(-theta_i.sin(), 0.0, theta_i.cos())
+}
+
+/// ωo for the signed in-plane angle s.
+pub fn view_direction(s: f64) -> DVec3 {
+    DVec3::new(s.sin(), 0.0, s.cos())
+}
+
+/// Evaluates the curves (one eval_pairs call per subject), without drawing.
+pub fn polar_data(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &PolarOptions,
+) -> Result<PolarData> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a polar plot needs at least one model");
+    }
+    if opts.theta_i_deg.is_empty() {
+        bail!("--theta-i-deg: give at least one incidence angle");
+    }
+    for &t in &opts.theta_i_deg {
+        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+    }
+    if !(16..=1 << 20).contains(&opts.samples) {
+        bail!(
+            "--samples {}: a polar curve takes between 16 and 1048576 view angles",
+            opts.samples
+        );
+    }
+    let n = opts.samples;
+    let s_deg: Vec<f64> = (0..n)
+        .map(|k| -90.0 + (k as f64 + 0.5) * 180.0 / n as f64)
+        .collect();
+    let mut series = Vec::new();
+    let mut deltas = Vec::new();
+    for (j, subject) in subjects.iter().enumerate() {
+        let pairs: Vec<(DVec3, DVec3)> = opts
+            .theta_i_deg
+            .iter()
+            .flat_map(|&t| {
+                let wi = light_direction(rad(t));
+                s_deg.iter().map(move |&s| (wi, view_direction(rad(s))))
+            })
+            .collect();
+        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        let reference = Reference::new(&subject.params, common.white_furnace);
+        for (a, &t) in opts.theta_i_deg.iter().enumerate() {
+            let c_i = rad(t).cos();
+            let weight = if common.cos { c_i } else { 1.0 };
+            let rgb: Vec<[f64; 3]> = f[a * n..(a + 1) * n]
+                .iter()
+                .map(|c| c.map(|x| x * weight))
+                .collect();
+            let value = rgb.iter().map(|c| common.channel.of(*c)).collect();
+            series.push(PolarSeries {
+                subject: j,
+                theta_i_deg: t,
+                theta_o_deg: s_deg.clone(),
+                value,
+                rgb,
+            });
+            if subject.params.model().has_delta() {
+                deltas.push(DeltaMark {
+                    subject: j,
+                    theta_i_deg: t,
+                    mirror_deg: t,
+                    albedo: reference.delta_albedo(c_i).to_array(),
+                });
+            }
+        }
+    }
+    let max = series
+        .iter()
+        .flat_map(|s| s.value.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let scale = Scale::from_max(max, common.log, common.decades);
+    let angles: Vec<String> = opts
+        .theta_i_deg
+        .iter()
+        .map(|t| format!("{}°", fmt_value(*t)))
+        .collect();
+    let what = if common.cos { "f·cosθi" } else { "f" };
+    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let title = format!(
+        "{what} in the plane of incidence, θi = {}: {}",
+        angles.join(", "),
+        names.join(" vs ")
+    );
+    Ok(PolarData {
+        title,
+        series,
+        deltas,
+        scale,
+    })
+}
+
+/// Evaluates and draws the polar plot into `path` (.png or .svg); returns what it drew.
+pub fn plot_polar(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &PolarOptions,
+    path: &Path,
+) -> Result<PolarData> {
+    super::Format::of(path)?;
+    let data = polar_data(eval, subjects, common, opts)?;
+    render(
+        path,
+        common.size,
+        |root| draw(root, &data, subjects, common, opts),
+        |root| draw(root, &data, subjects, common, opts),
+    )?;
+    Ok(data)
+}
+
+/// How each curve is styled: colour by θi when one model is drawn, else colour by model and
+/// line pattern by θi.
+fn style_of(s: &PolarSeries, subjects: usize, angle_index: usize) -> (RGBColor, Dash) {
+    if subjects == 1 {
+        (palette(angle_index), Dash::Solid)
+    } else {
+        (palette(s.subject), Dash::nth(angle_index))
+    }
+}
+
+/// Radius in chart units (the horizon circle is radius 1) of a plotted value.
+fn radius(scale: &Scale, v: f64) -> f64 {
+    if v.is_finite() {
+        scale.unit(v)
+    } else {
+        0.0
+    }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &PolarData,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &PolarOptions,
+) -> Result<()> {
+    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut notes = vec![
+        "light on the left at φi = 180°; signed θo > 0 is the mirror side (φo = 0)".to_string(),
+    ];
+    if !common.switches().is_empty() {
+        notes.push(common.switches());
+    }
+    lines.push(notes.join("; "));
+    let body = header(root, &data.title, &lines)?;
+    let (w, _) = body.dim_in_pixel();
+    let legend_w = (w / 4).clamp(180, 340);
+    let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
+
+    // Equal scale on both axes: fit the half disc (plus room for labels) in the area.
+    let (pw, ph) = plot_area.dim_in_pixel();
+    let margin = 16u32;
+    let (pw, ph) = ((pw - 2 * margin) as f64, (ph - 2 * margin) as f64);
+    let (half_w, y_lo, y_hi) = (1.18, -0.16, 1.12);
+    let px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi - y_lo));
+    let x_half = pw / px_per_unit / 2.0;
+    // Spare height goes equally above and below the half disc.
+    let spare = ph / px_per_unit - (y_hi - y_lo);
+    let (y_bottom, y_top) = (y_lo - spare / 2.0, y_hi + spare / 2.0);
+    let chart = ChartBuilder::on(&plot_area)
+        .margin(margin)
+        .build_cartesian_2d(-x_half..x_half, y_bottom..y_top)
+        .drawing("the polar chart")?;
+    let pa = chart.plotting_area().clone();
+    let at = |rho: f64, s_deg: f64| {
+        let s = rad(s_deg);
+        (rho * s.sin(), rho * s.cos())
+    };
+    let grid = RGBColor(200, 200, 200);
+    // Rings: the scale's ticks; spokes every 15°.
+    let ticks = data.scale.ticks();
+    for &v in &ticks {
+        let rho = data.scale.unit(v);
+        if rho <= 0.0 {
+            continue;
+        }
+        let ring: Vec<(f64, f64)> = (0..=180).map(|k| at(rho, -90.0 + k as f64)).collect();
+        pa.draw(&PathElement::new(ring, grid.stroke_width(1)))
+            .drawing("a ring")?;
+        pa.draw(&Text::new(
+            fmt_value(v),
+            (rho, -0.02),
+            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .drawing("a ring label")?;
+    }
+    let horizon: Vec<(f64, f64)> = (0..=180).map(|k| at(1.0, -90.0 + k as f64)).collect();
+    pa.draw(&PathElement::new(horizon, BLACK.stroke_width(1)))
+        .drawing("the horizon")?;
+    for k in -6..=6 {
+        let s = 15.0 * k as f64;
+        pa.draw(&PathElement::new(vec![(0.0, 0.0), at(1.0, s)], grid))
+            .drawing("a spoke")?;
+        pa.draw(&Text::new(
+            format!("{}°", k * 15),
+            at(1.06, s),
+            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .drawing("a spoke label")?;
+    }
+    pa.draw(&PathElement::new(vec![(-1.0, 0.0), (1.0, 0.0)], BLACK))
+        .drawing("the surface")?;
+    let axis_caption = format!(
+        "radius: {}{}   ·   angles: signed θo in degrees",
+        common.quantity(),
+        if data.scale.log {
+            format!(", log, {} decades", fmt_value(common.decades))
+        } else {
+            String::new()
+        }
+    );
+    pa.draw(&Text::new(
+        axis_caption,
+        (0.0, -0.09),
+        text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+    ))
+    .drawing("the axis caption")?;
+
+    let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
+    // Incidence directions: thin grey lines towards the light, labelled with θi.
+    for &t in &opts.theta_i_deg {
+        let (colour, dash) = if subjects.len() == 1 {
+            (palette(angle_index(t)), Dash::Solid)
+        } else {
+            (RGBColor(90, 90, 90), Dash::nth(angle_index(t)))
+        };
+        let end = at(1.0, -t);
+        let to_px = |p: (f64, f64)| pa.map_coordinate(&p);
+        let pts = vec![to_px((0.0, 0.0)), to_px(end)];
+        for piece in dash_pieces(&pts, dash) {
+            root.draw(&PathElement::new(piece, colour.mix(0.5).stroke_width(1)))
+                .drawing("an incidence direction")?;
+        }
+        pa.draw(&Text::new(
+            format!("ωi {}°", fmt_value(t)),
+            at(0.93, -t - 2.5),
+            text_style(12, colour).pos(Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .drawing("an incidence label")?;
+    }
+    // Curves, drawn on the root in pixels (its origin is the canvas's) so that dashes have a
+    // fixed length.
+    for s in &data.series {
+        let (colour, dash) = style_of(s, subjects.len(), angle_index(s.theta_i_deg));
+        let pts: Vec<(i32, i32)> = s
+            .theta_o_deg
+            .iter()
+            .zip(&s.value)
+            .map(|(&a, &v)| pa.map_coordinate(&at(radius(&data.scale, v), a)))
+            .collect();
+        for piece in dash_pieces(&pts, dash) {
+            root.draw(&PathElement::new(piece, colour.stroke_width(2)))
+                .drawing("a curve")?;
+        }
+    }
+    // Delta lobes: an arrow to the horizon circle along the mirror direction, labelled with the
+    // spike's albedo (it has no finite value to plot).
+    for d in &data.deltas {
+        let colour = if subjects.len() == 1 {
+            palette(angle_index(d.theta_i_deg))
+        } else {
+            palette(d.subject)
+        };
+        let tip = at(1.0, d.mirror_deg);
+        let back = |da: f64, r: f64| at(r, d.mirror_deg + da);
+        pa.draw(&PathElement::new(
+            vec![(0.0, 0.0), tip],
+            colour.stroke_width(3),
+        ))
+        .drawing("a delta arrow")?;
+        pa.draw(&PathElement::new(
+            vec![back(-2.5, 0.93), tip, back(2.5, 0.93)],
+            colour.stroke_width(3),
+        ))
+        .drawing("a delta arrow head")?;
+        let a = d.albedo;
+        let label = format!(
+            "δ ρ={} ({}, {}, {})",
+            fmt_value(common.channel.of(a)),
+            fmt_value(a[0]),
+            fmt_value(a[1]),
+            fmt_value(a[2])
+        );
+        pa.draw(&Text::new(
+            label,
+            at(1.0, d.mirror_deg + 4.0),
+            text_style(12, colour).pos(Pos::new(HPos::Left, VPos::Bottom)),
+        ))
+        .drawing("a delta label")?;
+    }
+
+    let mut entries = Vec::new();
+    if subjects.len() == 1 {
+        for (k, &t) in opts.theta_i_deg.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: format!("θi = {}°", fmt_value(t)),
+                colour: palette(k),
+                dash: Dash::Solid,
+            });
+        }
+    } else {
+        for (j, s) in subjects.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: s.label.clone(),
+                colour: palette(j),
+                dash: Dash::Solid,
+            });
+        }
+        for (k, &t) in opts.theta_i_deg.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: format!("θi = {}°", fmt_value(t)),
+                colour: RGBColor(90, 90, 90),
+                dash: Dash::nth(k),
+            });
+        }
+    }
+    if !data.deltas.is_empty() {
+        entries.push(LegendEntry {
+            label: "arrow: mirror spike (δ), ρ = its albedo".into(),
+            colour: BLACK,
+            dash: Dash::Solid,
+        });
+    }
+    legend(&legend_area, &entries)?;
+    Ok(())
+}

@@ -1,0 +1,238 @@
+//! The θh × θd image in Rusinkiewicz's half/difference coordinates (Rusinkiewicz 1998, "A New
+//! Change of Variables for Efficient BRDF Representation"), at one φd, as MERL data are shown.
+//!
+//! From (θh, φh, θd, φd): h = (sinθh cosφh, sinθh sinφh, cosθh) and d = (sinθd cosφd,
+//! sinθd sinφd, cosθd) in the frame where h is the pole, so ωi = Rz(φh)·Ry(θh)·d and ωo is ωi
+//! reflected about h, ωo = 2(ωi·h)h − ωi. The image takes φh = 0 (isotropic models do not depend
+//! on it). At φd = 90° both directions stay above the horizon for every θh, θd < 90°, which is
+//! why MERL slices are usually shown there; at other φd the part below the horizon is f = 0 and
+//! drawn grey. The colour is always logarithmic: a specular peak spans decades.
+
+use super::{
+    colour_bar, colour_map, fmt_value, header, rad, render, Common, Drawn, Scale, Subject,
+};
+use crate::eval::Evaluator;
+use anyhow::{bail, Result};
+use glam::DVec3;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct SliceOptions {
+    /// Cells along θh and along θd.
+    pub res: usize,
+    /// φd in degrees.
+    pub phi_d_deg: f64,
+}
+
+impl Default for SliceOptions {
+    fn default() -> SliceOptions {
+        SliceOptions {
+            res: 90,
+            phi_d_deg: 90.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct SlicePanel {
+    pub subject: usize,
+    /// res × res values, row k = θd cell k (θd growing), column l = θh cell l (θh growing);
+    /// cell-centred angles (k + ½)·90°/res. Zero where a direction is below the horizon.
+    pub values: Vec<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub struct SliceData {
+    pub title: String,
+    pub res: usize,
+    pub phi_d_deg: f64,
+    pub panels: Vec<SlicePanel>,
+    pub scale: Scale,
+    pub evaluations: u64,
+}
+
+impl SliceData {
+    /// θ in degrees of cell k (the same for θh and θd).
+    pub fn theta_deg(&self, k: usize) -> f64 {
+        (k as f64 + 0.5) * 90.0 / self.res as f64
+    }
+}
+
+/// (ωi, ωo) of the half/difference angles (radians).
+pub fn half_diff_to_pair(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> (DVec3, DVec3) {
+    let h = crate::grid::direction(theta_h, phi_h);
+    let d = crate::grid::direction(theta_d, phi_d);
+    // Ry(θh), then Rz(φh).
+    let (st, ct) = theta_h.sin_cos();
+    let y = DVec3::new(d.x * ct + d.z * st, d.y, -d.x * st + d.z * ct);
+    let (sp, cp) = phi_h.sin_cos();
+    let wi = DVec3::new(y.x * cp - y.y * sp, y.x * sp + y.y * cp, y.z);
+    let wo = 2.0 * wi.dot(h) * h - wi;
+    (wi, wo)
+}
+
+pub fn slice_data(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &SliceOptions,
+) -> Result<SliceData> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a slice plot needs at least one model");
+    }
+    if !(4..=2048).contains(&opts.res) {
+        bail!("--res {}: a slice takes 4 to 2048 cells per axis", opts.res);
+    }
+    if !opts.phi_d_deg.is_finite() {
+        bail!(
+            "--phi-d-deg {}: expected a finite number of degrees",
+            opts.phi_d_deg
+        );
+    }
+    let n = opts.res;
+    let cell = |k: usize| rad((k as f64 + 0.5) * 90.0 / n as f64);
+    let pairs: Vec<(DVec3, DVec3)> = (0..n * n)
+        .map(|k| half_diff_to_pair(cell(k % n), 0.0, cell(k / n), rad(opts.phi_d_deg)))
+        .collect();
+    let mut panels = Vec::new();
+    let mut evaluations = 0;
+    for (j, subject) in subjects.iter().enumerate() {
+        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        evaluations += f.len() as u64;
+        let values = f
+            .iter()
+            .zip(&pairs)
+            .map(|(rgb, (wi, _))| {
+                let w = if common.cos { wi.z.max(0.0) } else { 1.0 };
+                common.channel.of(rgb.map(|x| x * w))
+            })
+            .collect();
+        panels.push(SlicePanel { subject: j, values });
+    }
+    let max = panels
+        .iter()
+        .flat_map(|p| p.values.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let scale = Scale::from_max(max, true, common.decades);
+    let what = if common.cos { "f·cosθi" } else { "f" };
+    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let title = format!(
+        "{what} over θh × θd (Rusinkiewicz), φd = {}°: {}",
+        fmt_value(opts.phi_d_deg),
+        names.join(" vs ")
+    );
+    Ok(SliceData {
+        title,
+        res: n,
+        phi_d_deg: opts.phi_d_deg,
+        panels,
+        scale,
+        evaluations,
+    })
+}
+
+pub fn plot_slice(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &SliceOptions,
+    path: &Path,
+) -> Result<SliceData> {
+    super::Format::of(path)?;
+    let data = slice_data(eval, subjects, common, opts)?;
+    render(
+        path,
+        common.size,
+        |root| draw(root, &data, subjects, common),
+        |root| draw(root, &data, subjects, common),
+    )?;
+    Ok(data)
+}
+
+/// Grey for cells with f = 0 (a direction below the horizon): not part of the colour scale.
+const ZERO_GREY: RGBColor = RGBColor(215, 215, 215);
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &SliceData,
+    subjects: &[Subject],
+    common: &Common,
+) -> Result<()> {
+    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut note = "φh = 0°; grey: f = 0 (a direction below the horizon)".to_string();
+    if !common.switches().is_empty() {
+        note = format!("{note}; {}", common.switches());
+    }
+    lines.push(note);
+    let body = header(root, &data.title, &lines)?;
+    let (w, _) = body.dim_in_pixel();
+    let (maps, bar) = body.split_horizontally(w - 110);
+    let areas = maps.split_evenly((1, data.panels.len()));
+    let n = data.res;
+    let step = 90.0 / n as f64;
+    for (panel, area) in data.panels.iter().zip(areas.iter()) {
+        let mut builder = ChartBuilder::on(area);
+        builder
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(54);
+        if data.panels.len() > 1 {
+            builder.caption(&subjects[panel.subject].label, (super::FONT, 15));
+        }
+        let mut chart = builder
+            .build_cartesian_2d(0.0..90.0, 0.0..90.0)
+            .drawing("a slice chart")?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("θh (degrees)")
+            .y_desc("θd (degrees)")
+            .label_style((super::FONT, 13))
+            .axis_desc_style((super::FONT, 14))
+            .x_labels(7)
+            .y_labels(7)
+            .x_label_formatter(&|v| format!("{}°", fmt_value(*v)))
+            .y_label_formatter(&|v| format!("{}°", fmt_value(*v)))
+            .draw()
+            .drawing("the slice axes")?;
+        let pa = chart.plotting_area();
+        for row in 0..n {
+            let mut col = 0;
+            while col < n {
+                let colour_at = |c: usize| {
+                    let v = panel.values[row * n + c];
+                    if v > 0.0 && v.is_finite() {
+                        colour_map(data.scale.unit(v))
+                    } else {
+                        ZERO_GREY
+                    }
+                };
+                let colour = colour_at(col);
+                let mut end = col + 1;
+                while end < n && colour_at(end) == colour {
+                    end += 1;
+                }
+                pa.draw(&Rectangle::new(
+                    [
+                        (col as f64 * step, row as f64 * step),
+                        (end as f64 * step, (row + 1) as f64 * step),
+                    ],
+                    colour.filled(),
+                ))
+                .drawing("the slice")?;
+                col = end;
+            }
+        }
+    }
+    colour_bar(
+        &bar,
+        &data.scale,
+        &format!("{}, log scale", common.quantity()),
+    )?;
+    Ok(())
+}

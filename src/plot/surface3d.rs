@@ -1,0 +1,334 @@
+//! The lobe as a 3D surface for one ωi: the wireframe of r(ωo) = value(ωo)·ωo over the
+//! hemisphere, where value is f (or f·cosθi) in one channel, in 1/sr. With a logarithmic scale
+//! the radius is the position on that scale instead (0 at max·10^-decades, 1 at the maximum).
+//!
+//! The chart's vertical axis is the surface normal z; its other two axes are x and y.
+
+use super::{
+    check_deg, fmt_value, header, legend, palette, rad, render, text_style, Common, Dash, Drawn,
+    LegendEntry, Scale, Subject,
+};
+use crate::eval::Evaluator;
+use crate::grid::direction;
+use anyhow::{bail, Result};
+use glam::DVec3;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct Surface3dOptions {
+    /// θi in degrees: one panel each.
+    pub theta_i_deg: Vec<f64>,
+    pub phi_i_deg: f64,
+    /// Rings of constant θo (from the pole to 89.5°) and meridians of constant φo.
+    pub n_theta: usize,
+    pub n_phi: usize,
+}
+
+impl Default for Surface3dOptions {
+    fn default() -> Surface3dOptions {
+        Surface3dOptions {
+            theta_i_deg: vec![45.0],
+            phi_i_deg: 0.0,
+            n_theta: 60,
+            n_phi: 72,
+        }
+    }
+}
+
+/// The last ring's θo: just above the horizon, where a one-sided f is still nonzero.
+const LAST_RING_DEG: f64 = 89.5;
+
+#[derive(Clone, Debug)]
+pub struct Surface3dPanel {
+    pub subject: usize,
+    pub theta_i_deg: f64,
+    pub phi_i_deg: f64,
+    /// n_theta × n_phi surface points (x, y, z) in chart units, row-major in (θo, φo).
+    pub points: Vec<[f64; 3]>,
+    /// The plotted value at each point, 1/sr.
+    pub values: Vec<f64>,
+    /// (θo, φo) in degrees of the largest value.
+    pub peak_deg: (f64, f64),
+}
+
+#[derive(Clone, Debug)]
+pub struct Surface3dData {
+    pub title: String,
+    pub n_theta: usize,
+    pub n_phi: usize,
+    pub panels: Vec<Surface3dPanel>,
+    pub scale: Scale,
+    /// Half the extent of the chart's axes, in chart units.
+    pub extent: f64,
+    pub evaluations: u64,
+}
+
+fn theta_o_deg(k: usize, n: usize) -> f64 {
+    LAST_RING_DEG * k as f64 / (n - 1) as f64
+}
+
+fn phi_o_deg(l: usize, n: usize) -> f64 {
+    360.0 * l as f64 / n as f64
+}
+
+pub fn surface3d_data(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &Surface3dOptions,
+) -> Result<Surface3dData> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a 3d plot needs at least one model");
+    }
+    if opts.theta_i_deg.is_empty() {
+        bail!("--theta-i-deg: give at least one incidence angle");
+    }
+    for &t in &opts.theta_i_deg {
+        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+    }
+    if !opts.phi_i_deg.is_finite() {
+        bail!(
+            "--phi-i-deg {}: expected a finite number of degrees",
+            opts.phi_i_deg
+        );
+    }
+    if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
+        bail!(
+            "--res {}: a 3d wireframe takes 4 to 1024 rings (and twice as many meridians, up to 2048)",
+            opts.n_theta
+        );
+    }
+    let (nt, np) = (opts.n_theta, opts.n_phi);
+    let wo: Vec<DVec3> = (0..nt * np)
+        .map(|k| direction(rad(theta_o_deg(k / np, nt)), rad(phi_o_deg(k % np, np))))
+        .collect();
+    let mut raw = Vec::new();
+    let mut evaluations = 0;
+    for (j, subject) in subjects.iter().enumerate() {
+        let mut pairs = Vec::with_capacity(wo.len() * opts.theta_i_deg.len());
+        for &t in &opts.theta_i_deg {
+            let wi = direction(rad(t), rad(opts.phi_i_deg));
+            pairs.extend(wo.iter().map(|&o| (wi, o)));
+        }
+        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        evaluations += f.len() as u64;
+        for (a, &t) in opts.theta_i_deg.iter().enumerate() {
+            let w = if common.cos { rad(t).cos() } else { 1.0 };
+            let values: Vec<f64> = f[a * wo.len()..(a + 1) * wo.len()]
+                .iter()
+                .map(|c| common.channel.of(c.map(|x| x * w)))
+                .collect();
+            raw.push((j, t, values));
+        }
+    }
+    let max = raw
+        .iter()
+        .flat_map(|r| r.2.iter())
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let scale = Scale::from_max(max, common.log, common.decades);
+    let radius = |v: f64| {
+        if !v.is_finite() {
+            0.0
+        } else if scale.log {
+            scale.unit(v)
+        } else {
+            v.max(0.0)
+        }
+    };
+    let extent = if scale.log { 1.0 } else { scale.hi };
+    let panels = raw
+        .into_iter()
+        .map(|(subject, t, values)| {
+            let points = values
+                .iter()
+                .zip(&wo)
+                .map(|(&v, o)| {
+                    let p = *o * radius(v);
+                    // Chart axes: (x, z up, y).
+                    [p.x, p.z, p.y]
+                })
+                .collect();
+            let mut best = 0;
+            for (k, v) in values.iter().enumerate() {
+                if *v > values[best] {
+                    best = k;
+                }
+            }
+            Surface3dPanel {
+                subject,
+                theta_i_deg: t,
+                phi_i_deg: opts.phi_i_deg,
+                points,
+                values,
+                peak_deg: (theta_o_deg(best / np, nt), phi_o_deg(best % np, np)),
+            }
+        })
+        .collect();
+    let what = if common.cos { "f·cosθi" } else { "f" };
+    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let title = format!(
+        "The lobe r(ωo) = {what}·ωo for ωi at φi = {}°: {}",
+        fmt_value(opts.phi_i_deg),
+        names.join(" vs ")
+    );
+    Ok(Surface3dData {
+        title,
+        n_theta: nt,
+        n_phi: np,
+        panels,
+        scale,
+        extent,
+        evaluations,
+    })
+}
+
+pub fn plot_surface3d(
+    eval: &Evaluator,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &Surface3dOptions,
+    path: &Path,
+) -> Result<Surface3dData> {
+    super::Format::of(path)?;
+    let data = surface3d_data(eval, subjects, common, opts)?;
+    render(
+        path,
+        common.size,
+        |root| draw(root, &data, subjects, common),
+        |root| draw(root, &data, subjects, common),
+    )?;
+    Ok(data)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    data: &Surface3dData,
+    subjects: &[Subject],
+    common: &Common,
+) -> Result<()> {
+    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let unit = if data.scale.log {
+        format!(
+            "radius: position on a log scale of {} over {} decades below its maximum {}",
+            common.quantity(),
+            fmt_value(common.decades),
+            fmt_value(data.scale.hi)
+        )
+    } else {
+        format!("axes: components of r in 1/sr ({})", common.quantity())
+    };
+    let mut note =
+        format!("{unit}; vertical axis: the normal z; red: ωi, dashed: mirror direction");
+    if !common.switches().is_empty() {
+        note = format!("{note}; {}", common.switches());
+    }
+    lines.push(note);
+    let body = header(root, &data.title, &lines)?;
+    let (w, _) = body.dim_in_pixel();
+    let (charts, legend_area) = if subjects.len() > 1 {
+        let (a, b) = body.split_horizontally(w - (w / 5).clamp(160, 300));
+        (a, Some(b))
+    } else {
+        (body, None)
+    };
+    let n_angles = data.panels.len() / subjects.len();
+    let areas = charts.split_evenly((1, n_angles));
+    let e = data.extent;
+    for (a, area) in areas.iter().enumerate() {
+        let t = data.panels[a].theta_i_deg;
+        let phi_i = data.panels[a].phi_i_deg;
+        let mut chart = ChartBuilder::on(area)
+            .margin(16)
+            .caption(format!("θi = {}°", fmt_value(t)), (super::FONT, 16))
+            .build_cartesian_3d(-e..e, 0.0..e, -e..e)
+            .drawing("a 3d chart")?;
+        chart.with_projection(|mut pb| {
+            pb.yaw = 0.6;
+            pb.pitch = 0.35;
+            pb.scale = 0.85;
+            pb.into_matrix()
+        });
+        chart
+            .configure_axes()
+            .light_grid_style(BLACK.mix(0.12))
+            .max_light_lines(4)
+            .label_style((super::FONT, 11))
+            .x_formatter(&|v| fmt_value(*v))
+            .y_formatter(&|v| fmt_value(*v))
+            .z_formatter(&|v| fmt_value(*v))
+            .draw()
+            .drawing("the 3d axes")?;
+        let axis_label =
+            |s: &str, p: (f64, f64, f64)| Text::new(s.to_string(), p, text_style(14, BLACK));
+        chart
+            .draw_series([
+                axis_label("x", (e * 1.1, 0.0, 0.0)),
+                axis_label("y", (0.0, 0.0, e * 1.1)),
+                axis_label("z (normal)", (0.0, e * 1.08, 0.0)),
+            ])
+            .drawing("the axis names")?;
+        for (j, panel) in data
+            .panels
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| k % n_angles == a)
+        {
+            let _ = j;
+            let colour = if subjects.len() > 1 {
+                palette(panel.subject)
+            } else {
+                palette(0)
+            };
+            let (nt, np) = (data.n_theta, data.n_phi);
+            let p = |k: usize, l: usize| {
+                let q = panel.points[k * np + l % np];
+                (q[0], q[1], q[2])
+            };
+            // Rings every other θ, meridians every fourth φ: dense enough to read the shape.
+            for k in (0..nt).step_by(2) {
+                chart
+                    .draw_series(LineSeries::new((0..=np).map(|l| p(k, l)), colour.mix(0.8)))
+                    .drawing("a ring")?;
+            }
+            for l in (0..np).step_by(4) {
+                chart
+                    .draw_series(LineSeries::new((0..nt).map(|k| p(k, l)), colour.mix(0.8)))
+                    .drawing("a meridian")?;
+            }
+        }
+        let wi = direction(rad(t), rad(phi_i)) * e;
+        let mirror = DVec3::new(-wi.x, -wi.y, wi.z);
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, 0.0, 0.0), (wi.x, wi.z, wi.y)],
+                RED.stroke_width(3),
+            ))
+            .drawing("the light direction")?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(0.0, 0.0, 0.0), (mirror.x, mirror.z, mirror.y)],
+                8,
+                5,
+                BLACK.stroke_width(2),
+            ))
+            .drawing("the mirror direction")?;
+    }
+    if let Some(area) = legend_area {
+        let entries: Vec<LegendEntry> = subjects
+            .iter()
+            .enumerate()
+            .map(|(j, s)| LegendEntry {
+                label: s.label.clone(),
+                colour: palette(j),
+                dash: Dash::Solid,
+            })
+            .collect();
+        legend(&area, &entries)?;
+    }
+    Ok(())
+}
