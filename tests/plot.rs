@@ -72,11 +72,10 @@ fn run(e: &Evaluator, subjects: &[Subject], common: &Common, r: &Request, path: 
     plot::plot(e, subjects, common, r, path).unwrap_or_else(|err| panic!("{err:#}"))
 }
 
-/// Runs `f` with the GPU evaluator, or not at all when LOBE_SKIP_GPU=1 (it fails without a
-/// device otherwise, with the install hint).
+/// Runs `f` with the GPU evaluator, or not at all when LOBE_SKIP_GPU=1; without a device it
+/// fails, printing lobe::gpu::INSTALL_HINT (the device error carries it).
 fn with_gpu(test: &str, f: impl FnOnce(&Evaluator)) {
     let Some(dev) = common::gpu_device(test) else {
-        eprintln!("({})", lobe::gpu::INSTALL_HINT);
         return;
     };
     let gpu = Gpu::new(&dev);

@@ -224,13 +224,12 @@ pub fn hemisphere_data(
             });
         }
     }
-    let max = panels
+    let all: Vec<f64> = panels
         .iter()
         .flat_map(|p| p.values.iter())
         .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
-    let scale = Scale::from_max(max, common.log, common.decades);
+        .collect();
+    let scale = Scale::fit(&all, common.log, common.decades, 1.0);
     let (fixed, over) = if opts.reverse {
         ("ωo", "ωi")
     } else {

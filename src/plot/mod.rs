@@ -287,6 +287,28 @@ impl Scale {
         }
     }
 
+    /// A scale fitted to a heat map's values: the top at the `quantile` of the positive finite
+    /// values (1 = the maximum; below 1 the colour saturates above it, so that a few extreme
+    /// cells, such as the 1/(c_i c_o) blow-up at grazing θd, do not flatten the rest), and for a
+    /// logarithmic scale the bottom at the smallest positive value when that is within `decades`.
+    pub fn fit(values: &[f64], log: bool, decades: f64, quantile: f64) -> Scale {
+        let mut v: Vec<f64> = values
+            .iter()
+            .copied()
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .collect();
+        if v.is_empty() {
+            return Scale::from_max(0.0, log, decades);
+        }
+        v.sort_by(f64::total_cmp);
+        let k = ((v.len() - 1) as f64 * quantile.clamp(0.0, 1.0)).round() as usize;
+        let mut s = Scale::from_max(v[k], log, decades);
+        if log && v[0] > s.lo && v[0] < s.hi {
+            s.lo = v[0];
+        }
+        s
+    }
+
     /// Position in [0, 1]; values below the range map to 0 (NaN stays NaN).
     pub fn unit(&self, v: f64) -> f64 {
         let t = if self.log {
@@ -796,6 +818,18 @@ mod tests {
         }
         let l = Scale::from_max(0.318, false, 3.0);
         assert_eq!(l.ticks().first(), Some(&0.0));
+    }
+
+    #[test]
+    fn a_fitted_scale_saturates_above_its_quantile_and_starts_at_the_smallest_value() {
+        let mut v: Vec<f64> = (1..=100).map(f64::from).collect();
+        v.push(1e9);
+        v.push(f64::NAN);
+        v.push(0.0);
+        let s = Scale::fit(&v, true, 4.0, 0.99);
+        assert_eq!((s.lo, s.hi), (1.0, 100.0));
+        let m = Scale::fit(&v, false, 4.0, 1.0);
+        assert_eq!((m.lo, m.hi), (0.0, 1e9));
     }
 
     #[test]

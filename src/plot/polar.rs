@@ -416,7 +416,7 @@ fn draw<DB: DrawingBackend>(
     }
     if !data.deltas.is_empty() {
         entries.push(LegendEntry {
-            label: "arrow: mirror spike (δ), ρ = its albedo".into(),
+            label: "arrow: δ spike, ρ = albedo".into(),
             colour: BLACK,
             dash: Dash::Solid,
         });

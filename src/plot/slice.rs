@@ -46,6 +46,8 @@ pub struct SlicePanel {
 #[derive(Clone, Debug)]
 pub struct SliceData {
     pub title: String,
+    /// The largest value (the colour saturates at `scale.hi`, the COLOUR_QUANTILE of them).
+    pub max: f64,
     pub res: usize,
     pub phi_d_deg: f64,
     pub panels: Vec<SlicePanel>,
@@ -112,13 +114,17 @@ pub fn slice_data(
             .collect();
         panels.push(SlicePanel { subject: j, values });
     }
-    let max = panels
+    let all: Vec<f64> = panels
         .iter()
         .flat_map(|p| p.values.iter())
         .copied()
+        .collect();
+    let scale = Scale::fit(&all, true, common.decades, COLOUR_QUANTILE);
+    let max = all
+        .iter()
+        .copied()
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
-    let scale = Scale::from_max(max, true, common.decades);
     let what = if common.cos { "f·cosθi" } else { "f" };
     let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
@@ -128,6 +134,7 @@ pub fn slice_data(
     );
     Ok(SliceData {
         title,
+        max,
         res: n,
         phi_d_deg: opts.phi_d_deg,
         panels,
@@ -154,6 +161,11 @@ pub fn plot_slice(
     Ok(data)
 }
 
+/// The colour scale's top: the 99th percentile of the values. Near θd = 90° a microfacet
+/// model's 1/(c_i c_o) grows without bound (10⁵ for gold at θd = 89.5°), and a scale topped by
+/// that one row would leave the rest of the image at the bottom colour.
+pub const COLOUR_QUANTILE: f64 = 0.99;
+
 /// Grey for cells with f = 0 (a direction below the horizon): not part of the colour scale.
 const ZERO_GREY: RGBColor = RGBColor(215, 215, 215);
 
@@ -164,7 +176,12 @@ fn draw<DB: DrawingBackend>(
     common: &Common,
 ) -> Result<()> {
     let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
-    let mut note = "φh = 0°; grey: f = 0 (a direction below the horizon)".to_string();
+    let mut note = format!(
+        "φh = 0°; grey: f = 0 (a direction below the horizon); colour saturates above {} (99th \
+         percentile; max {})",
+        fmt_value(data.scale.hi),
+        fmt_value(data.max)
+    );
     if !common.switches().is_empty() {
         note = format!("{note}; {}", common.switches());
     }
