@@ -280,7 +280,7 @@ fn projections_invert_and_keep_the_horizon_on_the_unit_circle() {
 #[test]
 fn rusinkiewicz_coordinates_give_the_half_and_difference_angles() {
     for (th, ph, td, pd) in [
-        (0.3, 0.0, 0.5, 1.5707963),
+        (0.3, 0.0, 0.5, 1.5),
         (1.2, 0.7, 0.2, 0.4),
         (0.0, 0.0, 1.0, 3.0),
     ] {

@@ -816,7 +816,7 @@ mod tests {
         for t in s.ticks() {
             assert!(t >= s.lo * 0.999 && t <= s.hi * 1.001);
         }
-        let l = Scale::from_max(0.318, false, 3.0);
+        let l = Scale::from_max(0.25, false, 3.0);
         assert_eq!(l.ticks().first(), Some(&0.0));
     }
 
