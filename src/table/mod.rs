@@ -132,6 +132,16 @@ pub fn write_table(
     let cells = meta.grid.cells().context("the grid has too many cells")?;
     let mut shape = meta.grid.shape();
     shape.push(3);
+    // The three renames at the end cannot be undone one by one: refuse a destination that no
+    // rename can replace before any of them, so that no file of the set appears alone.
+    for dest in [exr_path, &npy_path, &json_path] {
+        if dest.is_dir() {
+            bail!(
+                "cannot write {}: a folder of that name is in the way",
+                dest.display()
+            );
+        }
+    }
 
     let npy_tmp = temp_beside(&npy_path)?;
     let exr_tmp = temp_beside(exr_path)?;
