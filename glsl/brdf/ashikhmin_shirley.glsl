@@ -28,6 +28,6 @@ vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
                / (c_d * max(c_i, c_o));
     vec3 rho_s = spec * F_specular(c_d, p.specular);
     vec3 rho_d = 28.0 / (23.0 * PI) * p.diffuse * (1.0 - p.specular)
-               * ((1.0 - pow5(1.0 - 0.5 * c_i)) * (1.0 - pow5(1.0 - 0.5 * c_o)));
+               * (pow5_complement(0.5 * c_i) * pow5_complement(0.5 * c_o));
     return rho_s + rho_d;
 }

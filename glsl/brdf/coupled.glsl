@@ -12,5 +12,5 @@ struct CoupledParams {
 vec3 coupled(CoupledParams p, vec3 wi, vec3 wo) {
     float r0 = r0_from_ior(p.ior);
     float k = 21.0 / (20.0 * PI) * (1.0 - r0);
-    return p.matte * (k * (1.0 - pow5(1.0 - wi.z)) * (1.0 - pow5(1.0 - wo.z)));
+    return p.matte * (k * pow5_complement(wi.z) * pow5_complement(wo.z));
 }

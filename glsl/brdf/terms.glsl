@@ -58,8 +58,20 @@ float r0_from_ior(float eta) {
 }
 
 // Schlick 1994, "An inexpensive BRDF model for physically-based rendering", eq. 15.
+// c is clamped to 1: c_d = |wi + wo|/2 of unit-length f32 inputs (|w| = 1 +- a few ulp) can round
+// above 1, and (1 - c)^5 < 0 would then push F below R0 (below 0 for R0 = 0, an index-matched
+// interface).
 vec3 F_schlick(float c, vec3 r0) {
-    return r0 + (1.0 - r0) * pow5(1.0 - c);
+    return r0 + (1.0 - r0) * pow5(1.0 - min(c, 1.0));
+}
+
+// 1 - (1 - x)^5 for x in [0, 1], the diffuse factor of Shirley's coupled and Ashikhmin-Shirley's
+// models. Written as x (1 + y + y^2 + y^3 + y^4) with y = 1 - x (1 - y^5 = (1 - y)(1 + ... + y^4)):
+// every term is positive, so there is no cancellation; the direct form loses all digits in f32 when
+// x is below the unit roundoff (grazing directions, cos theta ~ 1e-7), where the factor is ~5x.
+float pow5_complement(float x) {
+    float y = 1.0 - x;
+    return x * (1.0 + y * (1.0 + y * (1.0 + y * (1.0 + y))));
 }
 
 // The Fresnel factor of a specular lobe, or 1 under the white furnace (DESIGN §3).
@@ -152,17 +164,34 @@ float F_dielectric(float c, float eta) {
 // (Born & Wolf, Principles of Optics, section 14.2; the a, b form as in Lagarde 2013, "Memo on
 // Fresnel equations"). With k = 0 it reduces to F_dielectric.
 vec3 F_conductor(float c, vec3 eta, vec3 k) {
+    // With n + i k = eta + i k and s^2 = sin^2 theta, (a + i b)^2 = (eta + i k)^2 - s^2, so
+    // a^2 - b^2 = t0 = eta^2 - 1 - k^2 + c^2 and a b = eta k; then
+    // Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),
+    // Rp = Rs ((a c - s^2)^2 + b^2 c^2) / ((a c + s^2)^2 + b^2 c^2).
+    // Written as sums of squares (never negative) and without the differences that cancel near
+    // an index-matched interface (eta -> 1, k -> 0, where F -> 0):
+    // - t0 from (eta - 1)(eta + 1) + c^2, not eta^2 - (1 - c^2);
+    // - the smaller of a^2, b^2 from r = 2 eta^2 k^2 / (|a^2 + b^2| + |t0|), not from
+    //   (a^2 + b^2 - |t0|)/2;
+    // - a - c as (a^2 - c^2)/(a + c) with a^2 - c^2 = eta^2 - 1 - k^2 + r when t0 >= 0.
+    // At eta = 1, k = 0 this gives a = c, b = 0 and F = 0 exactly.
     float c2 = c * c, s2 = 1.0 - c2;
-    vec3 t0 = eta * eta - k * k - s2;
-    vec3 a2b2 = sqrt(t0 * t0 + 4.0 * eta * eta * k * k);
-    vec3 a = sqrt(max(0.5 * (a2b2 + t0), 0.0));
-    vec3 t1 = a2b2 + c2;
-    vec3 t2 = 2.0 * c * a;
-    // t1 + t2 = 0 only for eta = 1, k = 0 at grazing (no interface): the floor makes rs = 0 there.
-    vec3 rs = (t1 - t2) / max(t1 + t2, vec3(1e-30));
-    vec3 t3 = c2 * a2b2 + s2 * s2;
-    vec3 t4 = t2 * s2;
-    vec3 rp = rs * (t3 - t4) / (t3 + t4);
+    vec3 e2m1k2 = (eta - 1.0) * (eta + 1.0) - k * k;
+    vec3 t0 = e2m1k2 + c2;
+    vec3 q = 2.0 * eta * eta * k * k;
+    vec3 a2b2 = sqrt(t0 * t0 + 2.0 * q);
+    // a2b2 + |t0| = 0 only when q = 0 too: the floor makes r = 0 there.
+    vec3 r = q / max(a2b2 + abs(t0), vec3(1e-30));
+    bvec3 t0_pos = greaterThanEqual(t0, vec3(0.0));
+    vec3 a2 = max(t0, 0.0) + r;
+    vec3 b2 = max(-t0, 0.0) + r;
+    vec3 a = sqrt(a2);
+    vec3 amc = mix(r - c2, e2m1k2 + r, t0_pos) / max(a + c, vec3(1e-30));
+    vec3 apc = a + c;
+    vec3 rs = (amc * amc + b2) / max(apc * apc + b2, vec3(1e-30));
+    vec3 ac = a * c;
+    vec3 bc2 = b2 * c2;
+    vec3 rp = rs * ((ac - s2) * (ac - s2) + bc2) / max((ac + s2) * (ac + s2) + bc2, vec3(1e-30));
     return 0.5 * (rp + rs);
 }
 

@@ -2,7 +2,7 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{half_vector, one_minus_cos_theta, pow1m, pow5, F_specular};
+use super::terms::{half_vector, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -93,6 +93,6 @@ pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furna
     let rho_d = 28.0 / (23.0 * PI)
         * p.diffuse
         * (DVec3::ONE - p.specular)
-        * ((1.0 - pow5(1.0 - 0.5 * c_i)) * (1.0 - pow5(1.0 - 0.5 * c_o)));
+        * (pow5_complement(0.5 * c_i) * pow5_complement(0.5 * c_o));
     rho_s + rho_d
 }

@@ -2,7 +2,7 @@
 //! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{pow5, r0_from_ior, F_schlick};
+use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -57,7 +57,7 @@ impl Coupled {
 pub fn coupled(p: &Coupled, wi: DVec3, wo: DVec3) -> DVec3 {
     let r0 = r0_from_ior(p.ior);
     let k = 21.0 / (20.0 * PI) * (1.0 - r0);
-    p.matte * (k * (1.0 - pow5(1.0 - wi.z)) * (1.0 - pow5(1.0 - wo.z)))
+    p.matte * (k * pow5_complement(wi.z) * pow5_complement(wo.z))
 }
 
 /// Albedo of the mirror spike seen from c_o: F_s(c_o).

@@ -45,7 +45,13 @@ pub fn r0_from_ior(eta: f64) -> f64 {
 /// Schlick 1994, eq. 15: F = R0 + (1 - R0)(1 - c)^5.
 #[allow(non_snake_case)]
 pub fn F_schlick(c: f64, r0: DVec3) -> DVec3 {
-    r0 + (DVec3::ONE - r0) * pow5(1.0 - c)
+    r0 + (DVec3::ONE - r0) * pow5(1.0 - c.min(1.0)) // c ≤ 1: see the GLSL twin
+}
+
+/// 1 − (1 − x)⁵ as x(1 + y + y² + y³ + y⁴), y = 1 − x: no cancellation (see the GLSL twin).
+pub fn pow5_complement(x: f64) -> f64 {
+    let y = 1.0 - x;
+    x * (1.0 + y * (1.0 + y * (1.0 + y * (1.0 + y))))
 }
 
 /// The Fresnel factor of a specular lobe, or 1 under the white furnace (DESIGN §3).
@@ -136,16 +142,25 @@ pub fn F_dielectric(c: f64, eta: f64) -> f64 {
 /// Wolf §14.2; Lagarde 2013). Equals [`F_dielectric`] when κ = 0.
 #[allow(non_snake_case)]
 pub fn F_conductor(c: f64, eta: DVec3, k: DVec3) -> DVec3 {
+    // Sums of squares without cancelling differences; see the GLSL twin for the derivation.
+    let tiny = DVec3::splat(1e-30);
     let (c2, s2) = (c * c, 1.0 - c * c);
-    let t0 = eta * eta - k * k - DVec3::splat(s2);
-    let a2b2 = (t0 * t0 + 4.0 * eta * eta * k * k).map(f64::sqrt);
-    let a = (0.5 * (a2b2 + t0)).max(DVec3::ZERO).map(f64::sqrt);
-    let t1 = a2b2 + DVec3::splat(c2);
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2).max(DVec3::splat(1e-30)); // see the GLSL twin
-    let t3 = c2 * a2b2 + DVec3::splat(s2 * s2);
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
+    let e2m1k2 = (eta - 1.0) * (eta + 1.0) - k * k;
+    let t0 = e2m1k2 + DVec3::splat(c2);
+    let q = 2.0 * eta * eta * k * k;
+    let a2b2 = (t0 * t0 + 2.0 * q).map(f64::sqrt);
+    let r = q / (a2b2 + t0.abs()).max(tiny);
+    let a2 = t0.max(DVec3::ZERO) + r;
+    let b2 = (-t0).max(DVec3::ZERO) + r;
+    let a = a2.map(f64::sqrt);
+    let a2mc2 = DVec3::select(t0.cmpge(DVec3::ZERO), e2m1k2 + r, r - DVec3::splat(c2));
+    let amc = a2mc2 / (a + DVec3::splat(c)).max(tiny);
+    let apc = a + DVec3::splat(c);
+    let rs = (amc * amc + b2) / (apc * apc + b2).max(tiny);
+    let ac = a * c;
+    let bc2 = b2 * c2;
+    let (m, p) = (ac - DVec3::splat(s2), ac + DVec3::splat(s2));
+    let rp = rs * (m * m + bc2) / (p * p + bc2).max(tiny);
     0.5 * (rp + rs)
 }
 
@@ -180,5 +195,76 @@ mod tests {
         assert_eq!(F_schlick(1.0, r0), r0);
         assert_eq!(F_schlick(0.0, r0), DVec3::ONE);
         assert!((r0_from_ior(1.5) - 0.04).abs() < 1e-15);
+    }
+
+    #[test]
+    fn schlick_never_drops_below_r0_for_c_above_one() {
+        // c_d of f32 unit vectors can exceed 1 by a few ulp.
+        assert_eq!(F_schlick(1.0 + 1e-7, DVec3::ZERO), DVec3::ZERO);
+    }
+
+    #[test]
+    fn pow5_complement_equals_the_direct_form_and_keeps_small_arguments() {
+        for x in [0.0f64, 1e-3, 0.1, 0.37, 0.5, 0.9, 1.0] {
+            let direct = 1.0 - (1.0 - x).powi(5);
+            assert!((pow5_complement(x) - direct).abs() < 1e-15, "x = {x}");
+        }
+        // 1 − (1 − x)⁵ = 5x − 10x² + …: at x = 1e-20 the direct form gives 0.
+        assert!((pow5_complement(1e-20) / 5e-20 - 1.0).abs() < 1e-15);
+    }
+
+    /// |z|² of a complex number (re, im).
+    fn norm2(z: (f64, f64)) -> f64 {
+        z.0 * z.0 + z.1 * z.1
+    }
+
+    fn cdiv(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+        let d = norm2(b);
+        ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+    }
+
+    /// Fresnel for a complex index n = η + iκ straight from the amplitude coefficients (Born &
+    /// Wolf §1.5, §14.2): w = √(n² − s²), r_s = (c − w)/(c + w), r_p = (n² c − w)/(n² c + w),
+    /// F = (|r_s|² + |r_p|²)/2 — complex arithmetic, independent of the a, b algebra under test.
+    fn fresnel_complex(c: f64, eta: f64, k: f64) -> f64 {
+        let n2 = (eta * eta - k * k, 2.0 * eta * k);
+        // n² − s² with n² − 1 as (η − 1)(η + 1) − κ², so that the reference itself is exact
+        // at an index-matched interface (η = 1, κ = 0 gives z = c², F = 0).
+        let z = ((eta - 1.0) * (eta + 1.0) - k * k + c * c, n2.1);
+        // Principal square root (Im ≥ 0), with the smaller part from the larger one's
+        // (Re w · Im w = Im z / 2) so that it does not cancel.
+        let m = norm2(z).sqrt();
+        let w = if z.0 >= 0.0 {
+            let re = ((m + z.0) / 2.0).sqrt();
+            (re, if re > 0.0 { z.1 / (2.0 * re) } else { 0.0 })
+        } else {
+            let im = ((m - z.0) / 2.0).sqrt();
+            (z.1 / (2.0 * im), im)
+        };
+        let rs = cdiv((c - w.0, -w.1), (c + w.0, w.1));
+        let n2c = (n2.0 * c, n2.1 * c);
+        let rp = cdiv((n2c.0 - w.0, n2c.1 - w.1), (n2c.0 + w.0, n2c.1 + w.1));
+        0.5 * (norm2(rs) + norm2(rp))
+    }
+
+    #[test]
+    fn conductor_matches_complex_fresnel_and_the_dielectric() {
+        // Both are f64 evaluations of the same reflectance; 1e-12 relative leaves room for the
+        // conditioning of r_p near its minimum (Brewster-like angle).
+        const REL: f64 = 1e-12;
+        for &(eta, k) in &[(0.2, 3.0), (1.0, 0.0), (1.0, 1e-4), (1.5, 0.0), (1.5, 0.2), (3.0, 4.0), (0.5, 0.0)] {
+            for c in [1e-6, 0.01, 0.2, 0.5, 0.8, 1.0] {
+                let got = F_conductor(c, DVec3::splat(eta), DVec3::splat(k)).x;
+                let want = fresnel_complex(c, eta, k);
+                assert!(got >= 0.0 && (got - want).abs() <= REL * want.max(1e-300) + 1e-300,
+                    "eta {eta} k {k} c {c}: {got} vs {want}");
+                if k == 0.0 {
+                    let d = F_dielectric(c, eta);
+                    assert!((got - d).abs() <= REL * d.max(1e-300) + 1e-300, "eta {eta} c {c}: {got} vs dielectric {d}");
+                }
+            }
+        }
+        // An index-matched interface reflects nothing.
+        assert_eq!(F_conductor(0.3, DVec3::ONE, DVec3::ZERO), DVec3::ZERO);
     }
 }
