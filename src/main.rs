@@ -163,7 +163,9 @@ struct AlbedoArgs {
     phi_deg: f64,
     /// Integrator: peak (graded Gauss-Legendre aligned with the mirror direction; default),
     /// gauss (Gauss-Legendre in mu x uniform phi), midpoint (theta, phi cells), qmc
-    /// (cosine-weighted low-discrepancy points), reference (adaptive f64 Gauss-Kronrod, CPU only).
+    /// (cosine-weighted low-discrepancy points), importance (randomised low-discrepancy points
+    /// from a cosine + mirror-lobe mixture tuned to the model; error = 3.5 standard errors of 8
+    /// replicates), reference (adaptive f64 Gauss-Kronrod, CPU only).
     #[arg(long, default_value = "peak")]
     method: String,
     /// Quadrature nodes per view direction (default depends on the method; ignored by reference).
