@@ -1,0 +1,585 @@
+//! Albedo look-up tables (issue 3, DESIGN §5): the directional albedo E(μ, p) over view cosines
+//! μ and one parameter axis p (roughness, shininess, smoothness, σ, …), and Kulla–Conty's
+//! E_avg(p) = 2∫₀¹ E(μ, p) μ dμ, the tables real-time engines load for energy compensation.
+//!
+//! Axes (both cell-centred, as DESIGN §4's angles are):
+//! - μ_j = (j + ½)/Nμ, j = 0 … Nμ − 1: cells of equal width in μ = cosθo over (0, 1], so no
+//!   entry sits at grazing μ = 0 (where E is a limit) and a bilinear lookup at μ reads cell j at
+//!   u = μ.
+//! - p_k = map(t_k), t_k = (k + ½)/Np, with `map` one of [`Mapping`]: linear lo + (hi − lo)t,
+//!   log lo·(hi/lo)^t, or square lo + (hi − lo)t² (denser at lo: uniform in √p, like engines'
+//!   perceptual roughness).
+//!
+//! E includes the delta lobe (`smooth_layered`, `coupled`); E_avg is taken at the view azimuth
+//! φo of the spec (it equals the hemispherical albedo for an isotropic model).
+//!
+//! Files, written like lobe tables (a temporary file beside each destination, renamed into place
+//! only when all are complete; no partial file on error):
+//! - `PATH.exr`: float32 RGB, layer `E` (Nμ wide, x = j; Np tall, y = k) and layer `E_avg`
+//!   (1 wide, Np tall), with `lobe.*` header attributes;
+//! - `PATH.npy`: E, shape (Np, Nμ, 3); `PATH_avg.npy`: E_avg, shape (Np, 3);
+//! - `PATH.json`: the sidecar: model, fixed parameters, axis key, range, mapping, centring,
+//!   method, samples, the axes' values and the largest error estimate.
+
+use crate::eval::Evaluator;
+use crate::integrate::{directional, hemispherical, Method, Settings};
+use crate::model::{Model, ParamKind, ParamSet, Value};
+use crate::table::{npy, persist, temp_beside};
+use anyhow::{bail, Context, Result};
+use exr::prelude::*;
+use glam::DVec3;
+use serde_json::json;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// How cell t ∈ (0, 1) of the parameter axis maps to a parameter value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mapping {
+    /// p = lo + (hi − lo)·t.
+    Linear,
+    /// p = lo·(hi/lo)^t (needs lo > 0): for exponents that span decades.
+    Log,
+    /// p = lo + (hi − lo)·t²: uniform in √p, denser at lo.
+    Square,
+}
+
+impl Mapping {
+    pub const ALL: [Mapping; 3] = [Mapping::Linear, Mapping::Log, Mapping::Square];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Mapping::Linear => "linear",
+            Mapping::Log => "log",
+            Mapping::Square => "square",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Result<Mapping> {
+        Mapping::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "unknown parameter mapping '{name}'; the mappings are: {}",
+                    Mapping::ALL.map(Mapping::name).join(", ")
+                )
+            })
+    }
+
+    /// The formula, for the sidecar.
+    pub fn formula(self) -> &'static str {
+        match self {
+            Mapping::Linear => "p = lo + (hi - lo) * t",
+            Mapping::Log => "p = lo * (hi / lo) ** t",
+            Mapping::Square => "p = lo + (hi - lo) * t**2",
+        }
+    }
+
+    pub fn apply(self, lo: f64, hi: f64, t: f64) -> f64 {
+        match self {
+            Mapping::Linear => lo + (hi - lo) * t,
+            Mapping::Log => lo * (hi / lo).powf(t),
+            Mapping::Square => lo + (hi - lo) * t * t,
+        }
+    }
+}
+
+/// The parameter axis a model's LUT sweeps by default: (keys set together, lo, hi, mapping).
+/// Every key takes the same value (Ashikhmin–Shirley's nu and nv: an isotropic lobe); an rgb
+/// key is set grey.
+pub fn default_axis(model: Model) -> (Vec<&'static str>, f64, f64, Mapping) {
+    match model {
+        Model::Lambert => (vec!["albedo"], 0.0, 1.0, Mapping::Linear),
+        // The seed's range of exponents, 1 to 8192: three and a half decades.
+        Model::Phong => (vec!["shininess"], 1.0, 8192.0, Mapping::Log),
+        Model::BlinnPhong => (vec!["smoothness"], 0.0, 1.0, Mapping::Linear),
+        Model::OrenNayar => (
+            vec!["sigma"],
+            0.0,
+            std::f64::consts::FRAC_PI_2,
+            Mapping::Linear,
+        ),
+        // m = 0.01 (the sharpest seed lobe) to 1, denser where E changes fastest.
+        Model::CookTorrance => (vec!["roughness"], 0.01, 1.0, Mapping::Square),
+        Model::SmoothLayered | Model::Coupled => (vec!["ior"], 1.0, 3.0, Mapping::Linear),
+        Model::AshikhminShirley => (vec!["nu", "nv"], 1.0, 10000.0, Mapping::Log),
+        Model::Microfacet(_) => (vec!["alpha"], 0.01, 1.0, Mapping::Square),
+    }
+}
+
+/// What to tabulate and how.
+#[derive(Clone, Debug)]
+pub struct LutSpec {
+    /// Every parameter but the axis (whose keys are overwritten per row).
+    pub params: ParamSet,
+    pub white_furnace: bool,
+    /// The parameter keys of the axis, all set to p.
+    pub keys: Vec<String>,
+    pub lo: f64,
+    pub hi: f64,
+    pub mapping: Mapping,
+    pub n_mu: usize,
+    pub n_p: usize,
+    pub method: Method,
+    /// Nodes per view direction (ignored by the reference).
+    pub samples: usize,
+    /// View azimuth φo in radians (matters for anisotropic models only).
+    pub phi: f64,
+}
+
+/// Largest table side: a LUT is a lookup table, not a lobe table.
+pub const MAX_RES: usize = 4096;
+
+impl LutSpec {
+    /// The model's default axis ([`default_axis`]) at 32 × 32 cells (the size of Kulla–Conty's
+    /// tables), the default method at its default node count.
+    pub fn new(params: ParamSet, white_furnace: bool) -> LutSpec {
+        let (keys, lo, hi, mapping) = default_axis(params.model());
+        LutSpec {
+            params,
+            white_furnace,
+            keys: keys.into_iter().map(String::from).collect(),
+            lo,
+            hi,
+            mapping,
+            n_mu: 32,
+            n_p: 32,
+            method: Method::Peak,
+            samples: Method::Peak.default_samples(),
+            phi: 0.0,
+        }
+    }
+
+    /// μ at each cell centre.
+    pub fn mus(&self) -> Vec<f64> {
+        (0..self.n_mu)
+            .map(|j| (j as f64 + 0.5) / self.n_mu as f64)
+            .collect()
+    }
+
+    /// p at each cell centre.
+    pub fn ps(&self) -> Vec<f64> {
+        (0..self.n_p)
+            .map(|k| {
+                let t = (k as f64 + 0.5) / self.n_p as f64;
+                self.mapping.apply(self.lo, self.hi, t)
+            })
+            .collect()
+    }
+
+    /// The parameters of row k: the axis keys set to p (validated like any user input).
+    pub fn params_at(&self, p: f64) -> Result<ParamSet> {
+        let mut set = self.params.clone();
+        for key in &self.keys {
+            set.set(key, Value::One(p))
+                .with_context(|| format!("the LUT axis --lut-param {key} at {p}"))?;
+        }
+        Ok(set)
+    }
+
+    /// Checks the axis and the sizes, with errors that name the input and its valid range.
+    pub fn validate(&self) -> Result<()> {
+        let model = self.params.model();
+        if self.keys.is_empty() {
+            bail!("--lut-param: give at least one parameter key");
+        }
+        for key in &self.keys {
+            let Some(spec) = model.params().iter().find(|s| s.key == key) else {
+                bail!(
+                    "--lut-param {key}: {} has no such parameter; its numeric parameters are: {}",
+                    model.name(),
+                    numeric_keys(model).join(", ")
+                );
+            };
+            if let ParamKind::Choice(_) = spec.kind {
+                bail!(
+                    "--lut-param {key}: a choice, not a number; the numeric parameters of {} are: {}",
+                    model.name(),
+                    numeric_keys(model).join(", ")
+                );
+            }
+            for v in [self.lo, self.hi] {
+                if spec.check(v).is_err() {
+                    bail!(
+                        "--lut-range {},{}: {key} must lie in {}",
+                        self.lo,
+                        self.hi,
+                        spec.range_text()
+                    );
+                }
+            }
+        }
+        if !(self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi) {
+            bail!(
+                "--lut-range {},{}: expected LO,HI with LO < HI",
+                self.lo,
+                self.hi
+            );
+        }
+        if self.mapping == Mapping::Log && self.lo <= 0.0 {
+            bail!(
+                "--lut-range {},{} with --lut-map log: LO must be > 0",
+                self.lo,
+                self.hi
+            );
+        }
+        for (name, n) in [("NMU", self.n_mu), ("NP", self.n_p)] {
+            if n == 0 || n > MAX_RES {
+                bail!("--lut-res: {name} = {n} must lie in [1, {MAX_RES}]");
+            }
+        }
+        if !self.phi.is_finite() {
+            bail!("--phi-deg: expected a finite angle");
+        }
+        Ok(())
+    }
+}
+
+fn numeric_keys(model: Model) -> Vec<&'static str> {
+    model
+        .params()
+        .iter()
+        .filter(|s| !matches!(s.kind, ParamKind::Choice(_)))
+        .map(|s| s.key)
+        .collect()
+}
+
+/// A computed table.
+#[derive(Clone, Debug)]
+pub struct LutSummary {
+    pub mus: Vec<f64>,
+    pub ps: Vec<f64>,
+    /// E(μ_j, p_k) at index k·Nμ + j, delta lobe included.
+    pub e: Vec<DVec3>,
+    /// E_avg(p_k).
+    pub e_avg: Vec<DVec3>,
+    /// The largest error estimate of any entry (E or E_avg), absolute.
+    pub max_error: f64,
+    pub seconds: f64,
+    /// The files written (empty for [`compute`]).
+    pub files: Vec<PathBuf>,
+}
+
+/// E(μ, p) and E_avg(p) on `eval`; `progress` receives (rows done, rows).
+pub fn compute(
+    eval: &Evaluator,
+    spec: &LutSpec,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<LutSummary> {
+    spec.validate()?;
+    let start = std::time::Instant::now();
+    let (mus, ps) = (spec.mus(), spec.ps());
+    let settings = Settings {
+        method: spec.method,
+        samples: spec.samples,
+        white_furnace: spec.white_furnace,
+    };
+    let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, spec.phi)).collect();
+    let mut e = Vec::with_capacity(mus.len() * ps.len());
+    let mut e_avg = Vec::with_capacity(ps.len());
+    let mut max_error: f64 = 0.0;
+    for (k, &p) in ps.iter().enumerate() {
+        crate::interrupt::check()?;
+        let params = spec.params_at(p)?;
+        for pt in directional(eval, &params, &settings, &points)? {
+            max_error = max_error.max(pt.error.max_element());
+            e.push(pt.albedo);
+        }
+        let h = hemispherical(eval, &params, &settings, spec.phi)?;
+        max_error = max_error.max(h.e_avg_error.max_element());
+        e_avg.push(h.e_avg);
+        progress(k as u64 + 1, ps.len() as u64);
+    }
+    Ok(LutSummary {
+        mus,
+        ps,
+        e,
+        e_avg,
+        max_error,
+        seconds: start.elapsed().as_secs_f64(),
+        files: Vec::new(),
+    })
+}
+
+/// The three files beside `exr_path` (which must end in `.exr`): (npy of E, npy of E_avg, json).
+pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
+    if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "--lut {}: the path must end in .exr (the .npy and .json files go beside it)",
+            exr_path.display()
+        );
+    }
+    let stem = exr_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok((
+        exr_path.with_extension("npy"),
+        exr_path.with_file_name(format!("{stem}_avg.npy")),
+        exr_path.with_extension("json"),
+    ))
+}
+
+/// Computes the LUT on `eval` and writes `exr_path` (`.exr`), its two `.npy` files and its
+/// `.json` sidecar (see the module's documentation). `progress` receives (rows done, rows).
+pub fn write(
+    eval: &Evaluator,
+    spec: &LutSpec,
+    exr_path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<LutSummary> {
+    let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
+    // As for lobe tables: the renames at the end cannot be undone one by one, so refuse a
+    // destination no rename can replace before computing anything.
+    for dest in [exr_path, &npy_path, &avg_path, &json_path] {
+        if dest.is_dir() {
+            bail!(
+                "cannot write {}: a folder of that name is in the way",
+                dest.display()
+            );
+        }
+    }
+    let tmps = [
+        temp_beside(exr_path)?,
+        temp_beside(&npy_path)?,
+        temp_beside(&avg_path)?,
+        temp_beside(&json_path)?,
+    ];
+    let mut lut = compute(eval, spec, progress)?;
+    let flat = |v: &[DVec3]| -> Vec<f32> {
+        v.iter()
+            .flat_map(|c| [c.x as f32, c.y as f32, c.z as f32])
+            .collect()
+    };
+    let write_npy = |file: &std::fs::File, shape: &[usize], values: &[f32], dest: &Path| {
+        let mut w = BufWriter::new(file);
+        w.write_all(&npy::header(shape))
+            .and_then(|_| npy::write_f32(&mut w, values))
+            .and_then(|_| w.flush())
+            .with_context(|| format!("writing {}", dest.display()))
+    };
+    write_npy(
+        tmps[1].as_file(),
+        &[spec.n_p, spec.n_mu, 3],
+        &flat(&lut.e),
+        &npy_path,
+    )?;
+    write_npy(
+        tmps[2].as_file(),
+        &[spec.n_p, 3],
+        &flat(&lut.e_avg),
+        &avg_path,
+    )?;
+    write_exr(tmps[0].as_file(), spec, &lut)
+        .with_context(|| format!("writing {}", exr_path.display()))?;
+    let sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
+    std::fs::write(
+        tmps[3].path(),
+        serde_json::to_string_pretty(&sidecar)? + "\n",
+    )
+    .with_context(|| format!("writing {}", json_path.display()))?;
+    let [exr_tmp, npy_tmp, avg_tmp, json_tmp] = tmps;
+    persist(npy_tmp, &npy_path)?;
+    persist(avg_tmp, &avg_path)?;
+    persist(exr_tmp, exr_path)?;
+    persist(json_tmp, &json_path)?;
+    lut.files = vec![exr_path.to_path_buf(), npy_path, avg_path, json_path];
+    Ok(lut)
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+fn sidecar_json(
+    spec: &LutSpec,
+    lut: &LutSummary,
+    eval: &Evaluator,
+    exr_path: &Path,
+    npy_path: &Path,
+    avg_path: &Path,
+) -> serde_json::Value {
+    // The fixed parameters: every entry but the axis keys.
+    let mut fixed = spec.params.to_json();
+    if let Some(map) = fixed.as_object_mut() {
+        for k in &spec.keys {
+            map.remove(k);
+        }
+    }
+    json!({
+        "kind": "albedo look-up table",
+        "model": spec.params.model().name(),
+        "parameters": fixed,
+        "white_furnace": spec.white_furnace,
+        "values": "E(mu, p): directional albedo, delta lobe included; E_avg(p) = 2 * integral of E(mu, p) mu dmu over [0, 1]; linear RGB, dimensionless",
+        "mu_axis": {
+            "name": "mu = cos(theta_o)",
+            "count": spec.n_mu,
+            "centring": "cell-centred: mu_j = (j + 0.5) / count, j = 0 .. count - 1",
+            "values": lut.mus,
+        },
+        "parameter_axis": {
+            "keys": spec.keys,
+            "lo": spec.lo,
+            "hi": spec.hi,
+            "count": spec.n_p,
+            "mapping": spec.mapping.name(),
+            "formula": spec.mapping.formula(),
+            "centring": "cell-centred: t_k = (k + 0.5) / count, k = 0 .. count - 1, p_k = formula(t_k)",
+            "values": lut.ps,
+        },
+        "phi_o_deg": spec.phi.to_degrees(),
+        "method": spec.method.name(),
+        "samples": spec.samples,
+        "max_error_estimate": lut.max_error,
+        "backend": eval.name(),
+        "seconds": lut.seconds,
+        "files": {
+            "exr": file_name(exr_path),
+            "exr_layout": "layer E: width = mu count (x = j), height = parameter count (y = k); layer E_avg: width 1, height = parameter count; channels R, G, B float32",
+            "npy": file_name(npy_path),
+            "npy_shape": [spec.n_p, spec.n_mu, 3],
+            "npy_avg": file_name(avg_path),
+            "npy_avg_shape": [spec.n_p, 3],
+            "dtype": "float32",
+        },
+    })
+}
+
+fn exr_layer(
+    name: &str,
+    width: usize,
+    height: usize,
+    values: &[DVec3],
+) -> Layer<AnyChannels<FlatSamples>> {
+    let channel = |c: usize, n: &str| {
+        AnyChannel::new(
+            n,
+            FlatSamples::F32(values.iter().map(|v| v[c] as f32).collect()),
+        )
+    };
+    Layer::new(
+        (width, height),
+        LayerAttributes::named(name),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(vec![
+            channel(0, "R"),
+            channel(1, "G"),
+            channel(2, "B"),
+        ])),
+    )
+}
+
+fn write_exr(out: &std::fs::File, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
+    let mut e = exr_layer("E", spec.n_mu, spec.n_p, &lut.e);
+    let text = |s: String| {
+        AttributeValue::Text(
+            Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
+        )
+    };
+    let attrs = [
+        ("lobe.model", spec.params.model().name().to_string()),
+        ("lobe.parameters", spec.params.to_text()),
+        ("lobe.white_furnace", spec.white_furnace.to_string()),
+        ("lobe.lut_keys", spec.keys.join(",")),
+        ("lobe.lut_range", format!("{},{}", spec.lo, spec.hi)),
+        ("lobe.lut_mapping", spec.mapping.formula().to_string()),
+        (
+            "lobe.lut_centring",
+            "mu_j = (j + 0.5)/width; t_k = (k + 0.5)/height".to_string(),
+        ),
+        ("lobe.method", spec.method.name().to_string()),
+    ];
+    for (k, v) in attrs {
+        e.attributes.other.insert(Text::new_or_panic(k), text(v));
+    }
+    let avg = exr_layer("E_avg", 1, spec.n_p, &lut.e_avg);
+    let bounds = IntegerBounds::from_dimensions((spec.n_mu, spec.n_p));
+    Image::empty(ImageAttributes::new(bounds))
+        .with_layer(e)
+        .with_layer(avg)
+        .write()
+        .to_buffered(BufWriter::new(out))
+        .map_err(|err| anyhow::anyhow!("EXR encoder: {err}"))?;
+    Ok(())
+}
+
+/// A LUT read back: E as (Np, Nμ) rows of RGB and E_avg per row, from either file kind.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LutData {
+    pub n_mu: usize,
+    pub n_p: usize,
+    pub e: Vec<[f32; 3]>,
+    pub e_avg: Vec<[f32; 3]>,
+}
+
+fn triples(v: &[f32]) -> Vec<[f32; 3]> {
+    v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// Reads the two `.npy` files of the LUT written at `exr_path`.
+pub fn read_npy(exr_path: &Path) -> Result<LutData> {
+    let (npy_path, avg_path, _) = sibling_paths(exr_path)?;
+    let (shape, e) = npy::read(&npy_path)?;
+    let (avg_shape, avg) = npy::read(&avg_path)?;
+    if shape.len() != 3 || shape[2] != 3 || avg_shape != [shape[0], 3] {
+        bail!(
+            "{} and {}: shapes {shape:?} and {avg_shape:?} are not (Np, Nmu, 3) and (Np, 3)",
+            npy_path.display(),
+            avg_path.display()
+        );
+    }
+    Ok(LutData {
+        n_mu: shape[1],
+        n_p: shape[0],
+        e: triples(&e),
+        e_avg: triples(&avg),
+    })
+}
+
+/// Reads the `.exr` of a LUT (layers `E` and `E_avg`).
+pub fn read_exr(exr_path: &Path) -> Result<LutData> {
+    let image = read_all_flat_layers_from_file(exr_path)
+        .with_context(|| format!("reading {}", exr_path.display()))?;
+    let layer = |name: &str| {
+        image
+            .layer_data
+            .iter()
+            .find(|l| l.attributes.layer_name == Some(Text::new_or_panic(name)))
+            .with_context(|| format!("{}: no layer '{name}'", exr_path.display()))
+    };
+    let rgb = |l: &Layer<AnyChannels<FlatSamples>>| -> Result<Vec<[f32; 3]>> {
+        let n = l.size.0 * l.size.1;
+        let mut out = vec![[0.0f32; 3]; n];
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            let ch = l
+                .channel_data
+                .list
+                .iter()
+                .find(|ch| ch.name == Text::new_or_panic(*name))
+                .with_context(|| format!("{}: no channel {name}", exr_path.display()))?;
+            for (i, px) in out.iter_mut().enumerate() {
+                px[c] = ch.sample_data.value_by_flat_index(i).to_f32();
+            }
+        }
+        Ok(out)
+    };
+    let (e, avg) = (layer("E")?, layer("E_avg")?);
+    if avg.size.0 != 1 || avg.size.1 != e.size.1 {
+        bail!(
+            "{}: layer E_avg is {}x{}, expected 1x{}",
+            exr_path.display(),
+            avg.size.0,
+            avg.size.1,
+            e.size.1
+        );
+    }
+    Ok(LutData {
+        n_mu: e.size.0,
+        n_p: e.size.1,
+        e: rgb(e)?,
+        e_avg: rgb(avg)?,
+    })
+}
