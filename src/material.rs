@@ -22,7 +22,10 @@ pub const MATERIALS: &[(&str, &str)] = &[
 pub const METALS: &[(&str, &str)] = &[
     ("silver", include_str!("../data/materials/silver.toml")),
     ("copper", include_str!("../data/materials/copper.toml")),
-    ("aluminium", include_str!("../data/materials/aluminium.toml")),
+    (
+        "aluminium",
+        include_str!("../data/materials/aluminium.toml"),
+    ),
 ];
 
 /// Measured complex refractive indices at lobe's RGB wavelengths, with their sources.
@@ -215,19 +218,46 @@ mod tests {
                 .as_array()
                 .unwrap()
                 .iter()
-                .map(|r| r.as_array().unwrap().iter().map(|v| v.as_float().unwrap()).collect())
+                .map(|r| {
+                    r.as_array()
+                        .unwrap()
+                        .iter()
+                        .map(|v| v.as_float().unwrap())
+                        .collect()
+                })
                 .collect();
-            let f0: Vec<f64> = metal["f0"].as_array().unwrap().iter().map(|v| v.as_float().unwrap()).collect();
+            let f0: Vec<f64> = metal["f0"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_float().unwrap())
+                .collect();
             for c in 0..3 {
                 let (a, b) = (&rows[2 * c], &rows[2 * c + 1]);
-                assert!(a[0] <= wl[c] && wl[c] <= b[0], "{name}: rows bracket {} nm", wl[c]);
+                assert!(
+                    a[0] <= wl[c] && wl[c] <= b[0],
+                    "{name}: rows bracket {} nm",
+                    wl[c]
+                );
                 let t = (wl[c] - a[0]) / (b[0] - a[0]);
                 let n = a[1] + t * (b[1] - a[1]);
                 let kk = a[2] + t * (b[2] - a[2]);
-                assert!((n - eta[c]).abs() < ROUNDING, "{name} eta[{c}]: {n} vs {}", eta[c]);
-                assert!((kk - k[c]).abs() < ROUNDING, "{name} k[{c}]: {kk} vs {}", k[c]);
+                assert!(
+                    (n - eta[c]).abs() < ROUNDING,
+                    "{name} eta[{c}]: {n} vs {}",
+                    eta[c]
+                );
+                assert!(
+                    (kk - k[c]).abs() < ROUNDING,
+                    "{name} k[{c}]: {kk} vs {}",
+                    k[c]
+                );
                 let r0 = ((n - 1.0).powi(2) + kk * kk) / ((n + 1.0).powi(2) + kk * kk);
-                assert!((r0 - f0[c]).abs() < ROUNDING, "{name} f0[{c}]: {r0} vs {}", f0[c]);
+                assert!(
+                    (r0 - f0[c]).abs() < ROUNDING,
+                    "{name} f0[{c}]: {r0} vs {}",
+                    f0[c]
+                );
             }
         }
     }

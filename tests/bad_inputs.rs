@@ -3,6 +3,8 @@
 //! message containing what it names below (for scene files: the file, line and column), and leave
 //! no file behind. The flag-level bad inputs of `eval` and `table` live in tests/cli.rs.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -308,6 +310,62 @@ fn ctrl_c_stops_a_table_cleanly() {
         listing(dir.path()).is_empty(),
         "left: {:?}",
         listing(dir.path())
+    );
+}
+
+/// A lost device (VK_ERROR_DEVICE_LOST, as after a GPU reset; injected with
+/// LOBE_INJECT_DEVICE_LOST=1 at the fence wait) is reported as such, with a non-zero status and
+/// no panic, and the good table already on disk stays as it was.
+#[test]
+fn a_lost_device_is_reported_and_keeps_the_good_file() {
+    if common::gpu_device("lost device").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let table = [
+        "table",
+        "--model",
+        "phong",
+        "--grid",
+        "isotropic",
+        "--res",
+        "8,8,8",
+        "-o",
+        "t.exr",
+    ];
+    let good = lobe(dir.path(), &[&table[..], &["--backend", "cpu"]].concat());
+    assert!(
+        good.status.success(),
+        "{}",
+        String::from_utf8_lossy(&good.stderr)
+    );
+    let before = listing(dir.path());
+    let bytes = std::fs::read(dir.path().join("t.npy")).unwrap();
+    let started = Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(&table[..])
+        .env("LOBE_INJECT_DEVICE_LOST", "1")
+        .current_dir(dir.path())
+        .output()
+        .expect("running lobe");
+    if let Some(wrong) = check_failure(
+        "lost device",
+        dir.path(),
+        &before,
+        &out,
+        &["device was lost"],
+    ) {
+        panic!("{wrong}");
+    }
+    assert!(
+        started.elapsed() < AT_ONCE,
+        "a lost device took {:?} to report",
+        started.elapsed()
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("t.npy")).unwrap(),
+        bytes,
+        "the good table changed"
     );
 }
 

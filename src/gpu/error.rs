@@ -47,3 +47,22 @@ impl<T> Context<T> for std::result::Result<T, vk::Result> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_lost_device_says_so_and_what_to_do() {
+        let e = Err::<(), _>(vk::Result::ERROR_DEVICE_LOST)
+            .ctx("running table/phong")
+            .unwrap_err();
+        let text = e.to_string();
+        assert!(matches!(e, GpuError::DeviceLost(_)), "{e:?}");
+        assert!(
+            text.contains("device was lost while running table/phong"),
+            "{text}"
+        );
+        assert!(text.contains("--backend cpu"), "{text}");
+    }
+}

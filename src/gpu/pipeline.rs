@@ -222,6 +222,14 @@ impl Drop for Pipeline<'_> {
 /// How long one chunk may run before we call the device hung.
 const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
 
+/// `LOBE_INJECT_DEVICE_LOST=1` makes every dispatch end as if the device had been lost
+/// (VK_ERROR_DEVICE_LOST from the fence wait), so that the path a real GPU reset takes (the
+/// message, the exit status, no partial output) can be tested without crashing a GPU.
+fn inject_device_lost() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var("LOBE_INJECT_DEVICE_LOST").is_ok_and(|v| v == "1"))
+}
+
 /// A descriptor set bound to a job's buffers, a command buffer and a fence, reused per chunk.
 pub struct Dispatcher<'p, 'd> {
     pipe: &'p Pipeline<'d>,
@@ -406,7 +414,14 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
             d.reset_fences(&[self.fence]).ctx("resetting a fence")?;
             d.queue_submit(pipe.dev.queue, &submit, self.fence)
                 .ctx(&format!("submitting {}", pipe.label))?;
-            match d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64) {
+            let waited = if inject_device_lost() {
+                // Let the real work finish, then report what a lost device reports.
+                d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64)
+                    .and(Err(vk::Result::ERROR_DEVICE_LOST))
+            } else {
+                d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64)
+            };
+            match waited {
                 Ok(()) => {
                     self.record_gpu_time()?;
                     Ok(())

@@ -252,15 +252,28 @@ mod tests {
         // Both are f64 evaluations of the same reflectance; 1e-12 relative leaves room for the
         // conditioning of r_p near its minimum (Brewster-like angle).
         const REL: f64 = 1e-12;
-        for &(eta, k) in &[(0.2, 3.0), (1.0, 0.0), (1.0, 1e-4), (1.5, 0.0), (1.5, 0.2), (3.0, 4.0), (0.5, 0.0)] {
+        for &(eta, k) in &[
+            (0.2, 3.0),
+            (1.0, 0.0),
+            (1.0, 1e-4),
+            (1.5, 0.0),
+            (1.5, 0.2),
+            (3.0, 4.0),
+            (0.5, 0.0),
+        ] {
             for c in [1e-6, 0.01, 0.2, 0.5, 0.8, 1.0] {
                 let got = F_conductor(c, DVec3::splat(eta), DVec3::splat(k)).x;
                 let want = fresnel_complex(c, eta, k);
-                assert!(got >= 0.0 && (got - want).abs() <= REL * want.max(1e-300) + 1e-300,
-                    "eta {eta} k {k} c {c}: {got} vs {want}");
+                assert!(
+                    got >= 0.0 && (got - want).abs() <= REL * want.max(1e-300) + 1e-300,
+                    "eta {eta} k {k} c {c}: {got} vs {want}"
+                );
                 if k == 0.0 {
                     let d = F_dielectric(c, eta);
-                    assert!((got - d).abs() <= REL * d.max(1e-300) + 1e-300, "eta {eta} c {c}: {got} vs dielectric {d}");
+                    assert!(
+                        (got - d).abs() <= REL * d.max(1e-300) + 1e-300,
+                        "eta {eta} c {c}: {got} vs dielectric {d}"
+                    );
                 }
             }
         }
