@@ -1,7 +1,7 @@
-//! Throughput of each model on this machine: evaluations per second of a lobe table, on the GPU
-//! (kernel time from timestamp queries, and wall time including read-back) and on the CPU
-//! reference (wall time, all cores). The two backends never run at the same time: on lavapipe
-//! both would compete for the same cores.
+//! Throughput of each model on this machine: evaluations per second of a lobe table and of an
+//! albedo integration, on the GPU (kernel time from timestamp queries, and wall time including
+//! upload and read-back) and on the CPU reference (wall time, all cores). The two backends never
+//! run at the same time: on lavapipe both would compete for the same cores.
 
 use crate::eval::Evaluator;
 use crate::grid::Grid;
@@ -13,6 +13,9 @@ use std::time::Instant;
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Throughput {
     pub model: String,
+    /// What was timed: "table" (a lobe table, output discarded) or "albedo" (directional albedo
+    /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU).
+    pub task: &'static str,
     pub backend: String,
     pub evaluations: u64,
     /// Evaluations per second by wall clock, read-back included.
@@ -63,8 +66,59 @@ pub fn measure(
     }
     Ok(Throughput {
         model: params.model().name().to_string(),
+        task: "table",
         backend: eval.name(),
         evaluations: cells,
+        wall_per_s: median(walls),
+        kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
+    })
+}
+
+/// View directions of the timed albedo integration: μ evenly spread over (0, 1].
+pub const ALBEDO_DIRECTIONS: usize = 32;
+
+/// The timed albedo rule: Gauss–Legendre in μ × uniform φ, 64 × 256 nodes per direction (its
+/// coarse check rule, which `rule_albedo` also runs, is counted too).
+pub const ALBEDO_RULE: crate::integrate::Rule = crate::integrate::Rule::Gauss { n_mu: 64 };
+
+/// Times `repeats` directional-albedo integrations at [`ALBEDO_DIRECTIONS`] view directions
+/// with [`ALBEDO_RULE`] after one warm-up run; evaluations = integrand evaluations.
+pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Result<Throughput> {
+    use crate::integrate::{rule_albedo, view_direction};
+    let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
+        .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
+        .collect();
+    let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
+        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
+    let evaluations = (per_direction * wo.len()) as u64;
+    let run = || -> Result<(f64, Option<f64>)> {
+        if let Evaluator::Gpu(g) = eval {
+            g.take_gpu_time();
+        }
+        let t = Instant::now();
+        std::hint::black_box(rule_albedo(eval, params, false, ALBEDO_RULE, &wo)?);
+        let wall = t.elapsed().as_secs_f64();
+        let kernel = match eval {
+            Evaluator::Gpu(g) => g.take_gpu_time().map(|d| d.as_secs_f64()),
+            Evaluator::Cpu => None,
+        };
+        Ok((wall, kernel))
+    };
+    run()?;
+    let mut walls = Vec::new();
+    let mut kernels = Vec::new();
+    for _ in 0..repeats.max(1) {
+        let (w, k) = run()?;
+        walls.push(evaluations as f64 / w);
+        if let Some(k) = k.filter(|k| *k > 0.0) {
+            kernels.push(evaluations as f64 / k);
+        }
+    }
+    Ok(Throughput {
+        model: params.model().name().to_string(),
+        task: "albedo",
+        backend: eval.name(),
+        evaluations,
         wall_per_s: median(walls),
         kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
     })

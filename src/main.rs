@@ -322,6 +322,9 @@ struct BenchArgs {
     /// Timed runs per measurement (the median is reported), after one warm-up run.
     #[arg(long, default_value_t = 5)]
     repeats: usize,
+    /// Time lobe tables only, not albedo integration.
+    #[arg(long)]
+    no_albedo: bool,
     /// Backends to measure.
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Backend::Gpu, Backend::Cpu])]
     backend: Vec<Backend>,
@@ -623,7 +626,7 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
             out,
             "{}",
             serde_json::to_string_pretty(
-                &serde_json::json!({"models": models, "materials": material::names()})
+                &serde_json::json!({"models": models, "materials": material::all_names()})
             )?
         )?;
         return Ok(());
@@ -655,8 +658,13 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
     }
     writeln!(
         out,
-        "\nmaterials (--material): {}",
-        material::names().join(", ")
+        "\nmaterials (--material): {} (lab materials, every model); {} (metals, microfacet only)",
+        material::names().join(", "),
+        material::METALS
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join(", ")
     )?;
     Ok(())
 }
@@ -722,6 +730,13 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
                     &grid,
                     a.repeats,
                 )?);
+                if !a.no_albedo {
+                    rows.push(lobe::bench::measure_albedo(
+                        e,
+                        &ParamSet::defaults(*m),
+                        a.repeats,
+                    )?);
+                }
                 bar.inc(1);
             }
             bar.finish_and_clear();
@@ -734,28 +749,32 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
         TableFormat::Csv => {
             writeln!(
                 out,
-                "model,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
+                "model,task,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
             )?;
             for r in &rows {
                 let k = r.kernel_per_s.map(|k| k.to_string()).unwrap_or_default();
                 writeln!(
                     out,
-                    "{},{},{},{},{k}",
-                    r.model, r.backend, r.evaluations, r.wall_per_s
+                    "{},{},{},{},{},{k}",
+                    r.model, r.task, r.backend, r.evaluations, r.wall_per_s
                 )?;
             }
         }
         TableFormat::Table => {
             writeln!(
                 out,
-                "evaluations per second (median of {} runs of {} cells each)",
+                "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
+                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its coarse check)",
                 a.repeats,
-                grid.cells().unwrap_or(0)
+                grid.cells().unwrap_or(0),
+                lobe::bench::ALBEDO_DIRECTIONS,
+                lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
+                    + lobe::bench::ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len()
             )?;
             writeln!(
                 out,
-                "{:<18} {:<44} {:>14} {:>16}",
-                "model", "backend", "wall (M/s)", "kernel (M/s)"
+                "{:<18} {:<7} {:<44} {:>14} {:>16}",
+                "model", "task", "backend", "wall (M/s)", "kernel (M/s)"
             )?;
             for r in &rows {
                 let k = r
@@ -764,8 +783,9 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
                     .unwrap_or_else(|| "-".into());
                 writeln!(
                     out,
-                    "{:<18} {:<44} {:>14.1} {:>16}",
+                    "{:<18} {:<7} {:<44} {:>14.1} {:>16}",
                     r.model,
+                    r.task,
                     r.backend,
                     r.wall_per_s / 1e6,
                     k
