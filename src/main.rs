@@ -174,6 +174,31 @@ struct AlbedoArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = TableFormat::Table)]
     format: TableFormat,
+    /// Write an albedo look-up table E(mu, p) and E_avg(p) to PATH.exr (layers E, E_avg), with
+    /// PATH.npy (Np x Nmu x 3), PATH_avg.npy (Np x 3) and PATH.json (axes, centring, mapping)
+    /// beside it. mu cells are centred: mu_j = (j + 0.5)/Nmu.
+    #[arg(long, value_name = "PATH.exr", conflicts_with_all = ["mu", "theta_deg"])]
+    lut: Option<PathBuf>,
+    /// LUT parameter axis: KEY, or several keys set to the same value (nu,nv). Default per model:
+    /// albedo, shininess, smoothness, sigma, roughness, ior, nu,nv, alpha.
+    #[arg(
+        long = "lut-param",
+        value_name = "KEY",
+        value_delimiter = ',',
+        requires = "lut"
+    )]
+    lut_param: Vec<String>,
+    /// LUT parameter range LO,HI (default per model, e.g. shininess 1,8192; roughness 0.01,1).
+    #[arg(long = "lut-range", value_name = "LO,HI", requires = "lut")]
+    lut_range: Option<String>,
+    /// LUT size NMU,NP (default 32,32).
+    #[arg(long = "lut-res", value_name = "NMU,NP", requires = "lut")]
+    lut_res: Option<String>,
+    /// LUT parameter mapping of cell t_k = (k + 0.5)/NP: linear (lo + (hi-lo) t), log
+    /// (lo (hi/lo)^t) or square (lo + (hi-lo) t^2). Default per model (log for exponents, square
+    /// for roughness, else linear).
+    #[arg(long = "lut-map", requires = "lut")]
+    lut_map: Option<String>,
 }
 
 #[derive(Args)]
@@ -1125,6 +1150,115 @@ fn cmd_stability(a: StabilityArgs) -> Result<()> {
     Ok(())
 }
 
+/// Parses `A,B` for `flag` into two values.
+fn parse_pair<T: std::str::FromStr>(flag: &str, text: &str, what: &str) -> Result<(T, T)> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if let [a, b] = parts[..] {
+        if let (Ok(a), Ok(b)) = (a.parse(), b.parse()) {
+            return Ok((a, b));
+        }
+    }
+    bail!("{flag} {text}: expected {what}")
+}
+
+/// `lobe albedo --lut`: the look-up table over mu and one parameter axis.
+fn albedo_lut(
+    a: &AlbedoArgs,
+    params: ParamSet,
+    settings: lobe::integrate::Settings,
+    phi: f64,
+    path: &std::path::Path,
+) -> Result<()> {
+    use lobe::lut;
+    let mut spec = lut::LutSpec::new(params, a.model.white_furnace);
+    spec.method = settings.method;
+    spec.samples = settings.samples;
+    spec.phi = phi;
+    if !a.lut_param.is_empty() {
+        spec.keys = a.lut_param.clone();
+        // Another axis than the model's own: its full valid range, linear, unless given.
+        let model = spec.params.model();
+        let (default_keys, ..) = lut::default_axis(model);
+        if a.lut_param != default_keys {
+            if let Some(s) = model.params().iter().find(|s| s.key == a.lut_param[0]) {
+                spec.lo = s.min;
+                spec.hi = s.max;
+                spec.mapping = lut::Mapping::Linear;
+            }
+        }
+    }
+    if let Some(r) = &a.lut_range {
+        (spec.lo, spec.hi) = parse_pair("--lut-range", r, "LO,HI (two numbers)")?;
+    }
+    if let Some(r) = &a.lut_res {
+        (spec.n_mu, spec.n_p) = parse_pair("--lut-res", r, "NMU,NP (two positive integers)")?;
+    }
+    if let Some(m) = &a.lut_map {
+        spec.mapping = lut::Mapping::from_name(m).context("--lut-map")?;
+    }
+    spec.validate()?;
+    let bar = indicatif::ProgressBar::new(spec.n_p as u64);
+    let summary = with_evaluator(&a.model, |e| {
+        lut::write(e, &spec, path, &mut |done, _| bar.set_position(done))
+    })?;
+    bar.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    let files: Vec<String> = summary
+        .files
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let range = |v: &[glam::DVec3]| {
+        v.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(c.min_element()), hi.max(c.max_element()))
+            })
+    };
+    let (e_lo, e_hi) = range(&summary.e);
+    let (a_lo, a_hi) = range(&summary.e_avg);
+    match a.format {
+        TableFormat::Json => writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "files": files,
+                "model": spec.params.model().name(),
+                "keys": spec.keys,
+                "range": [spec.lo, spec.hi],
+                "mapping": spec.mapping.name(),
+                "res": [spec.n_mu, spec.n_p],
+                "method": spec.method.name(),
+                "samples": spec.samples,
+                "e_range": [e_lo, e_hi],
+                "e_avg_range": [a_lo, a_hi],
+                "max_error_estimate": summary.max_error,
+                "seconds": summary.seconds,
+            }))?
+        )?,
+        _ => {
+            writeln!(
+                out,
+                "{} LUT over mu ({} cells) x {} in [{}, {}] ({} cells, {}): E in [{e_lo:.6}, {e_hi:.6}], E_avg in [{a_lo:.6}, {a_hi:.6}], largest error estimate {:.2e}; {} {} nodes per direction; {:.2} s",
+                spec.params.model().name(),
+                spec.n_mu,
+                spec.keys.join(","),
+                spec.lo,
+                spec.hi,
+                spec.n_p,
+                spec.mapping.name(),
+                summary.max_error,
+                spec.method.name(),
+                spec.samples,
+                summary.seconds
+            )?;
+            for f in files {
+                writeln!(out, "wrote {f}")?;
+            }
+        }
+    }
+    Ok(())
+}
+
 fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
     use lobe::integrate::{albedo_report, Method, Settings};
     let params = params_of(&a.model)?;
@@ -1165,6 +1299,9 @@ fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
         white_furnace: a.model.white_furnace,
     };
     let phi = a.phi_deg.to_radians();
+    if let Some(path) = &a.lut {
+        return albedo_lut(&a, params, settings, phi, path);
+    }
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, phi)).collect();
     let (report, backend) = with_evaluator(&a.model, |e| {
         Ok((
