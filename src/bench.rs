@@ -29,74 +29,23 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Times `repeats` evaluations of the table on `grid` (output discarded) after one warm-up run,
-/// which also builds the pipeline.
-pub fn measure(
+/// Times `repeats` runs of `work` (`evaluations` integrand evaluations each) after one warm-up
+/// run, which also builds the pipeline; wall time always, kernel time from the GPU's timestamp
+/// queries when `eval` is the GPU.
+fn time_task(
     eval: &Evaluator,
     params: &ParamSet,
-    grid: &Grid,
+    task: &'static str,
+    evaluations: u64,
     repeats: usize,
+    work: impl Fn() -> Result<()>,
 ) -> Result<Throughput> {
-    let cells = grid.cells().unwrap_or(0);
     let run = || -> Result<(f64, Option<f64>)> {
         if let Evaluator::Gpu(g) = eval {
             g.take_gpu_time();
         }
         let t = Instant::now();
-        eval.eval_table(params, false, grid, &mut |_, v| {
-            std::hint::black_box(v);
-            Ok(())
-        })?;
-        let wall = t.elapsed().as_secs_f64();
-        let kernel = match eval {
-            Evaluator::Gpu(g) => g.take_gpu_time().map(|d| d.as_secs_f64()),
-            Evaluator::Cpu => None,
-        };
-        Ok((wall, kernel))
-    };
-    run()?;
-    let mut walls = Vec::new();
-    let mut kernels = Vec::new();
-    for _ in 0..repeats.max(1) {
-        let (w, k) = run()?;
-        walls.push(cells as f64 / w);
-        if let Some(k) = k.filter(|k| *k > 0.0) {
-            kernels.push(cells as f64 / k);
-        }
-    }
-    Ok(Throughput {
-        model: params.model().name().to_string(),
-        task: "table",
-        backend: eval.name(),
-        evaluations: cells,
-        wall_per_s: median(walls),
-        kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
-    })
-}
-
-/// View directions of the timed albedo integration: μ evenly spread over (0, 1].
-pub const ALBEDO_DIRECTIONS: usize = 32;
-
-/// The timed albedo rule: Gauss–Legendre in μ × uniform φ, 64 × 256 nodes per direction (its
-/// coarse check rule, which `rule_albedo` also runs, is counted too).
-pub const ALBEDO_RULE: crate::integrate::Rule = crate::integrate::Rule::Gauss { n_mu: 64 };
-
-/// Times `repeats` directional-albedo integrations at [`ALBEDO_DIRECTIONS`] view directions
-/// with [`ALBEDO_RULE`] after one warm-up run; evaluations = integrand evaluations.
-pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Result<Throughput> {
-    use crate::integrate::{rule_albedo, view_direction};
-    let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
-        .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
-        .collect();
-    let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
-    let evaluations = (per_direction * wo.len()) as u64;
-    let run = || -> Result<(f64, Option<f64>)> {
-        if let Evaluator::Gpu(g) = eval {
-            g.take_gpu_time();
-        }
-        let t = Instant::now();
-        std::hint::black_box(rule_albedo(eval, params, false, ALBEDO_RULE, &wo)?);
+        work()?;
         let wall = t.elapsed().as_secs_f64();
         let kernel = match eval {
             Evaluator::Gpu(g) => g.take_gpu_time().map(|d| d.as_secs_f64()),
@@ -116,10 +65,49 @@ pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Re
     }
     Ok(Throughput {
         model: params.model().name().to_string(),
-        task: "albedo",
+        task,
         backend: eval.name(),
         evaluations,
         wall_per_s: median(walls),
         kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
+    })
+}
+
+/// Throughput of a lobe table on `grid` (output discarded), the median of `repeats` runs.
+pub fn measure(
+    eval: &Evaluator,
+    params: &ParamSet,
+    grid: &Grid,
+    repeats: usize,
+) -> Result<Throughput> {
+    let cells = grid.cells().unwrap_or(0);
+    time_task(eval, params, "table", cells, repeats, || {
+        eval.eval_table(params, false, grid, &mut |_, v| {
+            std::hint::black_box(v);
+            Ok(())
+        })
+    })
+}
+
+/// View directions of the timed albedo integration: μ evenly spread over (0, 1].
+pub const ALBEDO_DIRECTIONS: usize = 32;
+
+/// The timed albedo rule: Gauss–Legendre in μ × uniform φ, 64 × 256 nodes per direction (its
+/// coarse check rule, which `rule_albedo` also runs, is counted too).
+pub const ALBEDO_RULE: crate::integrate::Rule = crate::integrate::Rule::Gauss { n_mu: 64 };
+
+/// Throughput of directional-albedo integration at [`ALBEDO_DIRECTIONS`] view directions with
+/// [`ALBEDO_RULE`], the median of `repeats` runs; evaluations = integrand evaluations.
+pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Result<Throughput> {
+    use crate::integrate::{rule_albedo, view_direction};
+    let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
+        .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
+        .collect();
+    let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
+        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
+    let evaluations = (per_direction * wo.len()) as u64;
+    time_task(eval, params, "albedo", evaluations, repeats, || {
+        std::hint::black_box(rule_albedo(eval, params, false, ALBEDO_RULE, &wo)?);
+        Ok(())
     })
 }
