@@ -365,19 +365,53 @@ struct BenchArgs {
 struct TradeoffArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI on which errors are measured (full grid with the
-    /// same angular density for an anisotropic parameter set).
-    #[arg(long, default_value = "32,32,64")]
-    error_res: String,
-    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI on which costs are timed.
-    #[arg(long, default_value = "96,96,192")]
-    timing_res: String,
-    /// Timed runs per variant (the median is reported).
-    #[arg(long, default_value_t = 5)]
-    repeats: usize,
+    /// Sections to measure, comma-separated: evaluation, integration, table-resolution.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "evaluation,integration,table-resolution"
+    )]
+    sections: Vec<String>,
+    /// A smaller version of every section (the defaults of the flags below shrink): a first look.
+    #[arg(long)]
+    quick: bool,
+    /// Evaluation: isotropic grid NTHETA_I,NTHETA_O,NDPHI on which errors are measured (full grid
+    /// with the same angular density for an anisotropic parameter set) [default: 32,32,64;
+    /// --quick 16,16,32].
+    #[arg(long)]
+    error_res: Option<String>,
+    /// Evaluation: isotropic grid NTHETA_I,NTHETA_O,NDPHI on which costs are timed [default:
+    /// 96,96,192; --quick 48,48,96].
+    #[arg(long)]
+    timing_res: Option<String>,
+    /// Timed runs per variant, after one untimed run; the median is reported [default: 5;
+    /// --quick 2].
+    #[arg(long)]
+    repeats: Option<usize>,
+    /// Integration and tables: view directions as mu = cos(theta_o), comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "0.1,0.5,1")]
+    mu: Vec<f64>,
+    /// Integration: quadrature nodes per albedo, comma-separated [default:
+    /// 256,1024,4096,16384,65536; --quick 256,1024,4096].
+    #[arg(long, value_delimiter = ',')]
+    samples: Vec<usize>,
+    /// Tables: resolutions N (N x N x 2N cells in theta_i, theta_o, dphi), comma-separated
+    /// [default: 8,16,32,64,128; --quick 8,16,32].
+    #[arg(long, value_delimiter = ',')]
+    table_res: Vec<usize>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = TableFormat::Table)]
     format: TableFormat,
+    /// Write the log-log Pareto plot here (.png or .svg) [default: tradeoff-MODEL.png, or
+    /// tradeoff-MATERIAL-MODEL.png with --material, in the current folder].
+    #[arg(long, value_name = "PATH", conflicts_with = "no_plot")]
+    plot: Option<PathBuf>,
+    /// Write no plot.
+    #[arg(long)]
+    no_plot: bool,
+    /// Plot size WIDTHxHEIGHT in pixels (SVG: user units).
+    #[arg(long, default_value = "1800x720")]
+    size: String,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -822,128 +856,92 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
 }
 
 fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
+    use lobe::tradeoff::{AlbedoSetup, Options, Section};
     let params = params_of(&a.model)?;
-    let error_grid = match Grid::parse("isotropic", &a.error_res).map_err(anyhow::Error::msg)? {
-        Grid::Isotropic {
-            n_theta_i,
-            n_theta_o,
-            n_dphi,
-        } if !params.is_isotropic() => Grid::Full {
-            n_theta_i,
-            n_phi_i: 2 * n_dphi,
-            n_theta_o,
-            n_phi_o: 2 * n_dphi,
-        },
-        g => g,
+    let sections = a
+        .sections
+        .iter()
+        .map(|s| Section::from_name(s.trim()))
+        .collect::<Result<Vec<_>>>()?;
+    let mut albedo = if a.quick {
+        AlbedoSetup::quick()
+    } else {
+        AlbedoSetup::standard()
     };
-    let timing_grid = Grid::parse("isotropic", &a.timing_res).map_err(anyhow::Error::msg)?;
-    // A metal's exact Fresnel needs its complex IOR: take it from the material's microfacet
-    // preset where that uses the conductor Fresnel.
-    let conductor = a.model.material.as_deref().and_then(|m| {
-        let p = material::preset(
-            m,
-            Model::Microfacet(lobe::model::microfacet::MicrofacetConfig::DEFAULT),
-        )
-        .ok()?;
-        (p.get("fresnel") == lobe::model::Value::Choice("conductor"))
-            .then(|| (p.get("eta"), p.get("k")))
+    albedo.mus = a.mu.clone();
+    if !a.samples.is_empty() {
+        albedo.samples = a.samples.clone();
+    }
+    if !a.table_res.is_empty() {
+        albedo.table_res = a.table_res.clone();
+    }
+    if let Some(r) = a.repeats {
+        albedo.repeats = r;
+    }
+    let grid = |flag: &str, text: &Option<String>, standard: &str, quick: &str| {
+        let res = text
+            .as_deref()
+            .unwrap_or(if a.quick { quick } else { standard });
+        Grid::parse("isotropic", res).map_err(|e| anyhow::anyhow!("{flag}: {e}"))
+    };
+    let opts = Options {
+        sections,
+        error_grid: lobe::tradeoff::error_grid_for(
+            &params,
+            grid("--error-res", &a.error_res, "32,32,64", "16,16,32")?,
+        ),
+        timing_grid: grid("--timing-res", &a.timing_res, "96,96,192", "48,48,96")?,
+        eval_repeats: albedo.repeats,
+        albedo,
+    };
+    let plot_path = (!a.no_plot).then(|| {
+        a.plot.clone().unwrap_or_else(|| {
+            PathBuf::from(match &a.model.material {
+                Some(m) => format!("tradeoff-{m}-{}.png", params.model().name()),
+                None => format!("tradeoff-{}.png", params.model().name()),
+            })
+        })
     });
-    let (truth, variants) = lobe::tradeoff::eval_variants(&params, conductor);
-    let bar = indicatif::ProgressBar::new(variants.len() as u64);
+    let size = a
+        .size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)))
+        .with_context(|| format!("--size '{}': expected WIDTHxHEIGHT, e.g. 1800x720", a.size))?;
+    if let Some(p) = &plot_path {
+        // Refused before minutes of measuring, not after.
+        lobe::plot::Format::of(p)?;
+    }
+    let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let run = |gpu: Option<&Gpu>| {
-        lobe::tradeoff::measure_eval(
-            gpu,
-            &truth,
-            &variants,
-            &error_grid,
-            &timing_grid,
-            a.repeats,
-            &mut |name| {
-                bar.set_message(name.to_string());
-                bar.inc(1);
-            },
-        )
+    let material = a.model.material.as_deref();
+    let mut progress = |step: usize, steps: usize, what: &str| {
+        bar.set_length(steps as u64);
+        bar.set_position(step as u64);
+        bar.set_message(what.to_string());
     };
-    let rows = match a.model.backend {
-        Backend::Cpu => run(None)?,
+    let report = match a.model.backend {
+        Backend::Cpu => lobe::tradeoff::run(None, &params, material, &opts, &mut progress)?,
         Backend::Gpu => {
             let dev = Device::open(&DeviceOptions {
                 name_contains: a.model.device.clone(),
             })?;
             let gpu = Gpu::new(&dev);
-            run(Some(&gpu))?
+            lobe::tradeoff::run(Some(&gpu), &params, material, &opts, &mut progress)?
         }
     };
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     match a.format {
-        TableFormat::Json => {
-            let doc = serde_json::json!({
-                "model": params.model().name(),
-                "parameters": params.to_json(),
-                "truth": {"model": truth.model().name(), "parameters": truth.to_json()},
-                "error_grid": error_grid.shape(),
-                "timing_grid": timing_grid.shape(),
-                "relative_error_floor": lobe::tradeoff::REL_FLOOR,
-                "rows": rows,
-            });
-            writeln!(out, "{}", serde_json::to_string_pretty(&doc)?)?;
-        }
-        TableFormat::Csv => {
-            writeln!(
-                out,
-                "variant,kind,backend,cost,cost_unit,max_rel_error,rms_rel_error,pareto"
-            )?;
-            for r in &rows {
-                writeln!(
-                    out,
-                    "{},{},{},{},{},{},{},{}",
-                    r.variant,
-                    r.kind,
-                    r.backend,
-                    r.cost,
-                    r.cost_unit,
-                    r.max_rel_error,
-                    r.rms_rel_error,
-                    r.pareto
-                )?;
-            }
-        }
-        TableFormat::Table => {
-            writeln!(out, "{} {}", params.model().name(), params.to_text())?;
-            writeln!(
-                out,
-                "truth: f64 {} {}",
-                truth.model().name(),
-                truth.to_text()
-            )?;
-            writeln!(
-                out,
-                "errors over {} cells ({} grid), relative with a floor of {} x max|f|; costs median of {} runs over {} cells",
-                error_grid.cells().unwrap_or(0), error_grid.name(), lobe::tradeoff::REL_FLOOR, a.repeats,
-                timing_grid.cells().unwrap_or(0)
-            )?;
-            writeln!(
-                out,
-                "{:<36} {:>12} {:>14} {:>14}  {}",
-                "variant", "ns/eval", "max rel err", "rms rel err", "pareto"
-            )?;
-            for r in &rows {
-                writeln!(
-                    out,
-                    "{:<36} {:>12.3} {:>14.3e} {:>14.3e}  {}",
-                    r.variant,
-                    r.cost,
-                    r.max_rel_error,
-                    r.rms_rel_error,
-                    if r.pareto { "*" } else { "" }
-                )?;
-            }
-        }
+        TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?,
+        TableFormat::Csv => report.write_csv(&mut out)?,
+        TableFormat::Table => report.write_table(&mut out)?,
+    }
+    if let Some(p) = plot_path {
+        lobe::plot::pareto::plot_pareto(&report, size, &p)?;
+        eprintln!("lobe: wrote {}", p.display());
     }
     Ok(())
 }

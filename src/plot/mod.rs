@@ -9,7 +9,8 @@
 //!   equal-area or Nusselt projection;
 //! - [`slice`]: the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
 //! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
-//! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn.
+//! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn;
+//! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
 //!
 //! Text is drawn with DejaVu Sans, embedded in the binary and registered with plotters' ab_glyph
 //! backend at the first plot: no system fonts are read.
@@ -18,6 +19,7 @@
 
 pub mod albedo;
 pub mod hemisphere;
+pub mod pareto;
 pub mod polar;
 pub mod slice;
 pub mod surface3d;
