@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod demo;
+pub mod energy;
 pub mod eval;
 pub mod gpu;
 pub mod grid;

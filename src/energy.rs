@@ -1,0 +1,259 @@
+//! Energy report (`lobe energy`, issue 3): for every model at each material preset and over a
+//! sweep of its main parameter, the largest directional albedo E(μ) and where it occurs, whether
+//! the model gains energy, and how much it loses on average (1 − E_avg).
+//!
+//! What is measured. The numbers should be about the model, not about a colour someone chose,
+//! so every case is evaluated in its *white configuration*: the preset's (or the sweep's) shape
+//! parameters (roughness, exponents, σ, IOR) with the colours set so that the model, read as its
+//! authors intended, should reflect all light at normal incidence:
+//! - `lambert`, `oren_nayar`: albedo = 1;
+//! - `phong`, `blinn_phong`, `cook_torrance`, `ashikhmin_shirley`, `microfacet`: the specular
+//!   lobe alone (diffuse = 0, specular = 1) under the white furnace (Fresnel = 1, DESIGN §3):
+//!   the lobe's own normalization and masking (the diffuse part is Lambert, reported apart);
+//! - `smooth_layered`: diffuse = 1 − R0, the largest base for which E(μ = 1) = 1, so that what
+//!   it gains towards grazing (F_s(μ) → 1 while the base stays) is the model's, not the colour's;
+//! - `coupled`: matte = 1 (its (1 − R0)·(1 − (1 − c)^5) factors are meant to make this lossless).
+//!
+//! Definitions. Gain: some E(μ) exceeds 1 by more than [`GAIN_MARGIN`] plus its error estimate:
+//! a passive surface in the white configuration should never return more than it receives.
+//! Loss: 1 − E_avg, E_avg = 2∫₀¹ E(μ) μ dμ (Kulla–Conty's average; the hemispherical albedo for
+//! an isotropic model): the energy the model drops (masking without multiple scattering, the
+//! horizon cutting a lobe, an under-normalized lobe). A negative loss is an average gain.
+
+use crate::eval::Evaluator;
+use crate::integrate::{directional, hemispherical, Settings};
+use crate::lut::{default_axis, LutSpec};
+use crate::material;
+use crate::model::terms::r0_from_ior;
+use crate::model::{Model, ParamError, ParamKind, ParamSet, Value};
+use anyhow::Result;
+use glam::DVec3;
+use serde::Serialize;
+
+/// E must exceed 1 by this much (beyond its error estimate) to count as a gain: far above the
+/// integrators' errors (1e-6 relative for the default rule), far below the gains that matter
+/// (Blinn–Phong's approximate normalization: percents; the layered model: tens of percents).
+pub const GAIN_MARGIN: f64 = 1e-4;
+
+/// View cosines where E is looked at: grazing ones, then 32 cell centres, then normal incidence.
+pub fn mu_grid() -> Vec<f64> {
+    let mut v = vec![0.001, 0.003, 0.01, 0.03];
+    v.extend((0..32).map(|j| (j as f64 + 0.5) / 32.0));
+    v.push(1.0);
+    v
+}
+
+/// One line of the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnergyRow {
+    pub model: String,
+    /// `preset NAME` or `sweep KEY=VALUE`.
+    pub case: String,
+    /// The white configuration evaluated (all parameters).
+    pub parameters: String,
+    pub white_furnace: bool,
+    /// The largest E over [`mu_grid`] (largest channel) and the μ where it occurs.
+    pub e_max: f64,
+    pub mu_at_max: f64,
+    /// E at normal incidence.
+    pub e_normal: f64,
+    pub e_avg: f64,
+    /// 1 − E_avg.
+    pub loss: f64,
+    pub gain: bool,
+    /// The largest error estimate among the E values and E_avg.
+    pub error: f64,
+}
+
+/// The white configuration of `params` (see the module's documentation) and whether it runs
+/// under the white furnace.
+pub fn white_configuration(params: &ParamSet) -> Result<(ParamSet, bool), ParamError> {
+    let mut p = params.clone();
+    let one = Value::One(1.0);
+    let wf = match p.model() {
+        Model::Lambert | Model::OrenNayar => {
+            p.set("albedo", one)?;
+            false
+        }
+        Model::Phong
+        | Model::BlinnPhong
+        | Model::CookTorrance
+        | Model::AshikhminShirley
+        | Model::Microfacet(_) => {
+            p.set("diffuse", Value::One(0.0))?;
+            p.set("specular", one)?;
+            true
+        }
+        Model::SmoothLayered => {
+            let r0 = r0_from_ior(p.scalar("ior"));
+            p.set("diffuse", Value::One(1.0 - r0))?;
+            false
+        }
+        Model::Coupled => {
+            p.set("matte", one)?;
+            false
+        }
+    };
+    Ok((p, wf))
+}
+
+/// The report's line for one case (`params` already in its white configuration).
+pub fn evaluate(
+    eval: &Evaluator,
+    model: &str,
+    case: &str,
+    params: &ParamSet,
+    white_furnace: bool,
+    method: crate::integrate::Method,
+    samples: usize,
+) -> Result<EnergyRow> {
+    let s = Settings {
+        method,
+        samples,
+        white_furnace,
+    };
+    let pts: Vec<(f64, f64)> = mu_grid().into_iter().map(|m| (m, 0.0)).collect();
+    let dir = directional(eval, params, &s, &pts)?;
+    let h = hemispherical(eval, params, &s, 0.0)?;
+    let (mut e_max, mut mu_at_max, mut err_at_max) = (f64::NEG_INFINITY, 1.0, 0.0);
+    let mut error: f64 = h.e_avg_error.max_element();
+    for d in &dir {
+        error = error.max(d.error.max_element());
+        let e = d.albedo.max_element();
+        if e > e_max {
+            (e_max, mu_at_max, err_at_max) = (e, d.mu, d.error.max_element());
+        }
+    }
+    let e_avg = h.e_avg.max_element();
+    let last: DVec3 = dir.last().map(|d| d.albedo).unwrap_or_default();
+    Ok(EnergyRow {
+        model: model.to_string(),
+        case: case.to_string(),
+        parameters: params.to_text(),
+        white_furnace,
+        e_max,
+        mu_at_max,
+        e_normal: last.max_element(),
+        e_avg,
+        loss: 1.0 - e_avg,
+        gain: e_max - err_at_max > 1.0 + GAIN_MARGIN,
+        error,
+    })
+}
+
+/// The cases of one model: every preset that defines it, then `sweep` values of its main
+/// parameter ([`default_axis`], cell-centred in its mapping) from the model's defaults. Models
+/// whose main parameter is a colour (lambert) have no sweep: the white configuration fixes it.
+pub fn cases(model: Model, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
+    let mut out = Vec::new();
+    for name in material::names() {
+        match material::preset(name, model) {
+            Ok(p) => out.push((format!("preset {name}"), p)),
+            Err(ParamError::NoPreset { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let (keys, ..) = default_axis(model);
+    let colour = model
+        .params()
+        .iter()
+        .any(|s| keys.contains(&s.key) && s.kind == ParamKind::Rgb);
+    if sweep > 0 && !colour {
+        let mut spec = LutSpec::new(ParamSet::defaults(model), false);
+        spec.n_p = sweep;
+        for p in spec.ps() {
+            let set = spec.params_at(p)?;
+            out.push((format!("sweep {}={}", keys.join(","), fmt_value(p)), set));
+        }
+    }
+    Ok(out)
+}
+
+fn fmt_value(p: f64) -> String {
+    if p >= 100.0 {
+        format!("{p:.0}")
+    } else {
+        format!("{p:.4}")
+    }
+}
+
+/// The whole report for `models`; `progress` receives (cases done, cases).
+pub fn report(
+    eval: &Evaluator,
+    models: &[Model],
+    sweep: usize,
+    method: crate::integrate::Method,
+    samples: usize,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Vec<EnergyRow>> {
+    let mut all = Vec::new();
+    for &m in models {
+        for (case, p) in cases(m, sweep)? {
+            all.push((m, case, p));
+        }
+    }
+    let total = all.len() as u64;
+    let mut rows = Vec::with_capacity(all.len());
+    for (i, (m, case, p)) in all.into_iter().enumerate() {
+        crate::interrupt::check()?;
+        let (white, wf) = white_configuration(&p)?;
+        rows.push(evaluate(
+            eval,
+            m.name(),
+            &case,
+            &white,
+            wf,
+            method,
+            samples,
+        )?);
+        progress(i as u64 + 1, total);
+    }
+    Ok(rows)
+}
+
+/// A fixed-width table, one line per case.
+pub fn format_table(rows: &[EnergyRow]) -> String {
+    let mut s = format!(
+        "{:<18} {:<28} {:>10} {:>8} {:>10} {:>10} {:>10} {:>5} {:>9}\n",
+        "model", "case", "E max", "at mu", "E(mu=1)", "E_avg", "loss", "gain", "error"
+    );
+    for r in rows {
+        s += &format!(
+            "{:<18} {:<28} {:>10.6} {:>8.4} {:>10.6} {:>10.6} {:>10.6} {:>5} {:>9.1e}\n",
+            r.model,
+            r.case,
+            r.e_max,
+            r.mu_at_max,
+            r.e_normal,
+            r.e_avg,
+            r.loss,
+            if r.gain { "GAIN" } else { "-" },
+            r.error
+        );
+    }
+    s
+}
+
+/// CSV with a header line.
+pub fn format_csv(rows: &[EnergyRow]) -> String {
+    let mut s = String::from(
+        "model,case,white_furnace,e_max,mu_at_max,e_mu1,e_avg,loss,gain,error_estimate,parameters\n",
+    );
+    for r in rows {
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            r.model,
+            r.case,
+            r.white_furnace,
+            r.e_max,
+            r.mu_at_max,
+            r.e_normal,
+            r.e_avg,
+            r.loss,
+            r.gain,
+            r.error,
+            r.parameters
+        );
+    }
+    s
+}
