@@ -30,7 +30,9 @@
 //!
 //! [[albedos]]
 //! material = "gold"
-//! output = "gold-albedo.json"
+//! method = "peak"                    # optional: any `lobe albedo --method` (default peak)
+//! samples = 65536                    # optional: nodes per view direction
+//! output = "gold-albedo.json"        # E at mu = 0.1, 0.25, 0.5, 0.75, 1 and the hemispherical albedo
 //!
 //! [[previews]]
 //! materials = ["gold"]               # rows; default: every material
@@ -163,10 +165,8 @@ struct AlbedoFile {
     material: Spanned<String>,
     #[serde(default)]
     white_furnace: bool,
-    /// Quadrature method and sample count: passed to the albedo integrator once it exists.
-    #[allow(dead_code)]
+    /// Quadrature method and nodes per view direction (default: `lobe albedo`'s).
     method: Option<Spanned<String>>,
-    #[allow(dead_code)]
     samples: Option<Spanned<i64>>,
     output: Spanned<String>,
 }
@@ -211,8 +211,14 @@ pub struct TableJob {
 pub struct AlbedoJob {
     pub material: usize,
     pub white_furnace: bool,
+    pub method: crate::integrate::Method,
+    pub samples: usize,
     pub output: PathBuf,
 }
+
+/// The most quadrature nodes per view direction a scene may ask for (GPU node buffers of 16 MiB
+/// per direction; far beyond what any rule needs for 1e-6).
+pub const MAX_ALBEDO_SAMPLES: i64 = 1 << 20;
 
 #[derive(Clone, Debug)]
 pub struct PreviewJob {
@@ -598,9 +604,27 @@ pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
     let mut albedos = Vec::new();
     for a in &raw.albedos {
         let af = a.get_ref();
+        let method = match &af.method {
+            None => crate::integrate::Method::Peak,
+            Some(m) => crate::integrate::Method::from_name(m.get_ref())
+                .map_err(|e| loc.at(m.span(), e.to_string()))?,
+        };
+        let samples = match &af.samples {
+            None => method.default_samples(),
+            Some(n) if (16..=MAX_ALBEDO_SAMPLES).contains(n.get_ref()) => *n.get_ref() as usize,
+            Some(n) => return Err(loc.at(
+                n.span(),
+                format!(
+                    "samples = {}: expected nodes per view direction in [16, {MAX_ALBEDO_SAMPLES}]",
+                    n.get_ref()
+                ),
+            )),
+        };
         albedos.push(AlbedoJob {
             material: find(&af.material)?,
             white_furnace: af.white_furnace,
+            method,
+            samples,
             output: output(&af.output, "json", "albedo")?,
         });
     }
@@ -736,6 +760,16 @@ impl Outputs {
         albedos: false,
         previews: false,
     };
+    pub const ALBEDOS: Outputs = Outputs {
+        tables: false,
+        albedos: true,
+        previews: false,
+    };
+    pub const PREVIEWS: Outputs = Outputs {
+        tables: false,
+        albedos: false,
+        previews: true,
+    };
 }
 
 /// What a run produced, and what it could not.
@@ -743,13 +777,12 @@ impl Outputs {
 pub struct RunSummary {
     /// Files written, each with a one-line description.
     pub written: Vec<(PathBuf, String)>,
-    /// Outputs the scene asks for that this build cannot produce yet, with the reason.
-    pub unsupported: Vec<String>,
 }
 
-/// Whether this build can integrate albedos. The albedo integrator (`src/integrate.rs`) is
-/// being written; until it lands, a scene's [[albedos]] are parsed and validated but not made.
-pub const ALBEDO_SUPPORTED: bool = false;
+/// View directions μ = cos θo at which a scene's [[albedos]] report E(μ) (φo = 0), beside the
+/// hemispherical albedo: grazing, halfway and normal view, as `lobe albedo` by default, and two
+/// between.
+pub const ALBEDO_MU: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
 
 fn f32_exact(x: f64) -> f64 {
     x as f32 as f64
@@ -812,6 +845,11 @@ impl Scene {
         if what.tables {
             for t in &self.tables {
                 add(self.materials[t.material].params.model());
+            }
+        }
+        if what.albedos {
+            for a in &self.albedos {
+                add(self.materials[a.material].params.model());
             }
         }
         if what.previews {
@@ -891,14 +929,41 @@ impl Scene {
         }
         if what.albedos {
             for a in &self.albedos {
-                let text = format!(
-                    "albedo {} (material '{}'): this build has no albedo integrator yet; skipped",
-                    at(&a.output).display(),
-                    self.materials[a.material].name
-                );
-                if !ALBEDO_SUPPORTED {
-                    summary.unsupported.push(text);
+                interrupt::check()?;
+                let m = &self.materials[a.material];
+                let path = at(&a.output);
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent)
+                        .with_context(|| format!("creating the folder {}", parent.display()))?;
                 }
+                let settings = crate::integrate::Settings {
+                    method: a.method,
+                    samples: a.samples,
+                    white_furnace: a.white_furnace,
+                };
+                let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&mu| (mu, 0.0)).collect();
+                let report = crate::integrate::albedo_report(e, &m.params, &settings, &points, 0.0)
+                    .with_context(|| format!("albedo of material '{}'", m.name))?;
+                interrupt::check()?;
+                let mut json = report.to_json(&m.params, a.white_furnace, &e.name());
+                json["material"] = serde_json::json!(m.name);
+                let tmp = crate::table::temp_beside(&path)?;
+                serde_json::to_writer_pretty(tmp.as_file(), &json)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                crate::table::persist(tmp, &path)?;
+                let h = report.hemispherical.albedo;
+                let line = format!(
+                    "albedo {} ({} {}, hemispherical [{:.4}, {:.4}, {:.4}], {:.2} s)",
+                    path.display(),
+                    m.name,
+                    m.params.model().name(),
+                    h.x,
+                    h.y,
+                    h.z,
+                    report.seconds
+                );
+                log(&line);
+                summary.written.push((path, line));
             }
         }
         if what.previews {

@@ -128,6 +128,10 @@ fn scene_cases() -> Vec<(&'static str, String, Vec<&'static str>, Vec<&'static s
         ("two outputs of one name", with("[[tables]]\nmaterial = \"plain\"\noutput = \"gold.exr\"\n"), vec![], vec!["scene.toml:21:10", "clashes with the output on line 18"]),
         ("albedo output not .json", with("[[albedos]]\nmaterial = \"gold\"\noutput = \"gold.csv\"\n"), vec![], vec!["scene.toml:21:10", "must end in .json"]),
         ("albedo of an unknown material", with("[[albedos]]\nmaterial = \"tin\"\noutput = \"a.json\"\n"), vec![], vec!["scene.toml:20:12", "unknown material 'tin'"]),
+        ("albedo of an unknown method", with("[[albedos]]\nmaterial = \"gold\"\nmethod = \"simpson\"\noutput = \"a.json\"\n"), vec![], vec!["scene.toml:21:10", "unknown integration method 'simpson'", "peak"]),
+        ("albedo of 3 samples", with("[[albedos]]\nmaterial = \"gold\"\nsamples = 3\noutput = \"a.json\"\n"), vec![], vec!["scene.toml:21:11", "samples = 3", "[16, 1048576]"]),
+        ("albedo --scene with a scene without albedos", BASE.to_string(), vec!["@albedo"], vec!["asks for no albedos"]),
+        ("preview --scene with a scene without previews", BASE.to_string(), vec!["@preview"], vec!["asks for no previews"]),
         ("preview output not .png", with("[[previews]]\nmaterials = [\"gold\"]\noutput = \"p.jpg\"\n"), vec![], vec!["scene.toml:21:10", "must end in .png"]),
         ("preview cell of 0 pixels", with("[[previews]]\nmaterials = [\"gold\"]\ncell = 0\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:21:8", "cell size"]),
         ("preview of an unknown shape", with("[[previews]]\nmaterials = [\"gold\"]\nshape = \"cube\"\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:21:9", "unknown shape 'cube'"]),
@@ -159,8 +163,8 @@ fn bad_scene_files_fail_cleanly_with_located_messages() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("scene.toml"), text).unwrap();
         let before = listing(dir.path());
-        let args: Vec<&str> = if extra.first() == Some(&"@table") {
-            vec!["table", "--scene", "scene.toml", "--backend", "cpu"]
+        let args: Vec<&str> = if let Some(cmd) = extra.first().and_then(|e| e.strip_prefix('@')) {
+            vec![cmd, "--scene", "scene.toml", "--backend", "cpu"]
         } else {
             let mut a = vec!["run", "scene.toml", "--backend", "cpu"];
             a.extend(extra.iter().copied());
