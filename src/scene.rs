@@ -784,6 +784,15 @@ pub struct RunSummary {
 /// between.
 pub const ALBEDO_MU: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
 
+/// Creates the folder an output goes in (a scene's outputs may name sub-folders).
+fn create_parent(path: &Path) -> Result<()> {
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating the folder {}", parent.display()))?;
+    }
+    Ok(())
+}
+
 fn f32_exact(x: f64) -> f64 {
     x as f32 as f64
 }
@@ -900,10 +909,7 @@ impl Scene {
                 interrupt::check()?;
                 let m = &self.materials[t.material];
                 let path = at(&t.output);
-                if let Some(parent) = path.parent() {
-                    std::fs::create_dir_all(parent)
-                        .with_context(|| format!("creating the folder {}", parent.display()))?;
-                }
+                create_parent(&path)?;
                 let meta = crate::table::TableMeta {
                     params: &m.params,
                     white_furnace: t.white_furnace,
@@ -932,10 +938,7 @@ impl Scene {
                 interrupt::check()?;
                 let m = &self.materials[a.material];
                 let path = at(&a.output);
-                if let Some(parent) = path.parent() {
-                    std::fs::create_dir_all(parent)
-                        .with_context(|| format!("creating the folder {}", parent.display()))?;
-                }
+                create_parent(&path)?;
                 let settings = crate::integrate::Settings {
                     method: a.method,
                     samples: a.samples,
@@ -991,10 +994,7 @@ impl Scene {
                 };
                 let scene = self.preview_scene(p.cell, p.shape)?;
                 let path = at(&p.output);
-                if let Some(parent) = path.parent() {
-                    std::fs::create_dir_all(parent)
-                        .with_context(|| format!("creating the folder {}", parent.display()))?;
-                }
+                create_parent(&path)?;
                 let exr_path = path.with_extension("exr");
                 let started = std::time::Instant::now();
                 let image = preview::render(e, &sheet, &scene, &mut |_, _| {})?;
