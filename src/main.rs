@@ -33,7 +33,9 @@ enum Command {
     Table(TableArgs),
     /// List every model with its parameters, ranges, defaults and a description.
     Models(ModelsArgs),
-    /// The main job on the built-in materials: gold lobe tables and evaluations on both backends.
+    /// The main job on the built-in materials (tin, gold, glazed ceramic, granite) with every
+    /// model: lobe tables, albedo JSON, an albedo LUT, plots, the preview sheet and GPU-vs-CPU
+    /// parity, shown on DIR/index.html.
     Demo(DemoArgs),
     /// Evaluations per second of every model on this device, GPU and CPU reference.
     Bench(BenchArgs),
@@ -460,15 +462,19 @@ enum TableFormat {
 
 #[derive(Args)]
 struct DemoArgs {
-    /// Output folder.
+    /// Output folder; its files are replaced only when the whole demo has succeeded, with
+    /// index.html last.
     #[arg(short = 'o', long = "output", default_value = "lobe-demo")]
     output: PathBuf,
-    /// Where to evaluate.
+    /// Where to evaluate (with cpu there is no GPU-vs-CPU parity to show).
     #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     backend: Backend,
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long, value_name = "SUBSTRING")]
     device: Option<String>,
+    /// Smaller grids, fewer samples and smaller images: a first look in a few seconds.
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(Args)]
@@ -767,30 +773,66 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
 }
 
 fn cmd_demo(a: DemoArgs) -> Result<()> {
+    lobe::interrupt::install()?;
     let model_args = ModelArgs {
-        model: "cook_torrance".into(),
+        model: "lambert".into(),
         sets: Vec::new(),
         material: None,
         white_furnace: false,
         backend: a.backend,
         device: a.device.clone(),
     };
-    with_evaluator(&model_args, |e| {
-        let bar = indicatif::ProgressBar::new(1);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    let settings = if a.quick {
+        lobe::demo::Settings::quick()
+    } else {
+        lobe::demo::Settings::full()
+    };
+    let report = with_evaluator(&model_args, |e| {
+        eprintln!(
+            "lobe demo: {} settings on {}, writing {}",
+            settings.name,
+            e.name(),
+            a.output.display()
         );
-        let summary = lobe::demo::run(e, &a.output, &mut |name, done, all| {
-            bar.set_message(name.to_string());
-            bar.set_length(all);
-            bar.set_position(done);
-        })?;
-        bar.finish_and_clear();
-        println!("{summary}");
-        println!("lobe demo: files are in {}", a.output.display());
-        Ok(())
-    })
+        lobe::demo::run(e, &a.output, &settings, &mut DemoBars { bar: None })
+    })?;
+    println!("{}", report.summary());
+    Ok(())
+}
+
+/// One indicatif bar per demo step; each finished step leaves a line with its time.
+struct DemoBars {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl lobe::demo::Progress for DemoBars {
+    fn begin(&mut self, step: &str, total: u64) {
+        let bar = indicatif::ProgressBar::new(total.max(1));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(step.to_string());
+        self.bar = Some(bar);
+    }
+
+    fn advance(&mut self, done: u64) {
+        if let Some(b) = &self.bar {
+            b.set_position(done);
+        }
+    }
+
+    fn end(&mut self, step: &lobe::demo::Step) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
+        }
+        // A live line per finished step on a terminal; the summary on stdout repeats them all.
+        if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            eprintln!("{:>8} {:>7.2} s  {}", step.name, step.seconds, step.detail);
+        }
+    }
 }
 
 fn cmd_bench(a: BenchArgs) -> Result<()> {
