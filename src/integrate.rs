@@ -942,7 +942,7 @@ pub fn rule_albedo(
 }
 
 /// Σ w f(ωi, ωo) for each ωo: f64 sums on the CPU, the reduction kernel on the GPU.
-fn sum_rule(
+pub fn sum_rule(
     backend: &Evaluator,
     params: &ParamSet,
     white_furnace: bool,

@@ -40,12 +40,13 @@ use crate::bench;
 use crate::eval::Evaluator;
 use crate::gpu::Gpu;
 use crate::grid::{theta_cell, Grid};
-use crate::integrate::{reference_albedo, view_direction, Estimate, Method, Rule, REFERENCE_RTOL};
+use crate::integrate::{
+    reference_albedo, sum_rule, view_direction, Estimate, Method, Rule, REFERENCE_RTOL,
+};
 use crate::model::microfacet::MicrofacetConfig;
-use crate::model::{Brdf, Model, ParamSet, Reference, Value};
+use crate::model::{Model, ParamSet, Reference, Value};
 use anyhow::{bail, Result};
 use glam::DVec3;
-use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::time::Instant;
@@ -504,32 +505,10 @@ pub fn rule_albedo_once(
     rule: &Rule,
     wo: DVec3,
 ) -> Result<(DVec3, usize)> {
-    let nodes = rule.nodes(wo);
-    let value = match backend {
-        Evaluator::Cpu => {
-            let r = Reference::new(params, false);
-            nodes
-                .par_chunks(4096)
-                .map(|c| c.iter().map(|n| n.weight * r.eval(n.wi, wo)).sum::<DVec3>())
-                .sum::<DVec3>()
-        }
-        Evaluator::Gpu(gpu) => {
-            let block = Brdf::new(params).gpu_block();
-            let f4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
-            let packed: Vec<[f32; 4]> = nodes.iter().map(|n| f4(n.wi, n.weight)).collect();
-            let sums = gpu.albedo(
-                params.model(),
-                &block,
-                false,
-                &[f4(wo, 0.0)],
-                &packed,
-                packed.len(),
-                false,
-            )?;
-            DVec3::from_array(sums[0])
-        }
-    };
-    Ok((value, nodes.len()))
+    let (value, n) = sum_rule(backend, params, false, *rule, &[wo])?
+        .pop()
+        .expect("one sum per direction");
+    Ok((value, n as usize))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
