@@ -219,6 +219,19 @@ pub struct AlbedoRow {
     pub max_e_mu: f64,
 }
 
+/// How far above 1 an albedo must lie to count as energy gain. E is a weighted sum of thousands
+/// of terms: a Lambertian of ρ = 1 (gold's red channel) lands at 1 ± 1e-13 in f64 and ± 1e-7
+/// through the GPU's f32 reduction, which is rounding, not gain. The smallest real gain among the
+/// presets is ~8e-3 (gold under Oren–Nayar at grazing view), far above this floor.
+pub const GAIN_FLOOR: f64 = 1e-6;
+
+impl AlbedoRow {
+    /// Whether the model reflects more than it receives somewhere (E > 1 + [`GAIN_FLOOR`]).
+    pub fn gains_energy(&self) -> bool {
+        self.max_e > 1.0 + GAIN_FLOOR
+    }
+}
+
 /// GPU-vs-CPU parity of one model over the demo's grid and every material.
 #[derive(Clone, Debug)]
 pub struct ParityRow {
@@ -285,7 +298,7 @@ impl Report {
         let gains: Vec<String> = self
             .albedo
             .iter()
-            .filter(|r| r.max_e > 1.0)
+            .filter(|r| r.gains_energy())
             .map(|r| {
                 format!(
                     "{} {} (E = {:.3} at μ = {:.3})",
@@ -1084,7 +1097,7 @@ fn page(
     let _ = writeln!(h, "</ul>");
 
     let _ = writeln!(h, "<h2>At a glance</h2><ul id=\"glance\">");
-    let gains: Vec<&AlbedoRow> = r.albedo.iter().filter(|a| a.max_e > 1.0).collect();
+    let gains: Vec<&AlbedoRow> = r.albedo.iter().filter(|a| a.gains_energy()).collect();
     if gains.is_empty() {
         let _ = writeln!(
             h,
@@ -1167,7 +1180,7 @@ fn page(
     let _ = writeln!(h, "<h2>Albedo and energy</h2>");
     let _ = writeln!(
         h,
-        "<p>E(μ) is the directional albedo at view direction μ = cosθo (φo = 0), the mirror spike of the layered models included exactly; Ē the hemispherical albedo; <i>max E</i> the largest E seen over the E(μ) curve and the three points, any channel (above 1 the model creates energy); <i>1 − E<sub>avg</sub></i> the energy not reflected (E<sub>avg</sub> = 2∫E(μ)μ dμ), absorption by the material's colour included. Each RGB cell reads r g b. Integrator: <code>peak</code>, {} nodes per direction; <i>err</i> is its own error estimate.</p>",
+        "<p>E(μ) is the directional albedo at view direction μ = cosθo (φo = 0), the mirror spike of the layered models included exactly; Ē the hemispherical albedo; <i>max E</i> the largest E seen over the E(μ) curve and the three points, any channel (above 1 + {GAIN_FLOOR:.0e}, marked <i>gain</i>, the model creates energy); <i>1 − E<sub>avg</sub></i> the energy not reflected (E<sub>avg</sub> = 2∫E(μ)μ dμ), absorption by the material's colour included. Each RGB cell reads r g b. Integrator: <code>peak</code>, {} nodes per direction; <i>err</i> is its own error estimate.</p>",
         r.settings.albedo_samples
     );
     let mats: Vec<&str> = {
@@ -1211,10 +1224,10 @@ fn page(
             let _ = write!(
                 h,
                 "<td class=\"num{}\" data-field=\"max_e\" title=\"at μ = {:.3}\">{:.4}{}</td>",
-                if a.max_e > 1.0 { " gain" } else { "" },
+                if a.gains_energy() { " gain" } else { "" },
                 a.max_e_mu,
                 a.max_e,
-                if a.max_e > 1.0 { " gain" } else { "" }
+                if a.gains_energy() { " gain" } else { "" }
             );
             let _ = write!(
                 h,

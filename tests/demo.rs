@@ -273,6 +273,26 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
             lambert_tol,
         );
     }
+    // Energy: the seed's smooth-layered model gains energy at grazing view (DESIGN §3: the tool
+    // must show it), most of all on glazed ceramic (E ≈ 1.6); a Lambertian never does, not even
+    // gold's ρ = 1 red channel.
+    let gain_of = |key: &str| {
+        let row = rows
+            .iter()
+            .find(|r| r.starts_with(&format!("\"albedo/{key}.json\"")))
+            .unwrap_or_else(|| panic!("no row {key}"));
+        row.contains("class=\"num gain\" data-field=\"max_e\"")
+    };
+    assert!(
+        gain_of("glazed_ceramic_smooth_layered"),
+        "smooth_layered gain not marked"
+    );
+    for mat in MATERIALS {
+        assert!(
+            !gain_of(&format!("{mat}_lambert")),
+            "{mat} lambert marked as gain"
+        );
+    }
     // Every step is timed on the page.
     let steps = &html[html.find("id=\"steps\"").expect("steps table")..];
     let steps = &steps[..steps.find("</table>").unwrap()];
