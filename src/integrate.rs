@@ -97,12 +97,10 @@ impl Method {
     }
 
     /// Nodes per direction when `--samples` is not given. For `peak` this reaches 1e-6 relative
-    /// at every preset for the smooth seed models (tests/albedo.rs checks it against the
-    /// reference); Cook–Torrance's V-cavity min() kinks cross the panels and leave up to ~1e-4
-    /// (measured 3e-5 to 7e-5 relative at the tin and gold presets, μ = 0.1 and 0.5), which its
-    /// error estimate reports; curved kinks are not yet on panel edges (issue 3's 1e-6 target is
-    /// open for this model). `importance` is a sampling method: ~1e-4 at 65536 points, with a
-    /// statistical error estimate.
+    /// at every preset of every seed model (tests/albedo.rs checks it against the reference):
+    /// Cook–Torrance's V-cavity kinks are put on panel edges ([`v_cavity_kinks`],
+    /// [`v_cavity_turns`]), which took its presets from 3e-5–7e-5 to ≤ 1.7e-7. `importance` is a
+    /// sampling method: ~1e-4 at 65536 points, with a statistical error estimate.
     pub fn default_samples(self) -> usize {
         match self {
             Method::Midpoint | Method::Gauss => 1 << 16,
@@ -130,6 +128,7 @@ impl Method {
             // About 30 μ panels × 22 φ panels, q² nodes per panel pair.
             Method::Peak => Some(Rule::Peak {
                 order: (((samples as f64) / (30.0 * 22.0)).sqrt().round() as usize).max(2),
+                v_cavity: has_v_cavity(params),
             }),
             Method::Reference => None,
         }
@@ -158,6 +157,8 @@ pub enum Rule {
     },
     Peak {
         order: usize,
+        /// Split each μ line's Δφ panels at the V-cavity masking kinks ([`v_cavity_kinks`]).
+        v_cavity: bool,
     },
 }
 
@@ -196,9 +197,10 @@ impl Rule {
                 },
                 1.0,
             ),
-            Rule::Peak { order } => (
+            Rule::Peak { order, v_cavity } => (
                 Rule::Peak {
                     order: (order * 3 / 4).clamp(1, order.saturating_sub(1).max(1)),
+                    v_cavity,
                 },
                 1.0,
             ),
@@ -223,7 +225,7 @@ impl Rule {
                         .collect(),
                 }
             }
-            Rule::Peak { order } => peak_nodes(order, wo),
+            Rule::Peak { order, v_cavity } => peak_nodes(order, v_cavity, wo),
         }
     }
 }
@@ -753,23 +755,49 @@ impl PeakFrame {
 ///
 /// A lobe of width w about the mirror direction is then covered by panels of every size down to
 /// 2^-levels of the domain (see [`PEAK_LEVELS`]), so it is integrated like a smooth function.
-fn peak_nodes(order: usize, wo: DVec3) -> Vec<Node> {
+///
+/// With `v_cavity`, each μ line's Δφ panels are also split at the V-cavity's kinks (see
+/// [`v_cavity_kinks`]): curves in (μ, Δφ) that no fixed panel grid follows, which would otherwise
+/// leave Gauss panels integrating a kinked function at low order (~5e-5 relative at the
+/// Cook–Torrance presets). With the kink on a panel edge the inner integral is smooth in every
+/// panel, and the outer one in μ is smooth because the kink moves smoothly with μ.
+fn peak_nodes(order: usize, v_cavity: bool, wo: DVec3) -> Vec<Node> {
     let phi_o = wo.y.atan2(wo.x);
     let gl = gauss_legendre(order);
-    let mb = peak_mu_breaks(wo.z);
-    let pb = peak_phi_breaks();
-    let mut phis = Vec::with_capacity(order * pb.len());
-    for w in pb.windows(2) {
-        for (dphi, wp) in gauss_on(&gl, w[0], w[1]) {
-            let (sp, cp) = (phi_o + dphi).sin_cos();
-            phis.push((sp, cp, wp));
-        }
+    let mut mb = peak_mu_breaks(wo.z);
+    if v_cavity {
+        mb.extend(v_cavity_turns(wo.z));
+        mb.sort_by(f64::total_cmp);
+        mb.dedup();
     }
-    let mut out = Vec::with_capacity(order * (mb.len() - 1) * phis.len());
+    let pb = peak_phi_breaks();
+    let line = |breaks: &[f64]| -> Vec<(f64, f64, f64)> {
+        let mut phis = Vec::with_capacity(order * breaks.len());
+        for w in breaks.windows(2) {
+            for (dphi, wp) in gauss_on(&gl, w[0], w[1]) {
+                let (sp, cp) = (phi_o + dphi).sin_cos();
+                phis.push((sp, cp, wp));
+            }
+        }
+        phis
+    };
+    let shared = line(&pb);
+    let mut out = Vec::with_capacity(order * (mb.len() - 1) * (shared.len() + 2 * order));
     for w in mb.windows(2) {
         for (mu, wm) in gauss_on(&gl, w[0], w[1]) {
             let s = (1.0 - mu * mu).max(0.0).sqrt();
-            for &(sp, cp, wp) in &phis {
+            let own;
+            let phis = if v_cavity {
+                let mut b = pb.clone();
+                b.extend(v_cavity_kinks(mu, wo.z));
+                b.sort_by(f64::total_cmp);
+                b.dedup();
+                own = line(&b);
+                &own
+            } else {
+                &shared
+            };
+            for &(sp, cp, wp) in phis {
                 out.push(Node {
                     wi: DVec3::new(s * cp, s * sp, mu),
                     weight: wm * wp * mu,
@@ -778,6 +806,71 @@ fn peak_nodes(order: usize, wo: DVec3) -> Vec<Node> {
         }
     }
     out
+}
+
+/// The μi where the V-cavity's kink curve turns (cos Δφ* of [`v_cavity_kinks`] reaches ±1): there
+/// the kinks appear or vanish on the μ lines, the inner integral's derivative in μ is singular
+/// like a square root, and the outer rule needs a panel edge. Found by bisection on a scan of
+/// q(μ) = (2m(μ + μo) − 1 − μμo)² − (1 − μ²)(1 − μo²), whose sign changes they are.
+pub fn v_cavity_turns(mu_o: f64) -> Vec<f64> {
+    let q = |mu: f64| {
+        let m = mu.min(mu_o);
+        let a = 2.0 * m * (mu + mu_o) - 1.0 - mu * mu_o;
+        a * a - (1.0 - mu * mu) * (1.0 - mu_o * mu_o)
+    };
+    const SCAN: usize = 256;
+    let mut out = Vec::new();
+    for k in 0..SCAN {
+        let (mut a, mut b) = (k as f64 / SCAN as f64, (k + 1) as f64 / SCAN as f64);
+        let (qa, qb) = (q(a), q(b));
+        if qa == 0.0 {
+            out.push(a);
+            continue;
+        }
+        if qa * qb >= 0.0 {
+            continue;
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (a + b);
+            if q(mid) * qa > 0.0 {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        out.push(0.5 * (a + b));
+    }
+    out
+}
+
+/// Whether the model's masking is the V-cavity's min(1, 2 c_h min(c_i, c_o)/c_d).
+fn has_v_cavity(params: &ParamSet) -> bool {
+    match params.model() {
+        crate::model::Model::CookTorrance => true,
+        crate::model::Model::Microfacet(c) => c.choices()[1].1 == "v_cavity",
+        _ => false,
+    }
+}
+
+/// The Δφ = φi − φo ∈ (0, 2π) where the V-cavity's G = min(1, 2 c_h m / c_d), m = min(μi, μo),
+/// has its kink on the line μi = `mu`, for a view at μo = `mu_o`.
+///
+/// With s = ωi + ωo: c_h = (μi + μo)/|s| and c_d = |s|/2, so 2 c_h m = c_d ⟺ |s|² = 4m(μi + μo),
+/// and |s|² = 2 + 2(μi μo + sinθi sinθo cos Δφ):
+/// cos Δφ* = (2m(μi + μo) − 1 − μi μo) / (sinθi sinθo). The other kink, μi = μo where m switches,
+/// is already a μ breakpoint of the `peak` rule.
+pub fn v_cavity_kinks(mu: f64, mu_o: f64) -> Vec<f64> {
+    let m = mu.min(mu_o);
+    let ss = ((1.0 - mu * mu) * (1.0 - mu_o * mu_o)).max(0.0).sqrt();
+    if ss <= 0.0 {
+        return Vec::new();
+    }
+    let c = (2.0 * m * (mu + mu_o) - 1.0 - mu * mu_o) / ss;
+    if !(c > -1.0 && c < 1.0) {
+        return Vec::new();
+    }
+    let d = c.acos();
+    vec![d, TAU - d]
 }
 
 /// The `peak` rule's μ breakpoints. Below μo: graded towards μo. Above: towards μo and towards
@@ -825,7 +918,7 @@ pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {
     if wo.z <= 0.0 {
         return Estimate::default();
     }
-    let first: DVec3 = peak_nodes(6, wo)
+    let first: DVec3 = peak_nodes(6, false, wo)
         .iter()
         .map(|n| n.weight * r.eval(n.wi, wo))
         .sum();
@@ -858,7 +951,7 @@ pub fn reference_albedo_mirror_frame(r: &Reference, wo: DVec3, rtol: f64) -> Est
         return Estimate::default();
     }
     let frame = PeakFrame::new(wo);
-    let first: DVec3 = peak_nodes(6, wo)
+    let first: DVec3 = peak_nodes(6, false, wo)
         .iter()
         .map(|n| n.weight * r.eval(n.wi, wo))
         .sum();
@@ -1350,7 +1443,10 @@ mod tests {
         for rule in [
             Rule::Midpoint { n_theta: 200 },
             Rule::Gauss { n_mu: 8 },
-            Rule::Peak { order: 6 },
+            Rule::Peak {
+                order: 6,
+                v_cavity: false,
+            },
         ] {
             let s: f64 = rule.nodes(wo).iter().map(|n| n.weight).sum();
             // The midpoint rule's O(h²): about (π/400)²/6 ≈ 1e-5 relative at nθ = 200.
@@ -1360,6 +1456,56 @@ mod tests {
                 1e-13
             };
             assert!((s / PI - 1.0).abs() < tol, "{rule:?}: {}", s / PI);
+        }
+    }
+
+    /// The V-cavity's kinks from the closed forms against a brute-force scan of where
+    /// 2 c_h min(μi, μo)/c_d crosses 1, computed from the vectors.
+    #[test]
+    fn v_cavity_kinks_and_turns_are_where_the_masking_term_crosses_one() {
+        let g = |mu: f64, mu_o: f64, dphi: f64| {
+            let wi = view_direction(mu, dphi);
+            let wo = view_direction(mu_o, 0.0);
+            let s = wi + wo;
+            2.0 * (s.z / s.length()) * mu.min(mu_o) / (0.5 * s.length()) - 1.0
+        };
+        const N: usize = 20_000;
+        for mu_o in [0.05, 0.3, 0.5, 0.9] {
+            let mut lines_with_kinks = Vec::new();
+            for k in 1..200 {
+                let mu = k as f64 / 200.0;
+                let scan: Vec<f64> = (1..N)
+                    .filter(|&j| {
+                        let (a, b) = ((j - 1) as f64 * TAU / N as f64, j as f64 * TAU / N as f64);
+                        g(mu, mu_o, a) * g(mu, mu_o, b) < 0.0
+                    })
+                    .map(|j| (j as f64 - 0.5) * TAU / N as f64)
+                    .collect();
+                let kinks = v_cavity_kinks(mu, mu_o);
+                assert_eq!(
+                    kinks.len(),
+                    scan.len(),
+                    "mu_o {mu_o} mu {mu}: {kinks:?} vs {scan:?}"
+                );
+                for (a, b) in kinks.iter().zip(&scan) {
+                    assert!(
+                        (a - b).abs() < TAU / N as f64,
+                        "mu_o {mu_o} mu {mu}: {a} vs {b}"
+                    );
+                }
+                lines_with_kinks.push(!kinks.is_empty());
+            }
+            // Each change between lines with and without kinks has a turn between them.
+            let turns = v_cavity_turns(mu_o);
+            for k in 1..lines_with_kinks.len() {
+                if lines_with_kinks[k] != lines_with_kinks[k - 1] {
+                    let (lo, hi) = (k as f64 / 200.0, (k + 1) as f64 / 200.0);
+                    assert!(
+                        turns.iter().any(|&t| lo <= t && t <= hi),
+                        "mu_o {mu_o}: no turn in [{lo}, {hi}]: {turns:?}"
+                    );
+                }
+            }
         }
     }
 

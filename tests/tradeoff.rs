@@ -549,6 +549,12 @@ fn rule_ladders_dedupe_equal_rules() {
         .filter(|x| x.method == Method::Peak)
         .map(|x| &x.rule)
         .collect();
-    assert_eq!(peaks, [&Rule::Peak { order: 2 }]);
+    assert_eq!(
+        peaks,
+        [&Rule::Peak {
+            order: 2,
+            v_cavity: false
+        }]
+    );
     assert!(v.iter().all(|x| x.method != Method::Reference));
 }
