@@ -420,3 +420,55 @@ fn a_full_disk_gives_a_clear_error_and_keeps_the_good_file() {
     assert!(problem.is_none(), "{}", problem.unwrap_or_default());
     assert_eq!(good, b"good");
 }
+
+/// A write that fails part-way (the kernel's file-size limit, `ulimit -f`, with SIGXFSZ ignored so
+/// that write() returns EFBIG: the same error path as a full disk, without root): a clear error
+/// naming the file, no panic, no partial file, and the good files already there untouched.
+#[cfg(unix)]
+#[test]
+fn a_write_that_fails_part_way_keeps_the_good_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let lobe_bin = env!("CARGO_BIN_EXE_lobe");
+    let table = "table --backend cpu --model lambert --grid isotropic --res 64,64,64 -o t.exr";
+    // The good set: written first without a limit.
+    let good = Command::new("sh")
+        .args(["-c", &format!("exec '{lobe_bin}' {table}")])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        good.status.success(),
+        "{}",
+        String::from_utf8_lossy(&good.stderr)
+    );
+    let before = listing(dir.path());
+    let saved: Vec<Vec<u8>> = ["t.exr", "t.npy", "t.json"]
+        .iter()
+        .map(|f| std::fs::read(dir.path().join(f)).unwrap())
+        .collect();
+    // 64 blocks of 512 bytes = 32 KiB, far below the 3 MiB npy of 64^3 RGB cells.
+    let out = Command::new("sh")
+        .args([
+            "-c",
+            &format!("ulimit -f 64 && trap '' XFSZ && exec '{lobe_bin}' {table}"),
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    if let Some(wrong) = check_failure(
+        "write fails part-way",
+        dir.path(),
+        &before,
+        &out,
+        &["t.", "File too large"],
+    ) {
+        panic!("{wrong}");
+    }
+    for (f, bytes) in ["t.exr", "t.npy", "t.json"].iter().zip(&saved) {
+        assert_eq!(
+            &std::fs::read(dir.path().join(f)).unwrap(),
+            bytes,
+            "{f} changed"
+        );
+    }
+}
