@@ -272,6 +272,7 @@ fn gauss_on(rule: &[(f64, f64)], a: f64, b: f64) -> impl Iterator<Item = (f64, f
 
 /// Kronrod 15-point nodes (positive half, descending) and weights, with the embedded Gauss
 /// 7-point weights at the odd-indexed nodes; QUADPACK's qk15 (Piessens et al. 1983).
+#[allow(clippy::excessive_precision)] // QUADPACK's published digits, kept as printed
 const XGK: [f64; 8] = [
     0.991455371120812639206854697526329,
     0.949107912342758524526189684047851,
@@ -282,6 +283,7 @@ const XGK: [f64; 8] = [
     0.207784955007898467600689403773245,
     0.0,
 ];
+#[allow(clippy::excessive_precision)] // QUADPACK's published digits, kept as printed
 const WGK: [f64; 8] = [
     0.022935322010529224963732008058970,
     0.063092092629978553290700663189204,
@@ -292,6 +294,7 @@ const WGK: [f64; 8] = [
     0.204432940075298892414161999234649,
     0.209482141084727828012999174891714,
 ];
+#[allow(clippy::excessive_precision)] // QUADPACK's published digits, kept as printed
 const WG: [f64; 4] = [
     0.129484966168869693270611432679082,
     0.279705391489276667901467771423780,

@@ -612,13 +612,15 @@ pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
         let samples = match &af.samples {
             None => method.default_samples(),
             Some(n) if (16..=MAX_ALBEDO_SAMPLES).contains(n.get_ref()) => *n.get_ref() as usize,
-            Some(n) => return Err(loc.at(
-                n.span(),
-                format!(
+            Some(n) => {
+                return Err(loc.at(
+                    n.span(),
+                    format!(
                     "samples = {}: expected nodes per view direction in [16, {MAX_ALBEDO_SAMPLES}]",
                     n.get_ref()
                 ),
-            )),
+                ))
+            }
         };
         albedos.push(AlbedoJob {
             material: find(&af.material)?,

@@ -35,10 +35,17 @@ pub struct GpuPair {
     pub pad: u32,
 }
 
+/// What tells pipelines apart: the kernel, the model (with its component choices), and the
+/// white-furnace and fast-pow specialization constants.
+type PipelineKey = (Kernel, Model, bool, bool);
+
+/// Receives each finished chunk of a table: its first cell's index and its RGB values.
+pub type TableSink<'a, E> = dyn FnMut(u64, &[f32]) -> std::result::Result<(), E> + 'a;
+
 /// The pipelines built so far on one device; each is built on first use only.
 pub struct Gpu<'d> {
     dev: &'d Device,
-    pipelines: RefCell<HashMap<(Kernel, Model, bool, bool), Rc<Pipeline<'d>>>>,
+    pipelines: RefCell<HashMap<PipelineKey, Rc<Pipeline<'d>>>>,
     built: RefCell<Vec<(String, Duration)>>,
     fast_pow: std::cell::Cell<bool>,
 }
@@ -120,11 +127,7 @@ impl<'d> Gpu<'d> {
         let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
         let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
         let by_output = CHUNK_OUTPUT_BYTES.min(range) / 12;
-        let by_input = if in_bytes_per_eval > 0 {
-            range / in_bytes_per_eval
-        } else {
-            u64::MAX
-        };
+        let by_input = range.checked_div(in_bytes_per_eval).unwrap_or(u64::MAX);
         by_dispatch.min(by_output).min(by_input).max(1)
     }
 
@@ -178,7 +181,7 @@ impl<'d> Gpu<'d> {
         wi: &[[f32; 4]],
         wo: &[[f32; 4]],
         white_furnace: bool,
-        sink: &mut dyn FnMut(u64, &[f32]) -> std::result::Result<(), E>,
+        sink: &mut TableSink<'_, E>,
     ) -> std::result::Result<(), E> {
         let cells = wi.len() as u64 * wo.len() as u64;
         if cells > u32::MAX as u64 {

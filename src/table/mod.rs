@@ -79,8 +79,11 @@ pub fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Maps pixel (x, y) of the EXR mosaic to its npy cell index.
+type PixelToCell = Box<dyn Fn(usize, usize) -> usize + Sync>;
+
 /// (width, height) of the EXR mosaic and the npy cell index of pixel (x, y).
-fn mosaic(grid: &Grid) -> (usize, usize, Box<dyn Fn(usize, usize) -> usize + Sync>) {
+fn mosaic(grid: &Grid) -> (usize, usize, PixelToCell) {
     match *grid {
         Grid::Full {
             n_theta_i,
