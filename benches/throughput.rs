@@ -1,6 +1,8 @@
 //! Criterion benchmark of evaluation throughput per model, for development: the GPU table kernel
 //! (f32, Vulkan) and the CPU reference (f64, all cores) over the same isotropic grid, output
-//! discarded. `cargo bench --bench throughput`; `lobe bench` measures the same for users.
+//! discarded; and albedo integration (the GPU reduction kernel, f64 sums on the CPU) with
+//! `lobe bench`'s rule and view directions. `cargo bench --bench throughput`; `lobe bench`
+//! measures the same for users.
 //! GPU and CPU groups run one after the other, never at once (PLATFORM.md: rayon work and
 //! lavapipe slow each other down).
 
@@ -40,5 +42,29 @@ fn throughput(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, throughput);
+fn albedo_throughput(c: &mut Criterion) {
+    use lobe::bench::{ALBEDO_DIRECTIONS, ALBEDO_RULE};
+    use lobe::integrate::{rule_albedo, view_direction};
+    let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = Gpu::new(&dev);
+    let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
+        .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
+        .collect();
+    let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
+        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
+    for (name, e) in [("gpu", Evaluator::Gpu(&gpu)), ("cpu_f64", Evaluator::Cpu)] {
+        let mut group = c.benchmark_group(format!("albedo_{name}"));
+        group.throughput(Throughput::Elements((per_direction * wo.len()) as u64));
+        group.sample_size(10);
+        for model in Model::ALL {
+            let p = ParamSet::defaults(model);
+            group.bench_function(model.name(), |b| {
+                b.iter(|| rule_albedo(&e, &p, false, ALBEDO_RULE, &wo).expect("albedo"))
+            });
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, throughput, albedo_throughput);
 criterion_main!(benches);
