@@ -1471,10 +1471,19 @@ fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
     }
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, phi)).collect();
     let (report, backend) = with_evaluator(&a.model, |e| {
-        Ok((
-            albedo_report(e, &params, &settings, &points, phi)?,
-            e.name(),
-        ))
+        // A spinner: the hemispherical albedo of an anisotropic model integrates thousands of
+        // view directions (seconds to tens of seconds on lavapipe).
+        let spinner = indicatif::ProgressBar::new_spinner();
+        spinner.set_message(format!(
+            "integrating {} with {} on {}",
+            params.model().name(),
+            method.name(),
+            e.name()
+        ));
+        spinner.enable_steady_tick(std::time::Duration::from_millis(120));
+        let report = albedo_report(e, &params, &settings, &points, phi);
+        spinner.finish_and_clear();
+        Ok((report?, e.name()))
     })?;
     let mut out = std::io::stdout().lock();
     let rgb = |v: glam::DVec3| format!("{:.9},{:.9},{:.9}", v.x, v.y, v.z);
