@@ -10,6 +10,9 @@ use rayon::prelude::*;
 /// Cells per CPU chunk of a table: bounded memory, enough work for every thread.
 const CPU_CHUNK_CELLS: u64 = 1 << 22;
 
+/// Cells per chunk of a table evaluated as explicit pairs (`halfdiff`): 48 MiB of f64 pairs.
+const PAIR_CHUNK_CELLS: u64 = 1 << 20;
+
 /// Where f is evaluated.
 pub enum Evaluator<'a, 'd> {
     Gpu(&'a Gpu<'d>),
@@ -69,6 +72,9 @@ impl Evaluator<'_, '_> {
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
+        if !grid.is_product() {
+            return self.eval_table_by_pairs(params, white_furnace, grid, sink);
+        }
         let wi = grid.wi_list();
         let wo = grid.wo_list();
         match self {
@@ -105,5 +111,32 @@ impl Evaluator<'_, '_> {
                 Ok(())
             }
         }
+    }
+
+    /// A table on a grid that is not an outer product (`halfdiff`): each chunk's (ωi, ωo) pairs
+    /// are made on the CPU and evaluated as pairs; memory stays bounded by the chunk.
+    fn eval_table_by_pairs(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<()> {
+        let cells = grid
+            .cells()
+            .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"))?;
+        let mut first = 0u64;
+        while first < cells {
+            let count = PAIR_CHUNK_CELLS.min(cells - first);
+            let pairs: Vec<(DVec3, DVec3)> = (first..first + count)
+                .into_par_iter()
+                .map(|cell| grid.pair(&grid.index(cell)))
+                .collect();
+            let f = self.eval_pairs(params, white_furnace, &pairs)?;
+            let buf: Vec<f32> = f.iter().flat_map(|v| v.map(|x| x as f32)).collect();
+            sink(first, &buf)?;
+            first += count;
+        }
+        Ok(())
     }
 }

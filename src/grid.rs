@@ -1,7 +1,9 @@
 //! Grids of (ωi, ωo) with cell-centred angles (DESIGN §4):
 //! θ_k = (k + ½)(π/2)/Nθ, φ_k = (k + ½)2π/Nφ, Δφ_k = (k + ½)π/NΔφ.
-//! Every grid is laid out as the outer product of a light-direction list and a view-direction
-//! list, cell = i·len(wo) + o, so that a table's row-major index is the cell index.
+//! The `full` and `isotropic` grids are the outer product of a light-direction list and a
+//! view-direction list, cell = i·len(wo) + o, so that a table's row-major index is the cell
+//! index. The `halfdiff` grids (Rusinkiewicz 1998's half/difference angles; MERL's layout with
+//! uniform cell-centred θh) are not products: each cell's pair comes from [`Grid::pair`].
 
 use glam::DVec3;
 use serde_json::json;
@@ -21,6 +23,20 @@ pub enum Grid {
         n_theta_i: usize,
         n_theta_o: usize,
         n_dphi: usize,
+    },
+    /// (θh, θd, φd) with φh = 0 and φd ∈ [0, π]: isotropic models (an isotropic, reciprocal f
+    /// has f(φd) = f(φd + π), so half the circle holds everything).
+    HalfDiff {
+        n_theta_h: usize,
+        n_theta_d: usize,
+        n_phi_d: usize,
+    },
+    /// (θh, φh, θd, φd), φh and φd ∈ [0, 2π): any model.
+    HalfDiffFull {
+        n_theta_h: usize,
+        n_phi_h: usize,
+        n_theta_d: usize,
+        n_phi_d: usize,
     },
 }
 
@@ -78,8 +94,23 @@ impl Grid {
             ("isotropic", _) => Err(format!(
                 "--res '{res}': the isotropic grid takes three numbers NTHETA_I,NTHETA_O,NDPHI"
             )),
+            ("halfdiff", [a, b, c]) => Ok(Grid::HalfDiff {
+                n_theta_h: *a,
+                n_theta_d: *b,
+                n_phi_d: *c,
+            }),
+            ("halfdiff", [a, b, c, d]) => Ok(Grid::HalfDiffFull {
+                n_theta_h: *a,
+                n_phi_h: *b,
+                n_theta_d: *c,
+                n_phi_d: *d,
+            }),
+            ("halfdiff", _) => Err(format!(
+                "--res '{res}': the halfdiff grid takes three numbers NTHETA_H,NTHETA_D,NPHI_D \
+                 (isotropic models, phi_d over [0, 180 deg]) or four NTHETA_H,NPHI_H,NTHETA_D,NPHI_D"
+            )),
             _ => Err(format!(
-                "unknown grid '{kind}'; the grids are: full, isotropic"
+                "unknown grid '{kind}'; the grids are: full, isotropic, halfdiff"
             )),
         }
     }
@@ -88,7 +119,43 @@ impl Grid {
         match self {
             Grid::Full { .. } => "full",
             Grid::Isotropic { .. } => "isotropic",
+            Grid::HalfDiff { .. } | Grid::HalfDiffFull { .. } => "halfdiff",
         }
+    }
+
+    /// Whether the grid holds only the isotropic half of the angles (isotropic models only).
+    pub fn needs_isotropy(&self) -> bool {
+        matches!(self, Grid::Isotropic { .. } | Grid::HalfDiff { .. })
+    }
+
+    /// Whether the grid is the outer product of [`Grid::wi_list`] and [`Grid::wo_list`].
+    pub fn is_product(&self) -> bool {
+        matches!(self, Grid::Full { .. } | Grid::Isotropic { .. })
+    }
+
+    /// (ωi, ωo) of the cell with multi-index `idx` (shape order), for every grid.
+    pub fn pair(&self, idx: &[usize]) -> (DVec3, DVec3) {
+        let a = self.angles(idx);
+        match self {
+            Grid::Full { .. } | Grid::Isotropic { .. } => {
+                (direction(a[0], a[1]), direction(a[2], a[3]))
+            }
+            Grid::HalfDiff { .. } | Grid::HalfDiffFull { .. } => {
+                half_diff_to_pair(a[0], a[1], a[2], a[3])
+            }
+        }
+    }
+
+    /// The multi-index (shape order) of row-major cell `cell`.
+    pub fn index(&self, cell: u64) -> Vec<usize> {
+        let shape = self.shape();
+        let mut idx = vec![0; shape.len()];
+        let mut rest = cell;
+        for (k, &n) in shape.iter().enumerate().rev() {
+            idx[k] = (rest % n as u64) as usize;
+            rest /= n as u64;
+        }
+        idx
     }
 
     /// The table's shape without the RGB axis, in `--res` order.
@@ -105,6 +172,17 @@ impl Grid {
                 n_theta_o,
                 n_dphi,
             } => vec![n_theta_i, n_theta_o, n_dphi],
+            Grid::HalfDiff {
+                n_theta_h,
+                n_theta_d,
+                n_phi_d,
+            } => vec![n_theta_h, n_theta_d, n_phi_d],
+            Grid::HalfDiffFull {
+                n_theta_h,
+                n_phi_h,
+                n_theta_d,
+                n_phi_d,
+            } => vec![n_theta_h, n_phi_h, n_theta_d, n_phi_d],
         }
     }
 
@@ -129,6 +207,8 @@ impl Grid {
             Grid::Isotropic { n_theta_i, .. } => (0..n_theta_i)
                 .map(|t| direction(theta_cell(t, n_theta_i), 0.0))
                 .collect(),
+            // Not a product: see `pair`.
+            Grid::HalfDiff { .. } | Grid::HalfDiffFull { .. } => Vec::new(),
         }
     }
 
@@ -151,10 +231,13 @@ impl Grid {
                         .map(move |d| direction(theta_cell(t, n_theta_o), dphi_cell(d, n_dphi)))
                 })
                 .collect(),
+            Grid::HalfDiff { .. } | Grid::HalfDiffFull { .. } => Vec::new(),
         }
     }
 
-    /// Angles (θi, φi, θo, φo) in radians of the cell with multi-index `idx` (shape order).
+    /// The grid's four angles in radians of the cell with multi-index `idx` (shape order):
+    /// (θi, φi, θo, φo) on `full` and `isotropic` (φi = 0, φo = Δφ), (θh, φh, θd, φd) on
+    /// `halfdiff` (φh = 0 on the three-axis grid).
     pub fn angles(&self, idx: &[usize]) -> [f64; 4] {
         match *self {
             Grid::Full {
@@ -177,6 +260,27 @@ impl Grid {
                 0.0,
                 theta_cell(idx[1], n_theta_o),
                 dphi_cell(idx[2], n_dphi),
+            ],
+            Grid::HalfDiff {
+                n_theta_h,
+                n_theta_d,
+                n_phi_d,
+            } => [
+                theta_cell(idx[0], n_theta_h),
+                0.0,
+                theta_cell(idx[1], n_theta_d),
+                dphi_cell(idx[2], n_phi_d),
+            ],
+            Grid::HalfDiffFull {
+                n_theta_h,
+                n_phi_h,
+                n_theta_d,
+                n_phi_d,
+            } => [
+                theta_cell(idx[0], n_theta_h),
+                phi_cell(idx[1], n_phi_h),
+                theta_cell(idx[2], n_theta_d),
+                phi_cell(idx[3], n_phi_d),
             ],
         }
     }
@@ -212,8 +316,47 @@ impl Grid {
                  "centre_rad": format!("(k + 0.5) * pi / {n_dphi}"), "note": "phi_o - phi_i; phi_i = 0"},
                 {"name": "rgb", "size": 3}
             ]),
+            Grid::HalfDiff {
+                n_theta_h,
+                n_theta_d,
+                n_phi_d,
+            } => json!([
+                theta("theta_h", n_theta_h),
+                theta("theta_d", n_theta_d),
+                {"name": "phi_d", "size": n_phi_d, "range_rad": [0.0, PI],
+                 "centre_rad": format!("(k + 0.5) * pi / {n_phi_d}"),
+                 "note": "phi_h = 0; Rusinkiewicz 1998: wi = Rz(phi_h) Ry(theta_h) d(theta_d, phi_d), wo = its mirror about h"},
+                {"name": "rgb", "size": 3}
+            ]),
+            Grid::HalfDiffFull {
+                n_theta_h,
+                n_phi_h,
+                n_theta_d,
+                n_phi_d,
+            } => json!([
+                theta("theta_h", n_theta_h),
+                phi("phi_h", n_phi_h),
+                theta("theta_d", n_theta_d),
+                phi("phi_d", n_phi_d),
+                {"name": "rgb", "size": 3}
+            ]),
         }
     }
+}
+
+/// (ωi, ωo) of Rusinkiewicz's half/difference angles (radians): the half vector
+/// h = (θh, φh), and ωi = Rz(φh) Ry(θh) d with d = (θd, φd) in h's frame; ωo is ωi's mirror
+/// about h. Cells whose ωi or ωo falls below the horizon hold f = 0 (DESIGN §2).
+pub fn half_diff_to_pair(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> (DVec3, DVec3) {
+    let h = direction(theta_h, phi_h);
+    let d = direction(theta_d, phi_d);
+    // Ry(θh), then Rz(φh).
+    let (st, ct) = theta_h.sin_cos();
+    let y = DVec3::new(d.x * ct + d.z * st, d.y, -d.x * st + d.z * ct);
+    let (sp, cp) = phi_h.sin_cos();
+    let wi = DVec3::new(y.x * cp - y.y * sp, y.x * sp + y.y * cp, y.z);
+    let wo = 2.0 * wi.dot(h) * h - wi;
+    (wi, wo)
 }
 
 #[cfg(test)]
@@ -226,6 +369,25 @@ mod tests {
         assert!((theta_cell(1, 2) - 3.0 * PI / 8.0).abs() < 1e-15);
         assert!((phi_cell(0, 4) - PI / 4.0).abs() < 1e-15);
         assert!((dphi_cell(0, 1) - PI / 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn halfdiff_pairs_have_their_half_and_difference_angles() {
+        for res in ["3,4,5", "3,4,5,6"] {
+            let g = Grid::parse("halfdiff", res).unwrap();
+            for cell in 0..g.cells().unwrap() {
+                let idx = g.index(cell);
+                let a = g.angles(&idx);
+                let (wi, wo) = g.pair(&idx);
+                assert!((wi.length() - 1.0).abs() < 1e-12 && (wo.length() - 1.0).abs() < 1e-12);
+                let h = (wi + wo).normalize();
+                assert!((h.z.acos() - a[0]).abs() < 1e-9, "theta_h at {idx:?}");
+                assert!((wi.dot(h).acos() - a[2]).abs() < 1e-9, "theta_d at {idx:?}");
+            }
+        }
+        assert!(Grid::parse("halfdiff", "3,4").is_err());
+        assert!(Grid::parse("halfdiff", "3,4,5").unwrap().needs_isotropy());
+        assert!(!Grid::parse("halfdiff", "3,4,5,6").unwrap().needs_isotropy());
     }
 
     #[test]

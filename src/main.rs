@@ -335,10 +335,13 @@ struct EvalArgs {
 struct TableArgs {
     #[command(flatten)]
     model: ModelArgs,
-    /// Grid: full (theta_i, phi_i, theta_o, phi_o) or isotropic (theta_i, theta_o, delta_phi in [0, 180 deg]).
+    /// Grid: full (theta_i, phi_i, theta_o, phi_o), isotropic (theta_i, theta_o, delta_phi in
+    /// [0, 180 deg]), or halfdiff (Rusinkiewicz's half/difference angles: theta_h, theta_d, phi_d
+    /// in [0, 180 deg] for isotropic models, or theta_h, phi_h, theta_d, phi_d for any).
     #[arg(long, default_value = "full")]
     grid: String,
-    /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full) or NTHETA_I,NTHETA_O,NDPHI (isotropic).
+    /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full), NTHETA_I,NTHETA_O,NDPHI (isotropic),
+    /// NTHETA_H,NTHETA_D,NPHI_D or NTHETA_H,NPHI_H,NTHETA_D,NPHI_D (halfdiff).
     #[arg(long, required_unless_present = "scene")]
     res: Option<String>,
     /// Output EXR path; the .npy and .json are written beside it.
@@ -662,9 +665,14 @@ fn cmd_table(a: TableArgs) -> Result<()> {
     };
     let params = params_of(&a.model)?;
     let grid = Grid::parse(&a.grid, res).map_err(anyhow::Error::msg)?;
-    if matches!(grid, Grid::Isotropic { .. }) && !params.is_isotropic() {
+    if grid.needs_isotropy() && !params.is_isotropic() {
+        let full = match grid {
+            Grid::Isotropic { .. } => "--grid full",
+            _ => "--grid halfdiff with four numbers NTHETA_H,NPHI_H,NTHETA_D,NPHI_D",
+        };
         bail!(
-            "--grid isotropic needs an isotropic parameter set, but {} with {} is anisotropic; use --grid full",
+            "--grid {} with --res {res} needs an isotropic parameter set, but {} with {} is anisotropic; use {full}",
+            grid.name(),
             params.model().name(),
             params.to_text()
         );

@@ -275,6 +275,10 @@ fn check_mosaic(case: &Case, exr_path: &Path, npy: &TableData) {
                 n_theta_o, n_phi_o, ..
             } => (idx[1] * n_phi_o + idx[3], idx[0] * n_theta_o + idx[2]),
             Grid::Isotropic { n_dphi, .. } => (idx[0] * n_dphi + idx[2], idx[1]),
+            Grid::HalfDiff { n_phi_d, .. } => (idx[0] * n_phi_d + idx[2], idx[1]),
+            Grid::HalfDiffFull {
+                n_theta_d, n_phi_d, ..
+            } => (idx[1] * n_phi_d + idx[3], idx[0] * n_theta_d + idx[2]),
         };
         assert!(
             x < w && y < h,

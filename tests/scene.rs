@@ -89,6 +89,7 @@ fn isotropic_materials_get_the_isotropic_grid() {
         match t.grid {
             Grid::Isotropic { .. } => assert!(m.params.is_isotropic(), "{}", m.name),
             Grid::Full { .. } => assert!(!m.params.is_isotropic(), "{}", m.name),
+            other => panic!("{}: the scene's auto grid gave {}", m.name, other.name()),
         }
     }
     // tin's Ashikhmin-Shirley preset is brushed (nu != nv): the lab has one of each.

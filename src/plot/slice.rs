@@ -62,18 +62,7 @@ impl SliceData {
     }
 }
 
-/// (ωi, ωo) of the half/difference angles (radians).
-pub fn half_diff_to_pair(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> (DVec3, DVec3) {
-    let h = crate::grid::direction(theta_h, phi_h);
-    let d = crate::grid::direction(theta_d, phi_d);
-    // Ry(θh), then Rz(φh).
-    let (st, ct) = theta_h.sin_cos();
-    let y = DVec3::new(d.x * ct + d.z * st, d.y, -d.x * st + d.z * ct);
-    let (sp, cp) = phi_h.sin_cos();
-    let wi = DVec3::new(y.x * cp - y.y * sp, y.x * sp + y.y * cp, y.z);
-    let wo = 2.0 * wi.dot(h) * h - wi;
-    (wi, wo)
-}
+pub use crate::grid::half_diff_to_pair;
 
 pub fn slice_data(
     eval: &Evaluator,

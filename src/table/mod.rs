@@ -99,17 +99,33 @@ fn mosaic(grid: &Grid) -> (usize, usize, PixelToCell) {
             }),
         ),
         Grid::Isotropic {
-            n_theta_i,
-            n_theta_o,
-            n_dphi,
+            n_theta_i: n_a,
+            n_theta_o: n_b,
+            n_dphi: n_c,
+        }
+        | Grid::HalfDiff {
+            n_theta_h: n_a,
+            n_theta_d: n_b,
+            n_phi_d: n_c,
         } => (
-            n_theta_i * n_dphi,
-            n_theta_o,
+            n_a * n_c,
+            n_b,
             Box::new(move |x, y| {
-                let (ti, d, to) = (x / n_dphi, x % n_dphi, y);
-                (ti * n_theta_o + to) * n_dphi + d
+                let (a, c, b) = (x / n_c, x % n_c, y);
+                (a * n_b + b) * n_c + c
             }),
         ),
+        Grid::HalfDiffFull {
+            n_theta_h,
+            n_phi_h,
+            n_theta_d,
+            n_phi_d,
+        } => mosaic(&Grid::Full {
+            n_theta_i: n_theta_h,
+            n_phi_i: n_phi_h,
+            n_theta_o: n_theta_d,
+            n_phi_o: n_phi_d,
+        }),
     }
 }
 
@@ -119,6 +135,10 @@ fn layout_text(grid: &Grid) -> &'static str {
             "mosaic: x = phi_i*NPHI_O + phi_o, y = theta_i*NTHETA_O + theta_o (cell indices)"
         }
         Grid::Isotropic { .. } => "mosaic: x = theta_i*NDPHI + dphi, y = theta_o (cell indices)",
+        Grid::HalfDiff { .. } => "mosaic: x = theta_h*NPHI_D + phi_d, y = theta_d (cell indices)",
+        Grid::HalfDiffFull { .. } => {
+            "mosaic: x = phi_h*NPHI_D + phi_d, y = theta_h*NTHETA_D + theta_d (cell indices)"
+        }
     }
 }
 
