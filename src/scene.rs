@@ -23,7 +23,8 @@
 //!
 //! [[tables]]
 //! material = "gold"
-//! grid = "auto"                      # auto (isotropic when the material is), full, isotropic
+//! grid = "auto"                      # auto (isotropic when the material is), full, isotropic,
+//!                                    # halfdiff (theta_h, theta_d, phi_d; 4 axes when anisotropic)
 //! n_theta = 32                       # cells over theta in [0, 90 deg], for theta_i and theta_o
 //! n_phi = 64                         # cells over phi in [0, 360 deg); isotropic: n_phi/2 over [0, 180]
 //! output = "gold.exr"                # relative to the output folder; .npy and .json beside it
@@ -535,8 +536,9 @@ pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
             None => ("auto", t.span()),
             Some(g) => (g.get_ref().as_str(), g.span()),
         };
+        let halfdiff = kind == "halfdiff";
         let isotropic = match kind {
-            "auto" => params.is_isotropic(),
+            "auto" | "halfdiff" => params.is_isotropic(),
             "isotropic" if !params.is_isotropic() => {
                 return Err(loc.at(
                     kind_span,
@@ -553,7 +555,7 @@ pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
             other => {
                 return Err(loc.at(
                     kind_span,
-                    format!("unknown grid '{other}'; the grids are: auto, full, isotropic"),
+                    format!("unknown grid '{other}'; the grids are: auto, full, isotropic, halfdiff"),
                 ))
             }
         };
@@ -565,10 +567,25 @@ pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
                     "n_phi must be at least 2 on the isotropic grid (n_phi/2 cells over [0, 180 deg])",
                 ));
             }
-            Grid::Isotropic {
-                n_theta_i: n_theta,
-                n_theta_o: n_theta,
-                n_dphi: n_phi / 2,
+            if halfdiff {
+                Grid::HalfDiff {
+                    n_theta_h: n_theta,
+                    n_theta_d: n_theta,
+                    n_phi_d: n_phi / 2,
+                }
+            } else {
+                Grid::Isotropic {
+                    n_theta_i: n_theta,
+                    n_theta_o: n_theta,
+                    n_dphi: n_phi / 2,
+                }
+            }
+        } else if halfdiff {
+            Grid::HalfDiffFull {
+                n_theta_h: n_theta,
+                n_phi_h: n_phi,
+                n_theta_d: n_theta,
+                n_phi_d: n_phi,
             }
         } else {
             Grid::Full {

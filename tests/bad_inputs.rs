@@ -119,7 +119,7 @@ fn scene_cases() -> Vec<(&'static str, String, Vec<&'static str>, Vec<&'static s
         ("material with an empty name", with("[[materials]]\nname = \" \"\nmodel = \"lambert\"\n"), vec![], vec!["scene.toml:20:8", "non-empty name"]),
         ("table of an unknown material", replace("material = \"gold\"", "material = \"silver\""), vec![], vec!["scene.toml:15:12", "unknown material 'silver'", "gold, plain"]),
         ("isotropic grid on an anisotropic material", with("[[materials]]\nname = \"tin\"\nmodel = \"ashikhmin_shirley\"\npreset = \"tin\"\n[[tables]]\nmaterial = \"tin\"\ngrid = \"isotropic\"\noutput = \"tin.exr\"\n"), vec![], vec!["scene.toml:25:8", "anisotropic", "full"]),
-        ("unknown grid", replace("n_theta = 4", "grid = \"polar\"\nn_theta = 4"), vec![], vec!["scene.toml:16:8", "unknown grid 'polar'"]),
+        ("unknown grid", replace("n_theta = 4", "grid = \"polar\"\nn_theta = 4"), vec![], vec!["scene.toml:16:8", "unknown grid 'polar'", "halfdiff"]),
         ("zero resolution", replace("n_theta = 4", "n_theta = 0"), vec![], vec!["scene.toml:16:11", "n_theta = 0", "at least 1"]),
         ("negative resolution", replace("n_phi = 8", "n_phi = -8"), vec![], vec!["scene.toml:17:9", "n_phi = -8"]),
         ("1e20 cells", replace("n_theta = 4\nn_phi = 8", "n_theta = 100000\nn_phi = 100000\ngrid = \"full\""), vec![], vec!["scene.toml:16:11", "more than 4294967295 cells"]),

@@ -81,6 +81,33 @@ fn a_scene_with_two_models_builds_exactly_two_pipelines() {
     common::assert_validation_clean("scene pipelines");
 }
 
+/// grid = "halfdiff" gives the three-axis half/difference grid to an isotropic material and the
+/// four-axis one to an anisotropic one, with n_theta and n_phi as on the other grids.
+#[test]
+fn halfdiff_tables_follow_the_materials_isotropy() {
+    let text = LAB.to_string()
+        + "\n[[tables]]\nmaterial = \"gold\"\ngrid = \"halfdiff\"\nn_theta = 6\nn_phi = 8\noutput = \"hd/gold.exr\"\n"
+        + "\n[[tables]]\nmaterial = \"tin\"\ngrid = \"halfdiff\"\nn_theta = 6\nn_phi = 8\noutput = \"hd/tin.exr\"\n";
+    let s = scene::parse(&text, "lab.toml").unwrap_or_else(|e| panic!("{e}"));
+    let grids: Vec<Grid> = s.tables.iter().rev().take(2).map(|t| t.grid).collect();
+    assert_eq!(
+        grids,
+        [
+            Grid::HalfDiffFull {
+                n_theta_h: 6,
+                n_phi_h: 8,
+                n_theta_d: 6,
+                n_phi_d: 8
+            },
+            Grid::HalfDiff {
+                n_theta_h: 6,
+                n_theta_d: 6,
+                n_phi_d: 4
+            }
+        ]
+    );
+}
+
 #[test]
 fn isotropic_materials_get_the_isotropic_grid() {
     let s = scene::parse(LAB, "lab.toml").unwrap();
