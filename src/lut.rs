@@ -24,7 +24,7 @@
 use crate::eval::Evaluator;
 use crate::integrate::{directional, hemispherical, Method, Settings};
 use crate::model::{Model, ParamKind, ParamSet, Value};
-use crate::table::{npy, persist, temp_beside};
+use crate::table::{exr_rgb, exr_text, npy, persist, temp_beside};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use glam::DVec3;
@@ -474,11 +474,7 @@ fn exr_layer(
 
 fn write_exr(out: &std::fs::File, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
     let mut e = exr_layer("E", spec.n_mu, spec.n_p, &lut.e);
-    let text = |s: String| {
-        AttributeValue::Text(
-            Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
-        )
-    };
+    let text = |s: String| exr_text(&s);
     let attrs = [
         ("lobe.model", spec.params.model().name().to_string()),
         ("lobe.parameters", spec.params.to_text()),
@@ -550,22 +546,7 @@ pub fn read_exr(exr_path: &Path) -> Result<LutData> {
             .find(|l| l.attributes.layer_name == Some(Text::new_or_panic(name)))
             .with_context(|| format!("{}: no layer '{name}'", exr_path.display()))
     };
-    let rgb = |l: &Layer<AnyChannels<FlatSamples>>| -> Result<Vec<[f32; 3]>> {
-        let n = l.size.0 * l.size.1;
-        let mut out = vec![[0.0f32; 3]; n];
-        for (c, name) in ["R", "G", "B"].iter().enumerate() {
-            let ch = l
-                .channel_data
-                .list
-                .iter()
-                .find(|ch| ch.name == Text::new_or_panic(*name))
-                .with_context(|| format!("{}: no channel {name}", exr_path.display()))?;
-            for (i, px) in out.iter_mut().enumerate() {
-                px[c] = ch.sample_data.value_by_flat_index(i).to_f32();
-            }
-        }
-        Ok(out)
-    };
+    let rgb = |l: &Layer<AnyChannels<FlatSamples>>| exr_rgb(l, exr_path);
     let (e, avg) = (layer("E")?, layer("E_avg")?);
     if avg.size.0 != 1 || avg.size.1 != e.size.1 {
         bail!(

@@ -615,11 +615,10 @@ pub fn write_exr(
         ("lobe.backend", backend.to_string()),
     ];
     for (k, v) in attrs {
-        let text = Text::new_or_none(v.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default();
         layer
             .attributes
             .other
-            .insert(Text::new_or_panic(k), AttributeValue::Text(text));
+            .insert(Text::new_or_panic(k), crate::table::exr_text(&v));
     }
     Image::from_layer(layer)
         .write()
@@ -635,20 +634,11 @@ pub fn read_exr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>)> {
     let image = read_first_flat_layer_from_file(path)
         .with_context(|| format!("reading {}", path.display()))?;
     let layer = &image.layer_data;
-    let (w, h) = (layer.size.0, layer.size.1);
-    let mut rgb = vec![[0.0f32; 3]; w * h];
-    for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let ch = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|ch| ch.name == Text::new_or_panic(*name))
-            .with_context(|| format!("{}: no channel {name}", path.display()))?;
-        for (k, px) in rgb.iter_mut().enumerate() {
-            px[c] = ch.sample_data.value_by_flat_index(k).to_f32();
-        }
-    }
-    Ok((w, h, rgb))
+    Ok((
+        layer.size.0,
+        layer.size.1,
+        crate::table::exr_rgb(layer, path)?,
+    ))
 }
 
 /// The sRGB transfer function (IEC 61966-2-1:1999) of a linear value in [0, 1].

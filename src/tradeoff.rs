@@ -36,7 +36,7 @@
 //! integrate it at every view direction. Error as for integration. Delta lobes are not on a grid
 //! (DESIGN §3): both sections compare the non-delta part, whose reference excludes them too.
 
-use crate::bench;
+use crate::bench::{self, median};
 use crate::eval::Evaluator;
 use crate::gpu::Gpu;
 use crate::grid::{theta_cell, Grid};
@@ -509,11 +509,6 @@ pub fn rule_albedo_once(
         .pop()
         .expect("one sum per direction");
     Ok((value, n as usize))
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// "f32 GPU" or "f64 CPU": the precision and place of a backend, for variant names.

@@ -243,11 +243,7 @@ fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) ->
         Encoding::FAST_LOSSLESS,
         channels,
     );
-    let text = |s: &str| {
-        AttributeValue::Text(
-            Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
-        )
-    };
+    let text = |s: &str| exr_text(s);
     let attrs = [
         ("lobe.model", meta.params.model().name().to_string()),
         ("lobe.parameters", meta.params.to_text()),
@@ -299,6 +295,30 @@ pub fn read_npy(npy_path: &Path) -> Result<TableData> {
     })
 }
 
+/// An EXR text attribute; characters outside ASCII (which OpenEXR text cannot hold) become '?'.
+pub fn exr_text(s: &str) -> AttributeValue {
+    AttributeValue::Text(
+        Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
+    )
+}
+
+/// The R, G and B channels of an EXR layer, pixel by pixel in row-major order.
+pub fn exr_rgb(layer: &Layer<AnyChannels<FlatSamples>>, path: &Path) -> Result<Vec<[f32; 3]>> {
+    let mut out = vec![[0.0f32; 3]; layer.size.0 * layer.size.1];
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let ch = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|ch| ch.name == Text::new_or_panic(*name))
+            .with_context(|| format!("{}: no channel {name}", path.display()))?;
+        for (k, px) in out.iter_mut().enumerate() {
+            px[c] = ch.sample_data.value_by_flat_index(k).to_f32();
+        }
+    }
+    Ok(out)
+}
+
 /// Reads the EXR mosaic of a table back into npy order, using its own header to undo the mosaic.
 pub fn read_exr(exr_path: &Path) -> Result<TableData> {
     let image = read_first_flat_layer_from_file(exr_path)
@@ -330,18 +350,11 @@ pub fn read_exr(exr_path: &Path) -> Result<TableData> {
     }
     let cells = grid.cells().context("grid too large")? as usize;
     let mut values = vec![0.0f32; cells * 3];
-    for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let ch = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|ch| ch.name == Text::new_or_panic(*name))
-            .context("missing channel")?;
-        for y in 0..h {
-            for x in 0..w {
-                values[index(x, y) * 3 + c] =
-                    ch.sample_data.value_by_flat_index(y * w + x).to_f32();
-            }
+    let rgb = exr_rgb(layer, exr_path)?;
+    for y in 0..h {
+        for x in 0..w {
+            let cell = index(x, y);
+            values[cell * 3..cell * 3 + 3].copy_from_slice(&rgb[y * w + x]);
         }
     }
     let mut shape = grid.shape();
