@@ -130,7 +130,7 @@ impl Evaluator<'_, '_> {
             let count = PAIR_CHUNK_CELLS.min(cells - first);
             let pairs: Vec<(DVec3, DVec3)> = (first..first + count)
                 .into_par_iter()
-                .map(|cell| grid.pair(&grid.index(cell)))
+                .map(|cell| grid.pair_at(cell))
                 .collect();
             let f = self.eval_pairs(params, white_furnace, &pairs)?;
             let buf: Vec<f32> = f.iter().flat_map(|v| v.map(|x| x as f32)).collect();

@@ -148,41 +148,59 @@ impl Grid {
 
     /// The multi-index (shape order) of row-major cell `cell`.
     pub fn index(&self, cell: u64) -> Vec<usize> {
-        let shape = self.shape();
-        let mut idx = vec![0; shape.len()];
+        let (idx, len) = self.index_array(cell);
+        idx[..len].to_vec()
+    }
+
+    /// (ωi, ωo) of row-major cell `cell`, without allocating (tables made pair by pair).
+    pub fn pair_at(&self, cell: u64) -> (DVec3, DVec3) {
+        let (idx, len) = self.index_array(cell);
+        self.pair(&idx[..len])
+    }
+
+    /// The multi-index of `cell` in a fixed array (every grid has 3 or 4 axes), and its length.
+    fn index_array(&self, cell: u64) -> ([usize; 4], usize) {
+        let (shape, len) = self.shape_array();
+        let mut idx = [0; 4];
         let mut rest = cell;
-        for (k, &n) in shape.iter().enumerate().rev() {
-            idx[k] = (rest % n as u64) as usize;
-            rest /= n as u64;
+        for k in (0..len).rev() {
+            idx[k] = (rest % shape[k] as u64) as usize;
+            rest /= shape[k] as u64;
         }
-        idx
+        (idx, len)
     }
 
     /// The table's shape without the RGB axis, in `--res` order.
     pub fn shape(&self) -> Vec<usize> {
+        let (a, len) = self.shape_array();
+        a[..len].to_vec()
+    }
+
+    /// The shape in a fixed array (3 or 4 axes) and its length.
+    fn shape_array(&self) -> ([usize; 4], usize) {
         match *self {
             Grid::Full {
                 n_theta_i,
                 n_phi_i,
                 n_theta_o,
                 n_phi_o,
-            } => vec![n_theta_i, n_phi_i, n_theta_o, n_phi_o],
+            } => ([n_theta_i, n_phi_i, n_theta_o, n_phi_o], 4),
             Grid::Isotropic {
                 n_theta_i,
                 n_theta_o,
                 n_dphi,
-            } => vec![n_theta_i, n_theta_o, n_dphi],
+            } => ([n_theta_i, n_theta_o, n_dphi, 0], 3),
             Grid::HalfDiff {
                 n_theta_h,
                 n_theta_d,
                 n_phi_d,
-            } => vec![n_theta_h, n_theta_d, n_phi_d],
+            } => ([n_theta_h, n_theta_d, n_phi_d, 0], 3),
             Grid::HalfDiffFull {
                 n_theta_h,
                 n_phi_h,
                 n_theta_d,
                 n_phi_d,
-            } => vec![n_theta_h, n_phi_h, n_theta_d, n_phi_d],
+            } => ([n_theta_h, n_phi_h, n_theta_d, n_phi_d], 4),
         }
     }
 

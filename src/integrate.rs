@@ -129,7 +129,7 @@ impl Method {
             // grazing view and half of it at the normal (the extra grading levels).
             Method::Peak => Some(Rule::Peak {
                 order: (((samples as f64) / (30.0 * 22.0)).sqrt().round() as usize).max(2),
-                v_cavity: has_v_cavity(params),
+                v_cavity: params.model().has_v_cavity_masking(),
             }),
             Method::Reference => None,
         }
@@ -845,15 +845,6 @@ pub fn v_cavity_turns(mu_o: f64) -> Vec<f64> {
         out.push(0.5 * (a + b));
     }
     out
-}
-
-/// Whether the model's masking is the V-cavity's min(1, 2 c_h min(c_i, c_o)/c_d).
-fn has_v_cavity(params: &ParamSet) -> bool {
-    match params.model() {
-        crate::model::Model::CookTorrance => true,
-        crate::model::Model::Microfacet(c) => c.choices()[1].1 == "v_cavity",
-        _ => false,
-    }
 }
 
 /// The Δφ = φi − φo ∈ (0, 2π) where the V-cavity's G = min(1, 2 c_h m / c_d), m = min(μi, μo),
