@@ -29,8 +29,8 @@ fn eval(e: &Evaluator, p: &ParamSet) {
 
 fn throughput(c: &mut Criterion) {
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let gpu = Gpu::new(&dev);
-    for (name, e) in [("gpu", Evaluator::Gpu(&gpu)), ("cpu_f64", Evaluator::Cpu)] {
+    let gpu = Gpu::new(dev);
+    for (name, e) in [("gpu", Evaluator::gpu(&gpu)), ("cpu_f64", Evaluator::cpu())] {
         let mut group = c.benchmark_group(format!("table_{name}"));
         group.throughput(Throughput::Elements(GRID.cells().unwrap()));
         group.sample_size(10);
@@ -46,13 +46,13 @@ fn albedo_throughput(c: &mut Criterion) {
     use lobe::bench::{ALBEDO_DIRECTIONS, ALBEDO_RULE};
     use lobe::integrate::{rule_albedo, view_direction};
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
         .collect();
     let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
         + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
-    for (name, e) in [("gpu", Evaluator::Gpu(&gpu)), ("cpu_f64", Evaluator::Cpu)] {
+    for (name, e) in [("gpu", Evaluator::gpu(&gpu)), ("cpu_f64", Evaluator::cpu())] {
         let mut group = c.benchmark_group(format!("albedo_{name}"));
         group.throughput(Throughput::Elements((per_direction * wo.len()) as u64));
         group.sample_size(10);

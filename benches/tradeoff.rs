@@ -17,7 +17,7 @@ const GRID: Grid = Grid::Isotropic {
 
 fn variants(c: &mut Criterion) {
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     for (model, sets) in [
         ("cook_torrance", vec![]),
         ("phong", vec!["shininess=8192".to_string()]),

@@ -42,16 +42,16 @@ fn time_task(
     work: impl Fn() -> Result<()>,
 ) -> Result<Throughput> {
     let run = || -> Result<(f64, Option<f64>)> {
-        if let Evaluator::Gpu(g) = eval {
+        if let Some(g) = eval.as_gpu() {
             g.take_gpu_time();
         }
         let t = Instant::now();
         work()?;
         let wall = t.elapsed().as_secs_f64();
-        let kernel = match eval {
-            Evaluator::Gpu(g) => g.take_gpu_time().map(|d| d.as_secs_f64()),
-            Evaluator::Cpu => None,
-        };
+        let kernel = eval
+            .as_gpu()
+            .and_then(|g| g.take_gpu_time())
+            .map(|d| d.as_secs_f64());
         Ok((wall, kernel))
     };
     run()?;

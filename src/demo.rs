@@ -714,9 +714,9 @@ pub fn run(
     })?;
 
     // 6. Parity.
-    let parity = match eval {
-        Evaluator::Cpu => None,
-        Evaluator::Gpu(_) => Some(steps.run("parity", models.len() as u64, |p| {
+    let parity = match eval.as_gpu() {
+        None => None,
+        Some(_) => Some(steps.run("parity", models.len() as u64, |p| {
             let mut rows = Vec::new();
             for (k, &model) in models.iter().enumerate() {
                 crate::interrupt::check()?;

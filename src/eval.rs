@@ -2,6 +2,7 @@
 
 use crate::gpu::{Gpu, GpuPair};
 use crate::grid::Grid;
+use crate::interrupt::{CancelToken, Interrupted};
 use crate::model::{Brdf, ParamSet, Reference};
 use anyhow::Result;
 use glam::DVec3;
@@ -13,21 +14,88 @@ const CPU_CHUNK_CELLS: u64 = 1 << 22;
 /// Cells per chunk of a table evaluated as explicit pairs (`halfdiff`): 48 MiB of f64 pairs.
 const PAIR_CHUNK_CELLS: u64 = 1 << 20;
 
-/// Where f is evaluated.
-pub enum Evaluator<'a, 'd> {
-    Gpu(&'a Gpu<'d>),
+/// Which backend an [`Evaluator`] runs on.
+#[derive(Clone, Copy)]
+pub enum Backend<'a> {
+    /// The Vulkan kernels, in f32.
+    Gpu(&'a Gpu),
+    /// The CPU reference, in f64 (rayon over every core).
     Cpu,
+}
+
+/// Where f is evaluated, and the token that stops long jobs between chunks. Cheap to copy; a
+/// [`crate::Session`] hands one out with [`crate::Session::evaluator`].
+#[derive(Clone, Copy)]
+pub struct Evaluator<'a> {
+    backend: Backend<'a>,
+    cancel: Option<&'a CancelToken>,
 }
 
 fn f32x4(v: DVec3) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, 0.0]
 }
 
-impl Evaluator<'_, '_> {
+impl<'a> Evaluator<'a> {
+    /// The GPU kernels of `gpu`, never cancelled.
+    pub fn gpu(gpu: &'a Gpu) -> Evaluator<'a> {
+        Evaluator {
+            backend: Backend::Gpu(gpu),
+            cancel: None,
+        }
+    }
+
+    /// The f64 CPU reference, never cancelled.
+    pub const fn cpu() -> Evaluator<'static> {
+        Evaluator {
+            backend: Backend::Cpu,
+            cancel: None,
+        }
+    }
+
+    /// The same backend, stopped between chunks once `cancel` is set.
+    pub fn with_cancel(self, cancel: &'a CancelToken) -> Evaluator<'a> {
+        Evaluator {
+            cancel: Some(cancel),
+            ..self
+        }
+    }
+
+    /// The backend.
+    pub fn backend(&self) -> Backend<'a> {
+        self.backend
+    }
+
+    /// The GPU runner, where this evaluates on the GPU.
+    pub fn as_gpu(&self) -> Option<&'a Gpu> {
+        match self.backend {
+            Backend::Gpu(g) => Some(g),
+            Backend::Cpu => None,
+        }
+    }
+
+    /// Whether this evaluates on the GPU.
+    pub fn is_gpu(&self) -> bool {
+        self.as_gpu().is_some()
+    }
+
+    /// `Err(Interrupted)` once the cancellation token is set: long loops call it between chunks.
+    pub fn check_cancelled(&self) -> Result<(), Interrupted> {
+        match self.cancel {
+            Some(c) => c.check(),
+            None => Ok(()),
+        }
+    }
+
+    /// The cancellation token, if any.
+    pub fn cancel_token(&self) -> Option<&'a CancelToken> {
+        self.cancel
+    }
+
+    /// A one-line description: the backend and the device.
     pub fn name(&self) -> String {
-        match self {
-            Evaluator::Gpu(g) => format!("gpu ({})", g.device().name()),
-            Evaluator::Cpu => "cpu (f64 reference)".to_string(),
+        match self.backend {
+            Backend::Gpu(g) => format!("gpu ({})", g.device().name()),
+            Backend::Cpu => "cpu (f64 reference)".to_string(),
         }
     }
 
@@ -38,8 +106,8 @@ impl Evaluator<'_, '_> {
         white_furnace: bool,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
-        match self {
-            Evaluator::Gpu(gpu) => {
+        match self.backend {
+            Backend::Gpu(gpu) => {
                 let block = Brdf::new(params).gpu_block();
                 let gp: Vec<GpuPair> = pairs
                     .iter()
@@ -53,7 +121,7 @@ impl Evaluator<'_, '_> {
                 let out = gpu.eval_pairs(params.model(), &[block], &gp, white_furnace)?;
                 Ok(out.into_iter().map(|c| c.map(f64::from)).collect())
             }
-            Evaluator::Cpu => {
+            Backend::Cpu => {
                 let r = Reference::new(params, white_furnace);
                 Ok(pairs
                     .par_iter()
@@ -77,8 +145,8 @@ impl Evaluator<'_, '_> {
         }
         let wi = grid.wi_list();
         let wo = grid.wo_list();
-        match self {
-            Evaluator::Gpu(gpu) => {
+        match self.backend {
+            Backend::Gpu(gpu) => {
                 let block = Brdf::new(params).gpu_block();
                 let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
                 let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
@@ -91,7 +159,7 @@ impl Evaluator<'_, '_> {
                     sink,
                 )
             }
-            Evaluator::Cpu => {
+            Backend::Cpu => {
                 let r = Reference::new(params, white_furnace);
                 let cells = wi.len() as u64 * wo.len() as u64;
                 let n_wo = wo.len() as u64;

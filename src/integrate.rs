@@ -25,7 +25,7 @@
 //! is known: Richardson); the adaptive reference reports Σ|K15 − G7| over its panels, which bounds
 //! the 7-point Gauss result and so, in practice, grossly over-bounds the 15-point Kronrod one.
 
-use crate::eval::Evaluator;
+use crate::eval::{Backend, Evaluator};
 use crate::model::{Brdf, ParamSet, Reference};
 use anyhow::{bail, Result};
 use glam::DVec3;
@@ -1062,8 +1062,8 @@ pub fn sum_rule(
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<(DVec3, u64)>> {
-    match backend {
-        Evaluator::Cpu => {
+    match backend.backend() {
+        Backend::Cpu => {
             let r = Reference::new(params, white_furnace);
             let shared = (!rule.depends_on_wo()).then(|| rule.nodes(DVec3::Z));
             Ok(wo
@@ -1085,7 +1085,7 @@ pub fn sum_rule(
                 })
                 .collect())
         }
-        Evaluator::Gpu(gpu) => {
+        Backend::Gpu(gpu) => {
             // Nodes per direction travel to the GPU: a batch of directions at a time keeps host
             // memory bounded (an anisotropic hemispherical albedo asks for thousands of
             // directions of ~1e5 nodes each: gigabytes at once).
@@ -1196,7 +1196,7 @@ pub fn directional(
     let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => rule_albedo(backend, params, s.white_furnace, rule, &wo)?,
         None => {
-            if let Evaluator::Gpu(_) = backend {
+            if backend.is_gpu() {
                 bail!("--method reference is the adaptive f64 CPU integrator; use it with --backend cpu");
             }
             wo.par_iter()
@@ -1293,7 +1293,7 @@ pub fn hemispherical(
             rule_albedo(backend, params, s.white_furnace, rule, &wo)?
         }
         None => {
-            if let Evaluator::Gpu(_) = backend {
+            if backend.is_gpu() {
                 bail!("--method reference is the adaptive f64 CPU integrator; use it with --backend cpu");
             }
             Vec::new()

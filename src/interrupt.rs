@@ -4,6 +4,44 @@
 //! with a message and a non-zero status instead of dying mid-write.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A flag shared between whoever wants work stopped (a Ctrl-C handler, a GUI's cancel button,
+/// another thread) and the job's loops, which check it between chunks and return [`Interrupted`].
+/// Clones share the flag.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    /// A token that is not set.
+    pub fn new() -> CancelToken {
+        CancelToken::default()
+    }
+
+    /// Asks every job that holds this token (or a clone) to stop at its next check.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether [`CancelToken::cancel`] was called (and not [`CancelToken::reset`] since).
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::SeqCst)
+    }
+
+    /// Clears the flag, so that the next job runs.
+    pub fn reset(&self) {
+        self.0.store(false, Ordering::SeqCst);
+    }
+
+    /// `Err(Interrupted)` once the token is set.
+    pub fn check(&self) -> Result<(), Interrupted> {
+        if self.is_cancelled() {
+            Err(Interrupted)
+        } else {
+            Ok(())
+        }
+    }
+}
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
@@ -11,21 +49,6 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted (Ctrl-C); no partial output was kept")]
 pub struct Interrupted;
-
-/// Installs the Ctrl-C (SIGINT, and SIGTERM on Unix) handler. A second call is harmless.
-pub fn install() -> anyhow::Result<()> {
-    static INSTALLED: AtomicBool = AtomicBool::new(false);
-    if INSTALLED.swap(true, Ordering::SeqCst) {
-        return Ok(());
-    }
-    ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, Ordering::SeqCst) {
-            // A second Ctrl-C while a loop is still unwinding: give up at once.
-            std::process::exit(130);
-        }
-    })
-    .map_err(|e| anyhow::anyhow!("installing the Ctrl-C handler: {e}"))
-}
 
 /// Whether Ctrl-C was pressed.
 pub fn is_interrupted() -> bool {

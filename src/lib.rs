@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod demo;
 pub mod energy;
+pub mod error;
 pub mod eval;
 pub mod gpu;
 pub mod grid;
@@ -19,12 +20,17 @@ pub mod model;
 pub mod plot;
 pub mod preview;
 pub mod scene;
+pub mod session;
 pub mod stability;
 pub mod table;
 pub mod tradeoff;
 
-pub use eval::Evaluator;
+pub use error::{Error, Result};
+pub use eval::{Backend, Evaluator};
+pub use glam;
+pub use interrupt::CancelToken;
 pub use model::{Model, ParamSet, Reference};
+pub use session::{AlbedoSettings, BackendKind, Session, SessionOptions};
 
 /// Resolves a model's parameters as the CLI does: the model's defaults, then the material preset
 /// (if any), then each `key=value` assignment in order.

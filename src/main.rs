@@ -3,11 +3,10 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use glam::DVec3;
-use lobe::gpu::{Device, DeviceOptions, Gpu};
 use lobe::grid::{direction, Grid};
 use lobe::model::{Model, ParamKind};
 use lobe::table::{write_table, TableMeta};
-use lobe::{material, resolve_params, Evaluator, ParamSet};
+use lobe::{material, resolve_params, BackendKind, Evaluator, ParamSet, Session, SessionOptions};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -513,18 +512,58 @@ fn params_of(a: &ModelArgs) -> Result<ParamSet> {
     Ok(resolve_params(&a.model, a.material.as_deref(), &a.sets)?)
 }
 
-/// Runs `f` with the evaluator the arguments ask for; the device lives for the call.
+/// The process-wide cancellation token: Ctrl-C (SIGINT, SIGTERM) sets it; a second Ctrl-C
+/// while a job is still unwinding exits at once with status 130.
+fn cancel_token() -> &'static lobe::CancelToken {
+    static TOKEN: std::sync::OnceLock<lobe::CancelToken> = std::sync::OnceLock::new();
+    TOKEN.get_or_init(lobe::CancelToken::new)
+}
+
+/// Installs the Ctrl-C handler that sets [`cancel_token`] (a second call is harmless).
+fn install_ctrl_c() -> Result<()> {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    let mut result = Ok(());
+    INSTALLED.call_once(|| {
+        result = ctrlc::set_handler(|| {
+            let token = cancel_token();
+            if token.is_cancelled() {
+                std::process::exit(130);
+            }
+            token.cancel();
+            lobe::interrupt::request();
+        })
+        .map_err(|e| anyhow::anyhow!("installing the Ctrl-C handler: {e}"));
+    });
+    result
+}
+
+/// Opens the session the backend arguments ask for. The environment switches of the command
+/// line become session options here: `LOBE_VALIDATION=1` (the Khronos validation layer),
+/// `LOBE_INJECT_DEVICE_LOST=1` (every dispatch fails as a lost device would), `LOBE_LOG=1`
+/// (each pipeline built, on stderr).
+fn open_session(backend: Backend, device: Option<String>) -> Result<Session> {
+    let env_on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
+    let log: Option<lobe::gpu::LogSink> = std::env::var("LOBE_LOG")
+        .is_ok_and(|v| v != "0")
+        .then(|| std::sync::Arc::new(|line: &str| eprintln!("lobe: {line}")) as _);
+    let opts = SessionOptions {
+        backend: match backend {
+            Backend::Gpu => BackendKind::Gpu,
+            Backend::Cpu => BackendKind::Cpu,
+        },
+        device,
+        validation: env_on("LOBE_VALIDATION"),
+        inject_device_lost: env_on("LOBE_INJECT_DEVICE_LOST"),
+        log,
+        cancel: cancel_token().clone(),
+    };
+    Ok(Session::open(opts)?)
+}
+
+/// Runs `f` with the evaluator the arguments ask for; the session lives for the call.
 fn with_evaluator<T>(a: &ModelArgs, f: impl FnOnce(&Evaluator) -> Result<T>) -> Result<T> {
-    match a.backend {
-        Backend::Cpu => f(&Evaluator::Cpu),
-        Backend::Gpu => {
-            let dev = Device::open(&DeviceOptions {
-                name_contains: a.device.clone(),
-            })?;
-            let gpu = Gpu::new(&dev);
-            f(&Evaluator::Gpu(&gpu))
-        }
-    }
+    let session = open_session(a.backend, a.device.clone())?;
+    f(&session.evaluator())
 }
 
 /// Parses `THETA,PHI` in degrees.
@@ -647,7 +686,7 @@ fn cmd_eval(a: EvalArgs) -> Result<()> {
 const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
 
 fn cmd_table(a: TableArgs) -> Result<()> {
-    lobe::interrupt::install()?;
+    install_ctrl_c()?;
     if let Some(scene) = &a.scene {
         return run_scene(
             scene,
@@ -781,7 +820,7 @@ fn cmd_models(a: ModelsArgs) -> Result<()> {
 }
 
 fn cmd_demo(a: DemoArgs) -> Result<()> {
-    lobe::interrupt::install()?;
+    install_ctrl_c()?;
     let model_args = ModelArgs {
         model: "lambert".into(),
         sets: Vec::new(),
@@ -1010,16 +1049,8 @@ fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
         bar.set_position(step as u64);
         bar.set_message(what.to_string());
     };
-    let report = match a.model.backend {
-        Backend::Cpu => lobe::tradeoff::run(None, &params, material, &opts, &mut progress)?,
-        Backend::Gpu => {
-            let dev = Device::open(&DeviceOptions {
-                name_contains: a.model.device.clone(),
-            })?;
-            let gpu = Gpu::new(&dev);
-            lobe::tradeoff::run(Some(&gpu), &params, material, &opts, &mut progress)?
-        }
-    };
+    let session = open_session(a.model.backend, a.model.device.clone())?;
+    let report = lobe::tradeoff::run(session.gpu(), &params, material, &opts, &mut progress)?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     match a.format {
@@ -1100,7 +1131,7 @@ struct PreviewArgs {
 fn cmd_preview(a: PreviewArgs) -> Result<()> {
     use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
     if let Some(scene) = &a.scene {
-        lobe::interrupt::install()?;
+        install_ctrl_c()?;
         return run_scene(
             scene,
             a.output_dir.as_deref().unwrap_or(std::path::Path::new(".")),
@@ -1212,7 +1243,7 @@ fn cmd_preview(a: PreviewArgs) -> Result<()> {
 
 fn cmd_stability(a: StabilityArgs) -> Result<()> {
     use lobe::stability;
-    lobe::interrupt::install()?;
+    install_ctrl_c()?;
     let models = stability::models_named(&a.models)?;
     let bar = indicatif::ProgressBar::new(models.len() as u64);
     bar.set_style(
@@ -1223,23 +1254,13 @@ fn cmd_stability(a: StabilityArgs) -> Result<()> {
         bar.set_message(format!("stability {label}"));
         bar.inc(1);
     };
-    let report = if a.cpu_only {
-        stability::sweep(stability::Options {
-            gpu: None,
-            models,
-            progress: &mut progress,
-        })?
+    let backend = if a.cpu_only {
+        Backend::Cpu
     } else {
-        let dev = Device::open(&DeviceOptions {
-            name_contains: a.device.clone(),
-        })?;
-        let gpu = Gpu::new(&dev);
-        stability::sweep(stability::Options {
-            gpu: Some(&gpu),
-            models,
-            progress: &mut progress,
-        })?
+        Backend::Gpu
     };
+    let session = open_session(backend, a.device.clone())?;
+    let report = session.stability(models, &mut progress)?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     match a.format {
@@ -1276,16 +1297,8 @@ fn cmd_energy(a: EnergyArgs) -> Result<()> {
             bar.set_position(done);
         })
     };
-    let rows = match a.backend {
-        Backend::Cpu => run(&Evaluator::Cpu)?,
-        Backend::Gpu => {
-            let dev = Device::open(&DeviceOptions {
-                name_contains: a.device.clone(),
-            })?;
-            let gpu = Gpu::new(&dev);
-            run(&Evaluator::Gpu(&gpu))?
-        }
-    };
+    let session = open_session(a.backend, a.device.clone())?;
+    let rows = run(&session.evaluator())?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     match a.format {
@@ -1427,7 +1440,7 @@ fn albedo_lut(
 fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
     use lobe::integrate::{albedo_report, Method, Settings};
     if let Some(scene) = &a.scene {
-        lobe::interrupt::install()?;
+        install_ctrl_c()?;
         return run_scene(
             scene,
             a.output_dir.as_deref().unwrap_or(std::path::Path::new(".")),
@@ -1577,7 +1590,7 @@ fn cmd_albedo(a: AlbedoArgs) -> Result<()> {
 }
 
 fn cmd_run(a: RunArgs) -> Result<()> {
-    lobe::interrupt::install()?;
+    install_ctrl_c()?;
     run_scene(
         &a.scene,
         &a.output_dir,
@@ -1616,22 +1629,16 @@ fn run_scene(
         needed.join(", ")
     );
     let mut log = |line: &str| println!("wrote {line}");
-    let summary = match backend {
-        Backend::Cpu => scene.run(&Evaluator::Cpu, out_dir, what, &mut log)?,
-        Backend::Gpu => {
-            let dev = Device::open(&DeviceOptions {
-                name_contains: device,
-            })?;
-            let gpu = Gpu::new(&dev);
-            let result = scene.run(&Evaluator::Gpu(&gpu), out_dir, what, &mut log);
-            let built = gpu.built_pipelines();
-            println!("pipelines built: {}", built.len());
-            for (label, time) in &built {
-                println!("  {label}: {:.1} ms", time.as_secs_f64() * 1e3);
-            }
-            result?
+    let session = open_session(backend, device)?;
+    let result = scene.run(&session.evaluator(), out_dir, what, &mut log);
+    if let Some(gpu) = session.gpu() {
+        let built = gpu.built_pipelines();
+        println!("pipelines built: {}", built.len());
+        for (label, time) in &built {
+            println!("  {label}: {:.1} ms", time.as_secs_f64() * 1e3);
         }
-    };
+    }
+    let summary = result?;
     println!("lobe: {} files written", summary.written.len());
     Ok(())
 }

@@ -36,7 +36,7 @@
 //!   sphere (where ωo = n) in place of the true, uniform albedo; the mirror spike's exact share,
 //!   A·F_s(c_o), is left out because the GLSL side has no delta function to mirror.
 
-use crate::eval::Evaluator;
+use crate::eval::{Backend, Evaluator};
 use crate::gpu::preview::{GpuLight, GpuObject, GpuSceneHeader};
 use crate::material;
 use crate::model::{Brdf, Model, ParamSet, Reference};
@@ -524,8 +524,8 @@ pub fn render(
         }
         for (model, group) in &groups {
             let cells = group.len();
-            let pixels = match e {
-                Evaluator::Gpu(gpu) => {
+            let pixels = match e.backend() {
+                Backend::Gpu(gpu) => {
                     let blocks: Vec<Vec<u8>> = group
                         .iter()
                         .map(|&row| Brdf::new(&column[row]).gpu_block())
@@ -535,7 +535,7 @@ pub fn render(
                     gpu.render_preview(*model, &blocks, &header, &lights, &objects)
                         .with_context(|| format!("rendering the {} column", model.name()))?
                 }
-                Evaluator::Cpu => {
+                Backend::Cpu => {
                     let refs: Vec<Reference> = group
                         .iter()
                         .map(|&row| Reference::new(&column[row], false))

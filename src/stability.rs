@@ -517,9 +517,9 @@ impl Report {
 }
 
 /// Options of a sweep.
-pub struct Options<'a, 'd> {
+pub struct Options<'a> {
     /// The GPU to compare with; None sweeps the CPU reference alone.
-    pub gpu: Option<&'a Gpu<'d>>,
+    pub gpu: Option<&'a Gpu>,
     /// Models to sweep (default: [`sweep_models`]).
     pub models: Vec<Model>,
     /// Called with a model's label before it is swept.
@@ -528,7 +528,7 @@ pub struct Options<'a, 'd> {
 
 /// Runs the sweep: for each model, one GPU dispatch per white-furnace setting holding every
 /// parameter edge × every direction pair, compared value by value with the f64 reference.
-pub fn sweep(opts: Options<'_, '_>) -> Result<Report> {
+pub fn sweep(opts: Options<'_>) -> Result<Report> {
     let regions = regions();
     let mut by_key: BTreeMap<(usize, &'static str, String), Stats> = BTreeMap::new();
     let mut model_order: Vec<String> = Vec::new();

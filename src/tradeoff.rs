@@ -291,12 +291,12 @@ pub fn variant_table(gpu: Option<&Gpu>, v: &EvalVariant, grid: &Grid) -> Result<
     match (v.gpu, gpu) {
         (true, Some(g)) => {
             g.set_fast_pow(v.fast_pow);
-            let r = Evaluator::Gpu(g).eval_table(&v.params, false, grid, &mut sink);
+            let r = Evaluator::gpu(g).eval_table(&v.params, false, grid, &mut sink);
             g.set_fast_pow(false);
             r?;
         }
         (true, None) => anyhow::bail!("variant '{}' needs the GPU backend", v.name),
-        (false, _) => Evaluator::Cpu.eval_table(&v.params, false, grid, &mut sink)?,
+        (false, _) => Evaluator::cpu().eval_table(&v.params, false, grid, &mut sink)?,
     }
     Ok(out)
 }
@@ -323,13 +323,13 @@ pub fn measure_eval(
         let (cost, backend) = match (v.gpu, gpu) {
             (true, Some(g)) => {
                 g.set_fast_pow(v.fast_pow);
-                let m = bench::measure(&Evaluator::Gpu(g), &v.params, timing_grid, repeats);
+                let m = bench::measure(&Evaluator::gpu(g), &v.params, timing_grid, repeats);
                 g.set_fast_pow(false);
                 let m = m?;
                 (1e9 / m.kernel_per_s.unwrap_or(m.wall_per_s), m.backend)
             }
             _ => {
-                let m = bench::measure(&Evaluator::Cpu, &v.params, timing_grid, repeats)?;
+                let m = bench::measure(&Evaluator::cpu(), &v.params, timing_grid, repeats)?;
                 (1e9 / m.wall_per_s, m.backend)
             }
         };
@@ -513,9 +513,10 @@ pub fn rule_albedo_once(
 
 /// "f32 GPU" or "f64 CPU": the precision and place of a backend, for variant names.
 fn backend_tag(backend: &Evaluator) -> &'static str {
-    match backend {
-        Evaluator::Gpu(_) => "f32 GPU",
-        Evaluator::Cpu => "f64 CPU",
+    if backend.is_gpu() {
+        "f32 GPU"
+    } else {
+        "f64 CPU"
     }
 }
 
@@ -550,7 +551,7 @@ pub fn measure_integration(
             let (max_error, rms_error) = albedo_errors(&values, truth);
             let (mut walls, mut kernels) = (Vec::new(), Vec::new());
             for _ in 0..setup.repeats {
-                if let Evaluator::Gpu(g) = backend {
+                if let Some(g) = backend.as_gpu() {
                     g.take_gpu_time();
                 }
                 let t = Instant::now();
@@ -558,7 +559,7 @@ pub fn measure_integration(
                     std::hint::black_box(rule_albedo_once(backend, params, &v.rule, o)?);
                 }
                 walls.push(t.elapsed().as_secs_f64() * 1e3 / wo.len() as f64);
-                if let Evaluator::Gpu(g) = backend {
+                if let Some(g) = backend.as_gpu() {
                     if let Some(k) = g.take_gpu_time() {
                         kernels.push(k.as_secs_f64() * 1e3 / wo.len() as f64);
                     }
@@ -765,8 +766,8 @@ pub fn run(
     opts.albedo.check()?;
     let (truth, variants) = eval_variants(params, conductor_of(material));
     let backends: Vec<Evaluator> = match gpu {
-        Some(g) => vec![Evaluator::Gpu(g), Evaluator::Cpu],
-        None => vec![Evaluator::Cpu],
+        Some(g) => vec![Evaluator::gpu(g), Evaluator::cpu()],
+        None => vec![Evaluator::cpu()],
     };
     let mut notes = Vec::new();
     let has = |s: Section| opts.sections.contains(&s);

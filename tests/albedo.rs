@@ -146,7 +146,7 @@ fn coupled_albedo_is_the_spike_plus_the_matte_closed_form() {
             white_furnace: false,
         };
         let pts: Vec<(f64, f64)> = MUS.iter().map(|&mu| (mu, 0.3)).collect();
-        for e in directional(&Evaluator::Cpu, &p, &s, &pts).expect("cpu") {
+        for e in directional(&Evaluator::cpu(), &p, &s, &pts).expect("cpu") {
             let f = r0 + (1.0 - r0) * pow5(1.0 - e.mu);
             assert_rel(
                 &format!("coupled ior = {ior} delta(mu = {})", e.mu),
@@ -247,7 +247,7 @@ fn schlick_hemispherical_average_and_the_smooth_layered_spike() {
                 samples: method.default_samples(),
                 white_furnace: false,
             };
-            let h = hemispherical(&Evaluator::Cpu, &p, &s, 0.0).expect("cpu");
+            let h = hemispherical(&Evaluator::cpu(), &p, &s, 0.0).expect("cpu");
             assert_rel(
                 &format!(
                     "smooth_layered ior = {ior} hemispherical ({})",
@@ -259,7 +259,8 @@ fn schlick_hemispherical_average_and_the_smooth_layered_spike() {
                 1e-15,
             );
             assert_rel("its delta part", h.delta, want, 1e-14, 1e-15);
-            for e in directional(&Evaluator::Cpu, &p, &s, &[(0.2, 0.0), (0.7, 1.0)]).expect("cpu") {
+            for e in directional(&Evaluator::cpu(), &p, &s, &[(0.2, 0.0), (0.7, 1.0)]).expect("cpu")
+            {
                 let f = f0 + (1.0 - f0) * pow5(1.0 - e.mu);
                 assert_rel("delta = F_s(mu)", e.delta, DVec3::splat(f), 1e-15, 0.0);
             }
@@ -276,7 +277,7 @@ fn lambert_hemispherical_albedo_is_rho_and_equals_e_avg() {
             samples: method.default_samples(),
             white_furnace: false,
         };
-        let h = hemispherical(&Evaluator::Cpu, &p, &s, 0.0).expect("cpu");
+        let h = hemispherical(&Evaluator::cpu(), &p, &s, 0.0).expect("cpu");
         assert_rel(
             &format!("lambert hemispherical ({})", method.name()),
             h.albedo,
@@ -362,7 +363,7 @@ fn default_rule_meets_its_target_and_its_error_estimate_is_honest() {
         let rule = Method::Peak
             .rule(Method::Peak.default_samples(), &p)
             .expect("fixed rule");
-        let got = rule_albedo(&Evaluator::Cpu, &p, false, rule, &wo).expect("cpu");
+        let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
         for (mu, e) in mus.iter().zip(got) {
             let want = reference(&p, *mu);
             let scale = want.value.abs().max_element();
@@ -399,7 +400,7 @@ fn default_rule_resolves_the_sharpest_ggx_lobe_at_every_view() {
     let rule = Method::Peak
         .rule(Method::Peak.default_samples(), &p)
         .expect("fixed rule");
-    let got = rule_albedo(&Evaluator::Cpu, &p, false, rule, &wo).expect("cpu");
+    let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
     for (mu, e) in mus.iter().zip(got) {
         let want = reference(&p, *mu);
         let err = (e.value - want.value).abs().max_element();
@@ -435,7 +436,7 @@ fn each_rule_converges_at_its_theoretical_rate() {
     let wo = view_direction(0.5, 0.3);
     let truth = reference(&p, 0.5).value;
     let err_of = |rule: Rule| {
-        let e = rule_albedo(&Evaluator::Cpu, &p, false, rule, &[wo]).expect("cpu")[0];
+        let e = rule_albedo(&Evaluator::cpu(), &p, false, rule, &[wo]).expect("cpu")[0];
         ((e.value - truth).abs().max_element(), e.error.max_element())
     };
     // Midpoint: O(h²) with N = 4 nθ² nodes, i.e. slope −1 against N.
@@ -475,7 +476,7 @@ fn each_rule_converges_at_its_theoretical_rate() {
     let errs: Vec<f64> = gs
         .iter()
         .map(|&n| {
-            let e = rule_albedo(&Evaluator::Cpu, &p, false, Rule::Gauss { n_mu: n }, &[wo])
+            let e = rule_albedo(&Evaluator::cpu(), &p, false, Rule::Gauss { n_mu: n }, &[wo])
                 .expect("cpu")[0];
             (e.value - truth).abs().max_element().max(1e-16)
         })
@@ -492,7 +493,7 @@ fn gpu_and_cpu_agree_on_every_preset() {
     let Some(dev) = common::gpu_device("gpu_and_cpu_agree_on_every_preset") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let wo: Vec<DVec3> = [0.1, 0.5, 1.0]
         .iter()
         .map(|&mu| view_direction(mu, 0.3))
@@ -505,8 +506,8 @@ fn gpu_and_cpu_agree_on_every_preset() {
                 .expect("fixed rule");
             // The GPU gets the parameters rounded to f32: compare with the CPU on the same values.
             let cpu =
-                rule_albedo(&Evaluator::Cpu, &p.rounded_to_f32(), false, rule, &wo).expect("cpu");
-            let g = rule_albedo(&Evaluator::Gpu(&gpu), &p, false, rule, &wo).expect("gpu");
+                rule_albedo(&Evaluator::cpu(), &p.rounded_to_f32(), false, rule, &wo).expect("cpu");
+            let g = rule_albedo(&Evaluator::gpu(&gpu), &p, false, rule, &wo).expect("gpu");
             for ((c, g), o) in cpu.iter().zip(&g).zip(&wo) {
                 assert_rel(
                     &format!(
@@ -525,8 +526,8 @@ fn gpu_and_cpu_agree_on_every_preset() {
     // One shared node list (midpoint) and a white furnace pipeline take the other paths.
     let p = params("cook_torrance", Some("gold"), &[]);
     let rule = Rule::Midpoint { n_theta: 64 };
-    let cpu = rule_albedo(&Evaluator::Cpu, &p.rounded_to_f32(), true, rule, &wo).expect("cpu");
-    let g = rule_albedo(&Evaluator::Gpu(&gpu), &p, true, rule, &wo).expect("gpu");
+    let cpu = rule_albedo(&Evaluator::cpu(), &p.rounded_to_f32(), true, rule, &wo).expect("cpu");
+    let g = rule_albedo(&Evaluator::gpu(&gpu), &p, true, rule, &wo).expect("gpu");
     for (c, g) in cpu.iter().zip(&g) {
         assert_rel(
             "cook_torrance gold white furnace midpoint: GPU vs CPU",
@@ -536,7 +537,7 @@ fn gpu_and_cpu_agree_on_every_preset() {
             GPU_ATOL,
         );
     }
-    common::assert_validation_clean("gpu_and_cpu_agree_on_every_preset");
+    common::assert_validation_clean(&gpu, "gpu_and_cpu_agree_on_every_preset");
 }
 
 #[test]
@@ -544,14 +545,14 @@ fn the_reference_is_cpu_only_and_says_so() {
     let Some(dev) = common::gpu_device("the_reference_is_cpu_only_and_says_so") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let p = params("lambert", None, &[]);
     let s = Settings {
         method: Method::Reference,
         samples: 0,
         white_furnace: false,
     };
-    let e = directional(&Evaluator::Gpu(&gpu), &p, &s, &[(0.5, 0.0)]).unwrap_err();
+    let e = directional(&Evaluator::gpu(&gpu), &p, &s, &[(0.5, 0.0)]).unwrap_err();
     assert!(e.to_string().contains("--backend cpu"), "{e}");
 }
 
@@ -641,7 +642,7 @@ fn importance_sampling_error_estimate_is_honest_on_every_preset() {
         let rule = Method::Importance
             .rule(Method::Importance.default_samples(), &p)
             .expect("fixed rule");
-        let got = rule_albedo(&Evaluator::Cpu, &p, false, rule, &wo).expect("cpu");
+        let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
         for (mu, e) in mus.iter().zip(got) {
             let want = reference(&p, *mu);
             let scale = want.value.abs().max_element();
@@ -692,7 +693,7 @@ fn importance_sampling_converges_at_least_at_the_monte_carlo_rate() {
             .iter()
             .map(|&n| {
                 let rule = Method::Importance.rule(n, &p).expect("fixed rule");
-                let got = rule_albedo(&Evaluator::Cpu, &p, false, rule, &wo).expect("cpu");
+                let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
                 let ss: f64 = got
                     .iter()
                     .zip(&truth)
@@ -725,7 +726,7 @@ fn importance_sampling_beats_cosine_qmc_on_a_sharp_lobe() {
         let truth = reference(&p, mu).value;
         let err = |m: Method| {
             let rule = m.rule(1 << 16, &p).expect("fixed rule");
-            let e = rule_albedo(&Evaluator::Cpu, &p, false, rule, &wo).expect("cpu")[0];
+            let e = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu")[0];
             (e.value - truth).abs().max_element()
         };
         let (imp, qmc) = (err(Method::Importance), err(Method::Qmc));

@@ -376,7 +376,7 @@ fn an_interrupted_demo_leaves_no_page_and_no_files() {
     let tmp = tempfile::tempdir().unwrap();
     let dir: PathBuf = tmp.path().join("out");
     let result = demo::run(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &dir,
         &Settings::quick(),
         &mut StopAt("plots"),

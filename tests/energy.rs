@@ -14,7 +14,7 @@ fn row(model: &str, sets: &[&str]) -> EnergyRow {
     let p = resolve_params(model, None, &sets).expect("valid parameters");
     let (white, wf) = white_configuration(&p).expect("white configuration");
     evaluate(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         model,
         "test",
         &white,

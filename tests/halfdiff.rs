@@ -77,11 +77,11 @@ fn check_cells(values: &[f32], p: &ParamSet, grid: Grid, rtol: f64, what: &str) 
 }
 
 fn backends(test: &str, f: impl Fn(&Evaluator, f64)) {
-    f(&Evaluator::Cpu, CPU_RTOL);
+    f(&Evaluator::cpu(), CPU_RTOL);
     if let Some(dev) = common::gpu_device(test) {
-        let gpu = Gpu::new(&dev);
-        f(&Evaluator::Gpu(&gpu), GPU_RTOL);
-        common::assert_validation_clean(test);
+        let gpu = Gpu::new(dev);
+        f(&Evaluator::gpu(&gpu), GPU_RTOL);
+        common::assert_validation_clean(&gpu, test);
     }
 }
 

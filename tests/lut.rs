@@ -48,7 +48,7 @@ fn close(what: &str, got: f64, want: f64, rtol: f64, atol: f64) {
 fn lut_entries_are_the_directional_albedo_at_the_same_mu_and_p() {
     for (model, mat) in [("cook_torrance", "gold"), ("smooth_layered", "tin")] {
         let spec = small_spec(params(model, Some(mat), &[]));
-        let lut = lut::compute(&Evaluator::Cpu, &spec, &mut |_, _| {}).expect("lut");
+        let lut = lut::compute(&Evaluator::cpu(), &spec, &mut |_, _| {}).expect("lut");
         assert_eq!(lut.mus, vec![0.1, 0.3, 0.5, 0.7, 0.9], "cell-centred mu");
         let settings = Settings {
             method: spec.method,
@@ -58,7 +58,7 @@ fn lut_entries_are_the_directional_albedo_at_the_same_mu_and_p() {
         for (k, &p) in lut.ps.iter().enumerate() {
             let at = spec.params_at(p).expect("in range");
             let pts: Vec<(f64, f64)> = lut.mus.iter().map(|&m| (m, 0.0)).collect();
-            let direct = directional(&Evaluator::Cpu, &at, &settings, &pts).expect("cpu");
+            let direct = directional(&Evaluator::cpu(), &at, &settings, &pts).expect("cpu");
             for (j, d) in direct.iter().enumerate() {
                 assert_eq!(
                     lut.e[k * spec.n_mu + j],
@@ -68,7 +68,7 @@ fn lut_entries_are_the_directional_albedo_at_the_same_mu_and_p() {
                     d.mu
                 );
             }
-            let h = hemispherical(&Evaluator::Cpu, &at, &settings, 0.0).expect("cpu");
+            let h = hemispherical(&Evaluator::cpu(), &at, &settings, 0.0).expect("cpu");
             assert_eq!(lut.e_avg[k], h.e_avg, "{model} E_avg at p = {p}");
         }
     }
@@ -102,7 +102,7 @@ fn lambert_lut_is_its_albedo_and_the_files_round_trip() {
     let path = dir.path().join("lambert.exr");
     let mut spec = small_spec(params("lambert", None, &[]));
     spec.n_p = 4;
-    let lut = lut::write(&Evaluator::Cpu, &spec, &path, &mut |_, _| {}).expect("write");
+    let lut = lut::write(&Evaluator::cpu(), &spec, &path, &mut |_, _| {}).expect("write");
     assert_eq!(lut.files.len(), 4);
     for (k, &p) in lut.ps.iter().enumerate() {
         for j in 0..spec.n_mu {
@@ -285,7 +285,7 @@ fn bad_lut_input_is_refused_with_a_sentence_and_no_file() {
     // A folder where the sidecar would go: refused before anything is computed or renamed.
     std::fs::create_dir(path.with_extension("json")).expect("mkdir");
     let e = lut::write(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &small_spec(params("lambert", None, &[])),
         &path,
         &mut |_, _| {},
@@ -300,15 +300,15 @@ fn gpu_lut_agrees_with_the_cpu_lut() {
     let Some(dev) = common::gpu_device("gpu_lut_agrees_with_the_cpu_lut") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     for method in [Method::Peak, Method::Importance] {
         let mut spec = small_spec(params("cook_torrance", Some("gold"), &[]));
         spec.method = method;
-        let g = lut::compute(&Evaluator::Gpu(&gpu), &spec, &mut |_, _| {}).expect("gpu");
+        let g = lut::compute(&Evaluator::gpu(&gpu), &spec, &mut |_, _| {}).expect("gpu");
         // The GPU receives f32 parameters; the CPU gets the same rounded values (the axis value
         // itself is rounded too on the GPU: a 6e-8 relative change of m, far inside GPU_RTOL).
         spec.params = spec.params.rounded_to_f32();
-        let c = lut::compute(&Evaluator::Cpu, &spec, &mut |_, _| {}).expect("cpu");
+        let c = lut::compute(&Evaluator::cpu(), &spec, &mut |_, _| {}).expect("cpu");
         for (i, (g, c)) in g.e.iter().zip(&c.e).enumerate() {
             for ch in 0..3 {
                 close(
@@ -321,5 +321,5 @@ fn gpu_lut_agrees_with_the_cpu_lut() {
             }
         }
     }
-    common::assert_validation_clean("gpu_lut_agrees_with_the_cpu_lut");
+    common::assert_validation_clean(&gpu, "gpu_lut_agrees_with_the_cpu_lut");
 }

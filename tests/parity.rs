@@ -186,7 +186,7 @@ fn gpu_matches_cpu_reference_for_every_model() {
     let Some(dev) = common::gpu_device("parity") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let mut rng = common::Rng(0x10be_2026);
     let mut failures = Vec::new();
     let mut summary = Vec::new();
@@ -212,7 +212,7 @@ fn gpu_matches_cpu_reference_for_every_model() {
             compare(&gpu, m, &group, &mut rng, &mut failures, &mut summary);
         }
     }
-    report(&dev, "parity", &summary, &failures);
+    report(&gpu, "parity", &summary, &failures);
 }
 
 /// Every combination of the microfacet model's components (each its own pipeline), at random
@@ -222,7 +222,7 @@ fn microfacet_every_component_combination() {
     let Some(dev) = common::gpu_device("microfacet parity") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let mut rng = common::Rng(0x00c0_ffee);
     let mut failures = Vec::new();
     let mut summary = Vec::new();
@@ -233,12 +233,16 @@ fn microfacet_every_component_combination() {
             .collect();
         compare(&gpu, model, &sets, &mut rng, &mut failures, &mut summary);
     }
-    report(&dev, "microfacet parity", &summary, &failures);
+    report(&gpu, "microfacet parity", &summary, &failures);
 }
 
-fn report(dev: &lobe::gpu::Device, test: &str, summary: &[String], failures: &[String]) {
-    eprintln!("{test} summary on {}:\n{}", dev.name(), summary.join("\n"));
-    common::assert_validation_clean(test);
+fn report(gpu: &Gpu, test: &str, summary: &[String], failures: &[String]) {
+    eprintln!(
+        "{test} summary on {}:\n{}",
+        gpu.device().name(),
+        summary.join("\n")
+    );
+    common::assert_validation_clean(&gpu, test);
     assert!(
         failures.is_empty(),
         "{} GPU values outside tolerance; first 20:\n{}",
@@ -360,7 +364,7 @@ fn lambert_is_albedo_over_pi_on_both_backends() {
     let Some(dev) = common::gpu_device("lambert closed form") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let p = resolve_params("lambert", None, &["albedo=0.25,0.5,0.75".into()]).unwrap();
     let pairs: Vec<(DVec3, DVec3)> = (0..50)
         .map(|k| {
@@ -370,7 +374,7 @@ fn lambert_is_albedo_over_pi_on_both_backends() {
             )
         })
         .collect();
-    for e in [lobe::Evaluator::Gpu(&gpu), lobe::Evaluator::Cpu] {
+    for e in [lobe::Evaluator::gpu(&gpu), lobe::Evaluator::cpu()] {
         let expected = [0.25 / PI, 0.5 / PI, 0.75 / PI];
         for f in e.eval_pairs(&p, false, &pairs).unwrap() {
             for ch in 0..3 {
@@ -392,7 +396,7 @@ fn ashikhmin_shirley_is_finite_at_h_equal_n() {
     let Some(dev) = common::gpu_device("ashikhmin_shirley at h = n") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let p = resolve_params(
         "ashikhmin_shirley",
         None,
@@ -403,7 +407,7 @@ fn ashikhmin_shirley_is_finite_at_h_equal_n() {
         (DVec3::Z, DVec3::Z),
         (direction(0.3, 0.0), direction(0.3, PI)),
     ];
-    for e in [lobe::Evaluator::Gpu(&gpu), lobe::Evaluator::Cpu] {
+    for e in [lobe::Evaluator::gpu(&gpu), lobe::Evaluator::cpu()] {
         for f in e.eval_pairs(&p, false, &pairs).unwrap() {
             assert!(
                 f.iter().all(|v| v.is_finite() && *v > 0.0),
@@ -420,13 +424,13 @@ fn zero_below_the_horizon() {
     let Some(dev) = common::gpu_device("one-sided") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let below = direction(FRAC_PI_2 + 0.2, 0.5);
     let horizon = DVec3::new(1.0, 0.0, 0.0);
     let up = direction(0.4, 2.0);
     for model in Model::ALL {
         let p = ParamSet::defaults(model);
-        for e in [lobe::Evaluator::Gpu(&gpu), lobe::Evaluator::Cpu] {
+        for e in [lobe::Evaluator::gpu(&gpu), lobe::Evaluator::cpu()] {
             let out = e
                 .eval_pairs(
                     &p,

@@ -78,9 +78,9 @@ fn with_gpu(test: &str, f: impl FnOnce(&Evaluator)) {
     let Some(dev) = common::gpu_device(test) else {
         return;
     };
-    let gpu = Gpu::new(&dev);
-    f(&Evaluator::Gpu(&gpu));
-    common::assert_validation_clean(test);
+    let gpu = Gpu::new(dev);
+    f(&Evaluator::gpu(&gpu));
+    common::assert_validation_clean(&gpu, test);
 }
 
 fn check_polar_peaks(e: &Evaluator, dir: &Path, name: &str) {
@@ -131,7 +131,7 @@ fn polar_png_has_its_size_and_peaks_at_the_mirror_angle_gpu() {
 #[test]
 fn polar_png_has_its_size_and_peaks_at_the_mirror_angle_cpu() {
     let dir = tempfile::tempdir().unwrap();
-    check_polar_peaks(&Evaluator::Cpu, dir.path(), "polar.png");
+    check_polar_peaks(&Evaluator::cpu(), dir.path(), "polar.png");
 }
 
 #[test]
@@ -155,7 +155,7 @@ fn polar_overlay_marks_delta_lobes_with_their_albedo_and_svg_holds_the_title() {
         samples: 360,
     };
     let Plotted::Polar(data) = run(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &subjects,
         &common,
         &Request::Polar(opts),
@@ -258,8 +258,8 @@ fn hemisphere_maps_peak_at_the_mirror_direction_gpu() {
 #[test]
 fn hemisphere_maps_peak_at_the_mirror_direction_cpu() {
     let dir = tempfile::tempdir().unwrap();
-    check_hemisphere(&Evaluator::Cpu, dir.path(), false, Projection::Nusselt);
-    check_hemisphere(&Evaluator::Cpu, dir.path(), true, Projection::EqualArea);
+    check_hemisphere(&Evaluator::cpu(), dir.path(), false, Projection::Nusselt);
+    check_hemisphere(&Evaluator::cpu(), dir.path(), true, Projection::EqualArea);
 }
 
 #[test]
@@ -351,7 +351,7 @@ fn slice_of_blinn_phong_peaks_at_theta_h_zero_and_lambert_is_flat_gpu() {
 
 #[test]
 fn slice_of_blinn_phong_peaks_at_theta_h_zero_and_lambert_is_flat_cpu() {
-    check_slice(&Evaluator::Cpu, tempfile::tempdir().unwrap().path());
+    check_slice(&Evaluator::cpu(), tempfile::tempdir().unwrap().path());
 }
 
 #[test]
@@ -398,7 +398,7 @@ fn albedo_curves_show_lambert_exactly_and_the_smooth_layered_gain() {
         ..AlbedoOptions::default()
     };
     let Plotted::Albedo(data) = run(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &subjects,
         &Common::default(),
         &Request::Albedo(opts),
@@ -429,7 +429,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("plot.jpg");
     let err = plot::plot(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &[glossy_phong()],
         &Common::default(),
         &Request::Polar(PolarOptions::default()),
@@ -439,7 +439,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
     assert!(format!("{err:#}").contains(".png or .svg"), "{err:#}");
     let out = dir.path().join("plot.png");
     let err = plot::plot(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &[glossy_phong()],
         &Common::default(),
         &Request::Polar(PolarOptions {

@@ -134,7 +134,7 @@ but the brightest pixel is ({ax}, {ay}), {dist:.2} px away (allowed {HIGHLIGHT_T
 
 #[test]
 fn cpu_highlight_lies_at_the_mirror_point() {
-    check_highlight(&Evaluator::Cpu);
+    check_highlight(&Evaluator::cpu());
 }
 
 #[test]
@@ -142,9 +142,9 @@ fn gpu_highlight_lies_at_the_mirror_point() {
     let Some(dev) = common::gpu_device("gpu_highlight_lies_at_the_mirror_point") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
-    check_highlight(&Evaluator::Gpu(&gpu));
-    common::assert_validation_clean("gpu_highlight_lies_at_the_mirror_point");
+    let gpu = Gpu::new(dev);
+    check_highlight(&Evaluator::gpu(&gpu));
+    common::assert_validation_clean(&gpu, "gpu_highlight_lies_at_the_mirror_point");
 }
 
 #[test]
@@ -153,7 +153,7 @@ fn lab_lights_are_mirror_symmetric_about_the_vertical() {
     // an isotropic material's image is symmetric left to right.
     let sheet = Sheet::new(&["granite".into()], &[Model::OrenNayar]).unwrap();
     let scene = Scene::lab(64, Shape::Sphere, LightKind::Point, DVec3::ZERO);
-    let image = render(&Evaluator::Cpu, &sheet, &scene);
+    let image = render(&Evaluator::cpu(), &sheet, &scene);
     for y in 0..64 {
         for x in 0..32 {
             let (a, b) = (image.pixel(x, y), image.pixel(63 - x, y));
@@ -174,7 +174,7 @@ fn files_have_the_requested_size_and_the_exr_reads_back() {
     let sheet = Sheet::new(&default_materials()[..2], &models).unwrap();
     let mut scene = Scene::lab(40, Shape::Icosahedron, LightKind::Point, DVec3::ZERO);
     scene.cell_height = 24; // not square: the aspect ratio must follow
-    let image = render(&Evaluator::Cpu, &sheet, &scene);
+    let image = render(&Evaluator::cpu(), &sheet, &scene);
     assert_eq!((image.width(), image.height()), (3 * 40, 2 * 24));
     assert_eq!(image.rgb.len(), 120 * 48);
     assert!(image.rgb.iter().any(|p| p[0] > 0.0), "the image is black");
@@ -306,7 +306,7 @@ fn gpu_and_cpu_previews_agree_pixel_by_pixel() {
     let Some(dev) = common::gpu_device("gpu_and_cpu_previews_agree_pixel_by_pixel") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     // Both sides see the same inputs: the parameters rounded to f32 as the GPU receives them, and
     // a scene whose numbers are f32 values already (Scene::lab).
     let sheet = Sheet::new(&default_materials(), &Model::ALL)
@@ -318,8 +318,8 @@ fn gpu_and_cpu_previews_agree_pixel_by_pixel() {
         (Shape::Sphere, DVec3::new(0.1, 0.2, 0.3)),
     ] {
         let scene = Scene::lab(96, shape, LightKind::Point, ambient);
-        let g = render(&Evaluator::Gpu(&gpu), &sheet, &scene);
-        let c = render(&Evaluator::Cpu, &sheet, &scene);
+        let g = render(&Evaluator::gpu(&gpu), &sheet, &scene);
+        let c = render(&Evaluator::cpu(), &sheet, &scene);
         assert_agree(
             &sheet,
             &scene,
@@ -328,7 +328,7 @@ fn gpu_and_cpu_previews_agree_pixel_by_pixel() {
             &format!("{} ambient {ambient}", shape.name()),
         );
     }
-    common::assert_validation_clean("gpu_and_cpu_previews_agree_pixel_by_pixel");
+    common::assert_validation_clean(&gpu, "gpu_and_cpu_previews_agree_pixel_by_pixel");
 }
 
 #[test]
@@ -336,7 +336,7 @@ fn gpu_preview_larger_than_one_chunk_matches_the_cpu() {
     let Some(dev) = common::gpu_device("gpu_preview_larger_than_one_chunk_matches_the_cpu") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     // One column of four cells with more pixels than one chunk's output buffer holds
     // (CHUNK_OUTPUT_BYTES of f32 RGB), so the kernel runs at least twice with first > 0.
     let chunk_pixels = lobe::gpu::CHUNK_OUTPUT_BYTES / 12;
@@ -345,9 +345,9 @@ fn gpu_preview_larger_than_one_chunk_matches_the_cpu() {
         .unwrap()
         .rounded_to_f32();
     let scene = Scene::lab(cell, Shape::Sphere, LightKind::Point, DVec3::ZERO);
-    let g = render(&Evaluator::Gpu(&gpu), &sheet, &scene);
-    let c = render(&Evaluator::Cpu, &sheet, &scene);
+    let g = render(&Evaluator::gpu(&gpu), &sheet, &scene);
+    let c = render(&Evaluator::cpu(), &sheet, &scene);
     assert!(g.rgb.len() as u64 > chunk_pixels);
     assert_agree(&sheet, &scene, &g, &c, &format!("{cell} px cells, chunked"));
-    common::assert_validation_clean("gpu_preview_larger_than_one_chunk_matches_the_cpu");
+    common::assert_validation_clean(&gpu, "gpu_preview_larger_than_one_chunk_matches_the_cpu");
 }

@@ -58,11 +58,11 @@ fn a_scene_with_two_models_builds_exactly_two_pipelines() {
         return;
     };
     let _lock = run_lock();
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let s = scene::parse(TWO_MODELS, "two.toml").unwrap_or_else(|e| panic!("{e}"));
     let dir = tempfile::tempdir().unwrap();
     let summary = s
-        .run(&Evaluator::Gpu(&gpu), dir.path(), Outputs::ALL, &mut |_| {})
+        .run(&Evaluator::gpu(&gpu), dir.path(), Outputs::ALL, &mut |_| {})
         .unwrap();
     assert_eq!(summary.written.len(), 3);
     let built = gpu.built_pipelines();
@@ -78,7 +78,7 @@ fn a_scene_with_two_models_builds_exactly_two_pipelines() {
     ] {
         assert!(dir.path().join(f).is_file(), "{f} missing");
     }
-    common::assert_validation_clean("scene pipelines");
+    common::assert_validation_clean(&gpu, "scene pipelines");
 }
 
 /// grid = "halfdiff" gives the three-axis half/difference grid to an isotropic material and the
@@ -167,7 +167,7 @@ fn the_lab_runs_on_the_cpu_with_every_output() {
     let s = scene::parse(LAB, "lab.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let summary = s
-        .run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |_| {})
+        .run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |_| {})
         .unwrap();
     assert_eq!(
         summary.written.len(),
@@ -220,7 +220,7 @@ fn an_interrupted_run_leaves_nothing() {
     let s = scene::parse(TWO_MODELS, "two.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
     lobe::interrupt::request();
-    let r = s.run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |_| {});
+    let r = s.run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |_| {});
     lobe::interrupt::reset();
     let e = r.expect_err("an interrupted run must fail");
     assert!(format!("{e:#}").contains("interrupted"), "{e:#}");

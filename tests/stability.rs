@@ -28,14 +28,14 @@ const WELL_CONDITIONED_REGIONS: &[&str] = &["interior", "mirror"];
 
 fn sweep(test: &str) -> Option<Report> {
     let dev = common::gpu_device(test)?;
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let report = stability::sweep(Options {
         gpu: Some(&gpu),
         models: stability::sweep_models(),
         progress: &mut |_| {},
     })
     .expect("stability sweep");
-    common::assert_validation_clean(test);
+    common::assert_validation_clean(&gpu, test);
     Some(report)
 }
 

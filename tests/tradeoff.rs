@@ -26,7 +26,7 @@ fn rational_g1_error_is_recomputed_independently() {
     let Some(dev) = common::gpu_device("tradeoff") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let params = resolve_params("cook_torrance", Some("glazed_ceramic"), &[]).unwrap();
     let (truth, variants) = eval_variants(&params, None);
     let chosen: Vec<_> = variants
@@ -57,7 +57,7 @@ fn rational_g1_error_is_recomputed_independently() {
         .iter()
         .flat_map(|a| wo.iter().map(move |b| (*a, *b)))
         .collect();
-    let got = Evaluator::Gpu(&gpu)
+    let got = Evaluator::gpu(&gpu)
         .eval_pairs(&chosen[0].params, false, &pairs)
         .unwrap();
     let r = Reference::new(&truth, false);
@@ -192,7 +192,7 @@ fn gauss_integration_error_is_recomputed_independently() {
     let reference = reference_albedos(&params, &setup.mus);
     let truth: Vec<DVec3> = reference.iter().map(|e| e.value).collect();
     let rows =
-        measure_integration(&[Evaluator::Cpu], &params, &setup, &truth, &mut |_| {}).unwrap();
+        measure_integration(&[Evaluator::cpu()], &params, &setup, &truth, &mut |_| {}).unwrap();
     let row = the_row(&rows, "gauss ");
     // 1024 nodes: n_mu = √(1024/4) = 16 Gauss–Legendre nodes in μ × 64 azimuths.
     assert_eq!(row.samples, Some(1024), "{row:?}");
@@ -204,7 +204,7 @@ fn gauss_integration_error_is_recomputed_independently() {
     let r = Reference::new(&params, false);
     let points: Vec<(f64, f64)> = setup.mus.iter().map(|&mu| (mu, 0.0)).collect();
     let reference = directional(
-        &Evaluator::Cpu,
+        &Evaluator::cpu(),
         &params,
         &Settings {
             method: Method::Reference,
@@ -242,9 +242,9 @@ fn gauss_integration_error_is_recomputed_independently() {
     let Some(dev) = common::gpu_device("gauss_integration_error_gpu") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let rows = measure_integration(
-        &[Evaluator::Gpu(&gpu)],
+        &[Evaluator::gpu(&gpu)],
         &params,
         &setup,
         &truth,
@@ -253,7 +253,7 @@ fn gauss_integration_error_is_recomputed_independently() {
     .unwrap();
     let gpu_row = the_row(&rows, "gauss ");
     let via_albedo = directional(
-        &Evaluator::Gpu(&gpu),
+        &Evaluator::gpu(&gpu),
         &params,
         &Settings {
             method: Method::Gauss,
@@ -273,7 +273,7 @@ fn gauss_integration_error_is_recomputed_independently() {
         "GPU gauss 1024: trade-off {:e}, lobe albedo's path {max_gpu:e}",
         gpu_row.max_error
     );
-    common::assert_validation_clean("gauss_integration_error_gpu");
+    common::assert_validation_clean(&gpu, "gauss_integration_error_gpu");
 }
 
 /// Gauss–Legendre in μ × the trapezoid in φ integrates Lambert's f μ = ρμ/π exactly from 1 node
@@ -311,9 +311,10 @@ fn check_gauss_ladder(backend: &Evaluator, what: &str) {
         assert_eq!(errors.len(), ladder.len(), "{what}: {rows:#?}");
         let model = params.model().name();
         if exact {
-            let atol = match backend {
-                Evaluator::Cpu => LAMBERT_GAUSS_ATOL_F64,
-                Evaluator::Gpu(_) => LAMBERT_GAUSS_ATOL_F32,
+            let atol = if backend.is_gpu() {
+                LAMBERT_GAUSS_ATOL_F32
+            } else {
+                LAMBERT_GAUSS_ATOL_F64
             };
             for &(n, e) in &errors {
                 assert!(
@@ -340,7 +341,7 @@ fn check_gauss_ladder(backend: &Evaluator, what: &str) {
 
 #[test]
 fn gauss_error_shrinks_with_samples_cpu() {
-    check_gauss_ladder(&Evaluator::Cpu, "cpu");
+    check_gauss_ladder(&Evaluator::cpu(), "cpu");
 }
 
 #[test]
@@ -348,9 +349,9 @@ fn gauss_error_shrinks_with_samples_gpu() {
     let Some(dev) = common::gpu_device("gauss_error_shrinks_with_samples_gpu") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
-    check_gauss_ladder(&Evaluator::Gpu(&gpu), "gpu");
-    common::assert_validation_clean("gauss_error_shrinks_with_samples_gpu");
+    let gpu = Gpu::new(dev);
+    check_gauss_ladder(&Evaluator::gpu(&gpu), "gpu");
+    common::assert_validation_clean(&gpu, "gauss_error_shrinks_with_samples_gpu");
 }
 
 #[test]
@@ -365,7 +366,7 @@ fn table_albedo_error_shrinks_with_resolution() {
         .iter()
         .map(|e| e.value)
         .collect();
-    let rows = measure_tables(&[Evaluator::Cpu], &params, &setup, &truth, &mut |_| {}).unwrap();
+    let rows = measure_tables(&[Evaluator::cpu()], &params, &setup, &truth, &mut |_| {}).unwrap();
     assert_eq!(rows.len(), 3);
     for w in rows.windows(2) {
         assert!(
@@ -398,7 +399,7 @@ fn pareto_plot_is_a_picture_of_the_requested_size() {
     let Some(dev) = common::gpu_device("pareto_plot") else {
         return;
     };
-    let gpu = Gpu::new(&dev);
+    let gpu = Gpu::new(dev);
     let params = oren_nayar();
     let opts = Options {
         sections: Section::ALL.to_vec(),
@@ -472,7 +473,7 @@ fn pareto_plot_is_a_picture_of_the_requested_size() {
         lobe::plot::pareto::plot_pareto(&report, (1100, 520), &dir.path().join("p.jpg")).is_err(),
         "only .png and .svg"
     );
-    common::assert_validation_clean("pareto_plot");
+    common::assert_validation_clean(&gpu, "pareto_plot");
 }
 
 #[test]

@@ -23,7 +23,7 @@ pub struct AlbedoPush {
     pub node_stride: u32,
 }
 
-impl<'d> Gpu<'d> {
+impl Gpu {
     /// E(ωo) = Σ_k w_k f(ωi_k, ωo) for each `wo[o]` (xyz; w unused), the nodes given as
     /// (ωi.xyz, w): one list of `n_nodes` shared by every ωo, or with `per_wo` one list of
     /// `n_nodes` per ωo, back to back (pad with zero weights). Sums in f32 per workgroup, in f64
@@ -78,20 +78,20 @@ impl<'d> Gpu<'d> {
         let wo_per_chunk = wo_per_chunk.min(wo.len() as u64) as usize;
         let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as u64;
 
-        let mut param_buf = Buffer::new(self.dev, block.len() as u64, "parameter")?;
+        let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
         param_buf.write(block);
         let node_count = if per_wo {
             n_nodes * wo_per_chunk
         } else {
             n_nodes
         };
-        let mut node_buf = Buffer::new(self.dev, 16 * node_count as u64, "albedo node")?;
+        let mut node_buf = Buffer::new(&self.dev, 16 * node_count as u64, "albedo node")?;
         if !per_wo {
             node_buf.write(bytemuck::cast_slice(nodes));
         }
-        let mut wo_buf = Buffer::new(self.dev, 16 * wo_per_chunk as u64, "view direction")?;
+        let mut wo_buf = Buffer::new(&self.dev, 16 * wo_per_chunk as u64, "view direction")?;
         let groups_max = groups_per_wo * wo_per_chunk as u64;
-        let out_buf = Buffer::new(self.dev, 12 * groups_max, "albedo partial sum")?;
+        let out_buf = Buffer::new(&self.dev, 12 * groups_max, "albedo partial sum")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &node_buf, &wo_buf, &out_buf])?;
         let mut out = Vec::with_capacity(wo.len());
         for (c, part) in wo.chunks(wo_per_chunk).enumerate() {

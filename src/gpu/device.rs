@@ -1,35 +1,26 @@
 //! Instance, device selection and the queue. A real GPU is preferred over a CPU driver
-//! (lavapipe); `--device SUBSTRING` picks by name. `LOBE_VALIDATION=1` turns on the Khronos
-//! validation layer and counts what it reports.
+//! (lavapipe); [`DeviceOptions::name_contains`] picks by name, and [`DeviceOptions::validation`]
+//! turns on the Khronos validation layer and counts what it reports, per device.
 
 use super::error::{Context, GpuError, Result};
 use ash::vk;
 use std::ffi::{c_void, CStr};
 use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// Messages of severity warning or error reported by the validation layer in this process.
-static VALIDATION_MESSAGES: AtomicUsize = AtomicUsize::new(0);
-
-/// How many warnings and errors the validation layer has reported so far in this process.
-pub fn validation_message_count() -> usize {
-    VALIDATION_MESSAGES.load(Ordering::SeqCst)
-}
-
-/// Whether `LOBE_VALIDATION=1` asks for the validation layer.
-pub fn validation_requested() -> bool {
-    std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1")
-}
+use std::sync::Mutex;
 
 unsafe extern "system" fn on_validation_message(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     _types: vk::DebugUtilsMessageTypeFlagsEXT,
     data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    _user: *mut c_void,
+    user: *mut c_void,
 ) -> vk::Bool32 {
     let serious = vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
         | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR;
     if severity.intersects(serious) {
-        VALIDATION_MESSAGES.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: `user` is the device's boxed counter, which outlives the messenger.
+        if let Some(count) = (user as *const AtomicUsize).as_ref() {
+            count.fetch_add(1, Ordering::SeqCst);
+        }
         let text = if data.is_null() || (*data).p_message.is_null() {
             "(no message)".into()
         } else {
@@ -45,6 +36,13 @@ unsafe extern "system" fn on_validation_message(
 pub struct DeviceOptions {
     /// Pick the first device whose name contains this (case-insensitive).
     pub name_contains: Option<String>,
+    /// Turn on the Khronos validation layer (package `vulkan-validationlayers`); every warning
+    /// or error it reports is printed to stderr and counted ([`Device::validation_messages`]).
+    pub validation: bool,
+    /// Make every dispatch end as if the device had been lost (`VK_ERROR_DEVICE_LOST` from the
+    /// fence wait), so that the path a real GPU reset takes (the message, the exit status, no
+    /// partial output) can be tested without crashing a GPU.
+    pub inject_device_lost: bool,
 }
 
 /// An open Vulkan device with one compute queue.
@@ -61,6 +59,13 @@ pub struct Device {
     pub(crate) limits: vk::PhysicalDeviceLimits,
     name: String,
     device_type: vk::PhysicalDeviceType,
+    /// Held around every queue submission (Vulkan requires the queue externally synchronised).
+    pub(crate) queue_lock: Mutex<()>,
+    /// See [`DeviceOptions::inject_device_lost`].
+    pub(crate) inject_device_lost: bool,
+    /// Warnings and errors the validation layer reported on this device (boxed: the messenger
+    /// holds its address).
+    validation_messages: Box<AtomicUsize>,
 }
 
 fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
@@ -82,10 +87,11 @@ fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
 }
 
 impl Device {
+    /// Opens the best device (a real GPU before a CPU driver), or the one `opts` names.
     pub fn open(opts: &DeviceOptions) -> Result<Device> {
         // SAFETY: loading the system's Vulkan loader; the library stays loaded while `entry` lives.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))?;
-        let validation = validation_requested();
+        let validation = opts.validation;
         let layer_name = c"VK_LAYER_KHRONOS_validation";
         let mut layers = Vec::new();
         let mut extensions = Vec::new();
@@ -128,6 +134,7 @@ impl Device {
         validation: bool,
         opts: &DeviceOptions,
     ) -> Result<Device> {
+        let validation_messages = Box::new(AtomicUsize::new(0));
         let debug = if validation {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
@@ -140,7 +147,8 @@ impl Device {
                         | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
                         | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
                 )
-                .pfn_user_callback(Some(on_validation_message));
+                .pfn_user_callback(Some(on_validation_message))
+                .user_data(&*validation_messages as *const AtomicUsize as *mut c_void);
             // SAFETY: the callback is a plain function that lives for the whole program.
             match unsafe { loader.create_debug_utils_messenger(&info, None) } {
                 Ok(m) => Some((loader, m)),
@@ -206,6 +214,9 @@ impl Device {
                     limits: props.limits,
                     name: device_name(&props),
                     device_type: props.device_type,
+                    queue_lock: Mutex::new(()),
+                    inject_device_lost: opts.inject_device_lost,
+                    validation_messages,
                 })
             }
             Err(e) => {
@@ -255,6 +266,12 @@ impl Device {
     /// The device's name as the driver reports it.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// How many warnings and errors the validation layer has reported on this device so far
+    /// (always 0 without [`DeviceOptions::validation`]).
+    pub fn validation_messages(&self) -> usize {
+        self.validation_messages.load(Ordering::SeqCst)
     }
 
     /// Whether this is a CPU implementation such as lavapipe.

@@ -13,13 +13,22 @@ pub mod spirv;
 
 use crate::model::Model;
 use buffer::Buffer;
-pub use device::{validation_message_count, Device, DeviceOptions};
+pub use device::{Device, DeviceOptions};
 pub use error::{GpuError, Result, INSTALL_HINT};
 use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline};
-use std::cell::RefCell;
 use std::collections::HashMap;
-use std::rc::Rc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
+
+/// Where progress notes go (a pipeline built, and its build time); the CLI prints them to stderr
+/// when `LOBE_LOG=1`.
+pub type LogSink = Arc<dyn Fn(&str) + Send + Sync>;
+
+/// Locks a mutex whose data stays consistent even if a holder panicked (a cache, a list).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// Bytes of output per chunk: large enough to amortise a submit, small enough to stay well under
 /// lavapipe's 128 MiB binding limit and to keep memory bounded.
@@ -42,64 +51,68 @@ type PipelineKey = (Kernel, Model, bool, bool);
 /// Receives each finished chunk of a table: its first cell's index and its RGB values.
 pub type TableSink<'a, E> = dyn FnMut(u64, &[f32]) -> std::result::Result<(), E> + 'a;
 
-/// The pipelines built so far on one device; each is built on first use only.
-pub struct Gpu<'d> {
-    dev: &'d Device,
-    pipelines: RefCell<HashMap<PipelineKey, Rc<Pipeline<'d>>>>,
-    built: RefCell<Vec<(String, Duration)>>,
-    fast_pow: std::cell::Cell<bool>,
+/// The pipelines built so far on one device; each is built on first use only. `Send` and `Sync`:
+/// the cache is behind a mutex and queue submissions are serialised by the device.
+pub struct Gpu {
+    dev: Arc<Device>,
+    pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
+    built: Mutex<Vec<(String, Duration)>>,
+    fast_pow: AtomicBool,
+    log: Option<LogSink>,
 }
 
-impl<'d> Gpu<'d> {
-    pub fn new(dev: &'d Device) -> Gpu<'d> {
+impl Gpu {
+    /// A runner on `dev` with an empty pipeline cache.
+    pub fn new(dev: Device) -> Gpu {
         Gpu {
-            dev,
-            pipelines: RefCell::default(),
-            built: RefCell::default(),
-            fast_pow: std::cell::Cell::new(false),
+            dev: Arc::new(dev),
+            pipelines: Mutex::default(),
+            built: Mutex::default(),
+            fast_pow: AtomicBool::new(false),
+            log: None,
         }
     }
 
-    pub fn device(&self) -> &'d Device {
-        self.dev
+    /// Sends a note to `log` for every pipeline built, with its build time.
+    pub fn with_log(mut self, log: Option<LogSink>) -> Gpu {
+        self.log = log;
+        self
     }
 
-    fn pipeline(
-        &self,
-        kernel: Kernel,
-        model: Model,
-        white_furnace: bool,
-    ) -> Result<Rc<Pipeline<'d>>> {
-        let fast_pow = self.fast_pow.get();
+    /// The device the pipelines run on.
+    pub fn device(&self) -> &Device {
+        &self.dev
+    }
+
+    fn pipeline(&self, kernel: Kernel, model: Model, white_furnace: bool) -> Result<Arc<Pipeline>> {
+        let fast_pow = self.fast_pow.load(Ordering::Relaxed);
         let key = (kernel, model, white_furnace, fast_pow);
-        if let Some(p) = self.pipelines.borrow().get(&key) {
+        if let Some(p) = lock(&self.pipelines).get(&key) {
             return Ok(p.clone());
         }
-        let p = Rc::new(Pipeline::new(
-            self.dev,
+        let p = Arc::new(Pipeline::new(
+            &self.dev,
             kernel,
             model,
             white_furnace,
             fast_pow,
         )?);
-        if std::env::var("LOBE_LOG").is_ok_and(|v| v != "0") {
-            eprintln!(
-                "lobe: built pipeline {} in {:.1} ms",
+        if let Some(log) = &self.log {
+            log(&format!(
+                "built pipeline {} in {:.1} ms",
                 p.label,
                 p.build_time.as_secs_f64() * 1e3
-            );
+            ));
         }
-        self.built
-            .borrow_mut()
-            .push((p.label.clone(), p.build_time));
-        self.pipelines.borrow_mut().insert(key, p.clone());
+        lock(&self.built).push((p.label.clone(), p.build_time));
+        lock(&self.pipelines).insert(key, p.clone());
         Ok(p)
     }
 
     /// Evaluate cos^n lobes with GLSL's plain pow (exp2(n log2 x)) instead of the careful
     /// formulation, from now on: a speed-for-accuracy variant that `lobe tradeoff` measures.
     pub fn set_fast_pow(&self, fast: bool) {
-        self.fast_pow.set(fast);
+        self.fast_pow.store(fast, Ordering::Relaxed);
     }
 
     /// GPU time (from timestamp queries) of every dispatch since the last call, or None where
@@ -108,21 +121,19 @@ impl<'d> Gpu<'d> {
         if self.dev.timestamp_bits == 0 {
             return None;
         }
-        let ns: f64 = self
-            .pipelines
-            .borrow()
+        let ns: u64 = lock(&self.pipelines)
             .values()
-            .map(|p| p.gpu_ns.replace(0.0))
+            .map(|p| p.gpu_ns.swap(0, Ordering::Relaxed))
             .sum();
-        Some(Duration::from_nanos(ns as u64))
+        Some(Duration::from_nanos(ns))
     }
 
     /// Every pipeline built so far, with its build time.
     pub fn built_pipelines(&self) -> Vec<(String, Duration)> {
-        self.built.borrow().clone()
+        lock(&self.built).clone()
     }
 
-    fn max_chunk(&self, pipe: &Pipeline<'d>, in_bytes_per_eval: u64) -> u64 {
+    fn max_chunk(&self, pipe: &Pipeline, in_bytes_per_eval: u64) -> u64 {
         let range = self.dev.limits.max_storage_buffer_range as u64;
         let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
         let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
@@ -143,14 +154,14 @@ impl<'d> Gpu<'d> {
         let params: Vec<u8> = blocks.concat();
         let chunk = (self.max_chunk(&pipe, std::mem::size_of::<GpuPair>() as u64) as usize)
             .min(pairs.len().max(1));
-        let mut param_buf = Buffer::new(self.dev, params.len() as u64, "parameter")?;
+        let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params);
         let mut pair_buf = Buffer::new(
-            self.dev,
+            &self.dev,
             (chunk * std::mem::size_of::<GpuPair>()) as u64,
             "direction pair",
         )?;
-        let out_buf = Buffer::new(self.dev, (chunk * 12) as u64, "output")?;
+        let out_buf = Buffer::new(&self.dev, (chunk * 12) as u64, "output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pair_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pairs.len());
         for (k, part) in pairs.chunks(chunk).enumerate() {
@@ -193,13 +204,13 @@ impl<'d> Gpu<'d> {
         }
         let pipe = self.pipeline(Kernel::Table, model, white_furnace)?;
         let chunk = self.max_chunk(&pipe, 0).min(cells.max(1));
-        let mut param_buf = Buffer::new(self.dev, block.len() as u64, "parameter")?;
+        let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
         param_buf.write(block);
-        let mut wi_buf = Buffer::new(self.dev, (wi.len() * 16) as u64, "light direction")?;
+        let mut wi_buf = Buffer::new(&self.dev, (wi.len() * 16) as u64, "light direction")?;
         wi_buf.write(bytemuck::cast_slice(wi));
-        let mut wo_buf = Buffer::new(self.dev, (wo.len() * 16) as u64, "view direction")?;
+        let mut wo_buf = Buffer::new(&self.dev, (wo.len() * 16) as u64, "view direction")?;
         wo_buf.write(bytemuck::cast_slice(wo));
-        let out_buf = Buffer::new(self.dev, chunk * 12, "output")?;
+        let out_buf = Buffer::new(&self.dev, chunk * 12, "output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &wi_buf, &wo_buf, &out_buf])?;
         let mut first = 0u64;
         while first < cells {

@@ -8,6 +8,8 @@ use super::error::{Context, GpuError, Result};
 use super::shaders;
 use crate::model::Model;
 use ash::vk;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Which kernel of `glsl/kernels/`.
@@ -61,8 +63,8 @@ pub struct ChunkPush {
     pub pad: u32,
 }
 
-pub struct Pipeline<'d> {
-    dev: &'d Device,
+pub struct Pipeline {
+    dev: Arc<Device>,
     pub kernel: Kernel,
     module: vk::ShaderModule,
     set_layout: vk::DescriptorSetLayout,
@@ -73,17 +75,17 @@ pub struct Pipeline<'d> {
     pub build_time: Duration,
     pub label: String,
     /// GPU time of every dispatch so far, from timestamp queries (nanoseconds).
-    pub gpu_ns: std::cell::Cell<f64>,
+    pub gpu_ns: AtomicU64,
 }
 
-impl<'d> Pipeline<'d> {
+impl Pipeline {
     pub fn new(
-        dev: &'d Device,
+        dev: &Arc<Device>,
         kernel: Kernel,
         model_kind: Model,
         white_furnace: bool,
         fast_pow: bool,
-    ) -> Result<Pipeline<'d>> {
+    ) -> Result<Pipeline> {
         let start = Instant::now();
         let model = model_kind.name();
         let bytes =
@@ -112,7 +114,7 @@ impl<'d> Pipeline<'d> {
         );
         let d = &dev.device;
         let mut p = Pipeline {
-            dev,
+            dev: dev.clone(),
             kernel,
             module: vk::ShaderModule::null(),
             set_layout: vk::DescriptorSetLayout::null(),
@@ -121,7 +123,7 @@ impl<'d> Pipeline<'d> {
             evals_per_invocation,
             build_time: Duration::ZERO,
             label,
-            gpu_ns: std::cell::Cell::new(0.0),
+            gpu_ns: AtomicU64::new(0),
         };
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
@@ -201,12 +203,12 @@ impl<'d> Pipeline<'d> {
     }
 
     /// Runs the kernel once per chunk over bound buffers (in binding order), waiting for each.
-    pub fn dispatch(&self, buffers: &[&Buffer<'d>], chunks: &[ChunkPush]) -> Result<()> {
+    pub fn dispatch(&self, buffers: &[&Buffer<'_>], chunks: &[ChunkPush]) -> Result<()> {
         Dispatcher::new(self, buffers)?.run(chunks)
     }
 }
 
-impl Drop for Pipeline<'_> {
+impl Drop for Pipeline {
     fn drop(&mut self) {
         let d = &self.dev.device;
         // SAFETY: the device is idle after every dispatch; release in reverse order of creation.
@@ -222,17 +224,9 @@ impl Drop for Pipeline<'_> {
 /// How long one chunk may run before we call the device hung.
 const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
 
-/// `LOBE_INJECT_DEVICE_LOST=1` makes every dispatch end as if the device had been lost
-/// (VK_ERROR_DEVICE_LOST from the fence wait), so that the path a real GPU reset takes (the
-/// message, the exit status, no partial output) can be tested without crashing a GPU.
-fn inject_device_lost() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| std::env::var("LOBE_INJECT_DEVICE_LOST").is_ok_and(|v| v == "1"))
-}
-
 /// A descriptor set bound to a job's buffers, a command buffer and a fence, reused per chunk.
-pub struct Dispatcher<'p, 'd> {
-    pipe: &'p Pipeline<'d>,
+pub struct Dispatcher<'p> {
+    pipe: &'p Pipeline,
     pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     cmd_pool: vk::CommandPool,
@@ -242,8 +236,8 @@ pub struct Dispatcher<'p, 'd> {
     queries: vk::QueryPool,
 }
 
-impl<'p, 'd> Dispatcher<'p, 'd> {
-    pub fn new(pipe: &'p Pipeline<'d>, buffers: &[&Buffer<'d>]) -> Result<Dispatcher<'p, 'd>> {
+impl<'p> Dispatcher<'p> {
+    pub fn new(pipe: &'p Pipeline, buffers: &[&Buffer<'_>]) -> Result<Dispatcher<'p>> {
         let bindings = pipe.kernel.bindings();
         assert_eq!(
             buffers.len(),
@@ -412,9 +406,17 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
             let cmds = [self.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             d.reset_fences(&[self.fence]).ctx("resetting a fence")?;
-            d.queue_submit(pipe.dev.queue, &submit, self.fence)
-                .ctx(&format!("submitting {}", pipe.label))?;
-            let waited = if inject_device_lost() {
+            {
+                // vkQueueSubmit needs the queue externally synchronised: one submit at a time.
+                let _queue = pipe
+                    .dev
+                    .queue_lock
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner());
+                d.queue_submit(pipe.dev.queue, &submit, self.fence)
+                    .ctx(&format!("submitting {}", pipe.label))?;
+            }
+            let waited = if pipe.dev.inject_device_lost {
                 // Let the real work finish, then report what a lost device reports.
                 d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64)
                     .and(Err(vk::Result::ERROR_DEVICE_LOST))
@@ -459,7 +461,7 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
         };
         let ticks = stamps[1].wrapping_sub(stamps[0]) & mask;
         let ns = ticks as f64 * self.pipe.dev.limits.timestamp_period as f64;
-        self.pipe.gpu_ns.set(self.pipe.gpu_ns.get() + ns);
+        self.pipe.gpu_ns.fetch_add(ns as u64, Ordering::Relaxed);
         Ok(())
     }
 
@@ -468,7 +470,7 @@ impl<'p, 'd> Dispatcher<'p, 'd> {
     }
 }
 
-impl Drop for Dispatcher<'_, '_> {
+impl Drop for Dispatcher<'_> {
     fn drop(&mut self) {
         let d = &self.pipe.dev.device;
         // SAFETY: the fence was waited on; release in reverse order of creation.

@@ -44,7 +44,7 @@ pub struct GpuObject {
     pub pad: [u32; 2],
 }
 
-impl<'d> Gpu<'d> {
+impl Gpu {
     /// Linear RGB radiance of every pixel of `objects.len()` cells, each `header.dims[0]` ×
     /// `header.dims[1]` pixels, in the order (cell, row from the top, column): one `model` for
     /// all, object k shaded with `blocks[objects[k].param_index]` (std430 parameter blocks).
@@ -84,16 +84,16 @@ impl<'d> Gpu<'d> {
         let pipe = self.pipeline(Kernel::Preview, model, false)?;
         let chunk = self.max_chunk(&pipe, 0).min(pixels.max(1));
         let params: Vec<u8> = blocks.concat();
-        let mut param_buf = Buffer::new(self.dev, params.len() as u64, "parameter")?;
+        let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params);
         let mut scene: Vec<u8> = bytemuck::bytes_of(header).to_vec();
         scene.extend_from_slice(bytemuck::cast_slice(lights));
-        let mut scene_buf = Buffer::new(self.dev, scene.len() as u64, "preview scene")?;
+        let mut scene_buf = Buffer::new(&self.dev, scene.len() as u64, "preview scene")?;
         scene_buf.write(&scene);
         let object_bytes: &[u8] = bytemuck::cast_slice(objects);
-        let mut object_buf = Buffer::new(self.dev, object_bytes.len() as u64, "preview object")?;
+        let mut object_buf = Buffer::new(&self.dev, object_bytes.len() as u64, "preview object")?;
         object_buf.write(object_bytes);
-        let out_buf = Buffer::new(self.dev, chunk * 12, "preview output")?;
+        let out_buf = Buffer::new(&self.dev, chunk * 12, "preview output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &scene_buf, &object_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pixels as usize);
         let mut first = 0u64;

@@ -1,7 +1,7 @@
 //! Shared by the integration tests: the GPU policy and a small deterministic random generator.
 #![allow(dead_code)]
 
-use lobe::gpu::{Device, DeviceOptions};
+use lobe::gpu::{Device, DeviceOptions, Gpu};
 
 /// GPU tests do not hide: without a Vulkan device they fail with the install hint. They skip
 /// only when LOBE_SKIP_GPU=1 is set (CI never sets it). Returns None when skipping.
@@ -10,7 +10,11 @@ pub fn gpu_device(test: &str) -> Option<Device> {
         eprintln!("{test}: skipped because LOBE_SKIP_GPU=1");
         return None;
     }
-    match Device::open(&DeviceOptions::default()) {
+    let opts = DeviceOptions {
+        validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
+        ..DeviceOptions::default()
+    };
+    match Device::open(&opts) {
         Ok(d) => Some(d),
         Err(e) => {
             panic!("{test} needs a Vulkan device: {e}\n(set LOBE_SKIP_GPU=1 to skip GPU tests)")
@@ -19,8 +23,8 @@ pub fn gpu_device(test: &str) -> Option<Device> {
 }
 
 /// With LOBE_VALIDATION=1 the validation layer must have reported nothing.
-pub fn assert_validation_clean(test: &str) {
-    let n = lobe::gpu::validation_message_count();
+pub fn assert_validation_clean(gpu: &Gpu, test: &str) {
+    let n = gpu.device().validation_messages();
     assert_eq!(
         n, 0,
         "{test}: the Vulkan validation layer reported {n} warnings or errors (see stderr)"

@@ -1,0 +1,79 @@
+//! The library's error type: one enum that callers can match, with messages that name the
+//! parameter, the value and the valid range (never a command-line flag; the CLI adds those).
+
+use crate::gpu::GpuError;
+use crate::interrupt::Interrupted;
+use crate::model::ParamError;
+
+/// Everything a [`crate::Session`] call can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A model name, parameter key or value that the model's parameter table refuses.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// No usable Vulkan device, a lost device, a Vulkan call that failed.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The cancellation token was set; no partial output was kept.
+    #[error(transparent)]
+    Cancelled(#[from] Interrupted),
+    /// A request outside what the job accepts: the message names the input and its valid range.
+    #[error("{0}")]
+    Invalid(String),
+    /// The job needs the f64 CPU reference, which this model does not have.
+    #[error("model '{model}' has no f64 CPU reference, which {job} needs")]
+    NoReference {
+        /// The model's name.
+        model: String,
+        /// What needed the reference.
+        job: String,
+    },
+    /// Reading or writing a file.
+    #[error("{what}: {source}")]
+    Io {
+        /// What was being read or written, with its path.
+        what: String,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+}
+
+/// The library's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Sorts an error from a job's internals into the variant that says what went wrong: the
+    /// typed causes are found anywhere in the chain; the message keeps the whole chain.
+    pub(crate) fn from_job(e: anyhow::Error) -> Error {
+        if e.downcast_ref::<Interrupted>().is_some() {
+            return Error::Cancelled(Interrupted);
+        }
+        let e = match e.downcast::<ParamError>() {
+            Ok(p) => return Error::Param(p),
+            Err(e) => e,
+        };
+        let e = match e.downcast::<GpuError>() {
+            Ok(g) => return Error::Gpu(g),
+            Err(e) => e,
+        };
+        let io = e.chain().find_map(|c| c.downcast_ref::<std::io::Error>());
+        match io {
+            Some(io) => Error::Io {
+                what: format!("{e:#}"),
+                source: std::io::Error::new(io.kind(), io.to_string()),
+            },
+            None => Error::Invalid(format!("{e:#}")),
+        }
+    }
+}
+
+/// Converts a job's `anyhow` result into the library's error type.
+pub(crate) trait IntoLobe<T> {
+    fn lobe(self) -> Result<T>;
+}
+
+impl<T> IntoLobe<T> for anyhow::Result<T> {
+    fn lobe(self) -> Result<T> {
+        self.map_err(Error::from_job)
+    }
+}

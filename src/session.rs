@@ -1,0 +1,348 @@
+//! [`Session`]: the library's front door. It opens the backend once (a Vulkan device, or the f64
+//! CPU reference), owns the pipeline cache, carries its options as values (a log sink, the
+//! validation layer, fault injection, a cancellation token) and runs every job the commands run.
+//!
+//! ```no_run
+//! use lobe::{Session, SessionOptions};
+//! let session = Session::open(SessionOptions::default())?;
+//! let params = lobe::resolve_params("cook_torrance", Some("gold"), &[])?;
+//! let e = session.directional_albedo(&params, &lobe::AlbedoSettings::default(), &[(1.0, 0.0)])?;
+//! println!("E(mu = 1) = {:?}", e[0].albedo);
+//! # Ok::<(), lobe::Error>(())
+//! ```
+
+use crate::error::{Error, IntoLobe, Result};
+use crate::eval::Evaluator;
+use crate::gpu::{Device, DeviceOptions, Gpu, LogSink};
+use crate::grid::Grid;
+use crate::integrate::{self, AlbedoReport, HemiAlbedo, PointAlbedo};
+use crate::interrupt::CancelToken;
+use crate::lut::{LutSpec, LutSummary};
+use crate::model::ParamSet;
+use crate::table::TableMeta;
+use glam::DVec3;
+use std::path::Path;
+
+/// Which backend a session evaluates on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BackendKind {
+    /// GLSL compute kernels on a Vulkan device, in f32: a real GPU if there is one, else a CPU
+    /// driver such as lavapipe.
+    #[default]
+    Gpu,
+    /// The CPU reference in f64; needs no Vulkan.
+    Cpu,
+}
+
+/// How to open a [`Session`]. Every field has a default: the best Vulkan device, no validation,
+/// no logging, a fresh cancellation token.
+#[derive(Clone, Default)]
+pub struct SessionOptions {
+    /// GPU (default) or the f64 CPU reference.
+    pub backend: BackendKind,
+    /// Pick the first Vulkan device whose name contains this (case-insensitive).
+    pub device: Option<String>,
+    /// Turn on the Khronos validation layer; [`Session::validation_messages`] counts what it
+    /// reports.
+    pub validation: bool,
+    /// Make every GPU dispatch end as if the device had been lost (to test that path).
+    pub inject_device_lost: bool,
+    /// Receives progress notes (each pipeline built, with its build time).
+    pub log: Option<LogSink>,
+    /// Set it (from any thread) to stop the running job at its next chunk with
+    /// [`Error::Cancelled`]; nothing partial is kept.
+    pub cancel: CancelToken,
+}
+
+impl std::fmt::Debug for SessionOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SessionOptions")
+            .field("backend", &self.backend)
+            .field("device", &self.device)
+            .field("validation", &self.validation)
+            .field("inject_device_lost", &self.inject_device_lost)
+            .field("log", &self.log.as_ref().map(|_| "sink"))
+            .field("cancelled", &self.cancel.is_cancelled())
+            .finish()
+    }
+}
+
+/// An open backend and everything built on it so far. `Send` and `Sync`: hold it in a worker
+/// thread, an `Arc`, or a Python object.
+pub struct Session {
+    gpu: Option<Gpu>,
+    cancel: CancelToken,
+}
+
+/// The albedo options of [`Session::directional_albedo`] and friends (method, nodes per
+/// direction, white furnace).
+pub type AlbedoSettings = integrate::Settings;
+
+impl Default for integrate::Settings {
+    /// The peak rule at its default node count (1e-6 relative at every preset), no white furnace.
+    fn default() -> Self {
+        let method = integrate::Method::Peak;
+        integrate::Settings {
+            method,
+            samples: method.default_samples(),
+            white_furnace: false,
+        }
+    }
+}
+
+impl Session {
+    /// Opens the backend `opts` asks for.
+    pub fn open(opts: SessionOptions) -> Result<Session> {
+        let gpu = match opts.backend {
+            BackendKind::Cpu => None,
+            BackendKind::Gpu => {
+                let dev = Device::open(&DeviceOptions {
+                    name_contains: opts.device.clone(),
+                    validation: opts.validation,
+                    inject_device_lost: opts.inject_device_lost,
+                })?;
+                Some(Gpu::new(dev).with_log(opts.log.clone()))
+            }
+        };
+        Ok(Session {
+            gpu,
+            cancel: opts.cancel,
+        })
+    }
+
+    /// A session on the f64 CPU reference (never fails: it needs no device).
+    pub fn cpu() -> Session {
+        Session {
+            gpu: None,
+            cancel: CancelToken::new(),
+        }
+    }
+
+    /// The evaluator every job takes: this session's backend and cancellation token.
+    pub fn evaluator(&self) -> Evaluator<'_> {
+        match &self.gpu {
+            Some(g) => Evaluator::gpu(g),
+            None => Evaluator::cpu(),
+        }
+        .with_cancel(&self.cancel)
+    }
+
+    /// The GPU runner, where the session has one.
+    pub fn gpu(&self) -> Option<&Gpu> {
+        self.gpu.as_ref()
+    }
+
+    /// Which backend this session evaluates on.
+    pub fn backend(&self) -> BackendKind {
+        match self.gpu {
+            Some(_) => BackendKind::Gpu,
+            None => BackendKind::Cpu,
+        }
+    }
+
+    /// "gpu (device name)" or "cpu (f64 reference)".
+    pub fn backend_name(&self) -> String {
+        self.evaluator().name()
+    }
+
+    /// The token that stops this session's jobs; clones share it.
+    pub fn cancel_token(&self) -> &CancelToken {
+        &self.cancel
+    }
+
+    /// Warnings and errors the validation layer has reported on this session's device so far.
+    pub fn validation_messages(&self) -> usize {
+        self.gpu
+            .as_ref()
+            .map_or(0, |g| g.device().validation_messages())
+    }
+
+    /// f at each (ωi, ωo) pair, in 1/sr, without the cosine (0 below the horizon).
+    pub fn eval_pairs(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<[f64; 3]>> {
+        self.evaluator()
+            .eval_pairs(params, white_furnace, pairs)
+            .lobe()
+    }
+
+    /// The lobe table on `grid` in memory: f32 RGB per cell, cells in the grid's order. Refuses
+    /// tables over `max_cells` cells (a bound on memory: 12 bytes a cell).
+    pub fn table(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        max_cells: u64,
+    ) -> Result<Vec<f32>> {
+        let cells = grid.cells().filter(|&c| c <= max_cells).ok_or_else(|| {
+            Error::Invalid(format!(
+                "a table of shape {:?} has more than the {max_cells} cells allowed in memory",
+                grid.shape()
+            ))
+        })?;
+        let mut out = Vec::with_capacity(cells as usize * 3);
+        let ev = self.evaluator();
+        ev.eval_table(params, white_furnace, grid, &mut |_, v| {
+            ev.check_cancelled()?;
+            out.extend_from_slice(v);
+            Ok(())
+        })
+        .lobe()?;
+        Ok(out)
+    }
+
+    /// Writes the table set `PATH.exr`, `PATH.npy`, `PATH.json` (all or nothing), streaming
+    /// chunk by chunk; `progress` gets (cells done, cells).
+    pub fn write_table(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: Grid,
+        exr_path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<()> {
+        let meta = TableMeta {
+            params,
+            white_furnace,
+            grid,
+            backend: self.backend_name(),
+        };
+        crate::table::write_table(&self.evaluator(), &meta, exr_path, progress).lobe()
+    }
+
+    /// Directional albedo E(ωo) at each (μo, φo).
+    pub fn directional_albedo(
+        &self,
+        params: &ParamSet,
+        settings: &AlbedoSettings,
+        points: &[(f64, f64)],
+    ) -> Result<Vec<PointAlbedo>> {
+        integrate::directional(&self.evaluator(), params, settings, points).lobe()
+    }
+
+    /// Hemispherical albedo Ē and Kulla–Conty's E_avg (at azimuth `phi` for anisotropic sets).
+    pub fn hemispherical_albedo(
+        &self,
+        params: &ParamSet,
+        settings: &AlbedoSettings,
+        phi: f64,
+    ) -> Result<HemiAlbedo> {
+        integrate::hemispherical(&self.evaluator(), params, settings, phi).lobe()
+    }
+
+    /// Directional and hemispherical albedo together, with timings, as `lobe albedo` reports.
+    pub fn albedo_report(
+        &self,
+        params: &ParamSet,
+        settings: &AlbedoSettings,
+        points: &[(f64, f64)],
+        phi: f64,
+    ) -> Result<AlbedoReport> {
+        integrate::albedo_report(&self.evaluator(), params, settings, points, phi).lobe()
+    }
+
+    /// Computes an albedo look-up table E(μ, p), E_avg(p) in memory.
+    pub fn albedo_lut(
+        &self,
+        spec: &LutSpec,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<LutSummary> {
+        crate::lut::compute(&self.evaluator(), spec, progress).lobe()
+    }
+
+    /// Computes an albedo look-up table and writes its files beside `exr_path` (all or nothing).
+    pub fn write_albedo_lut(
+        &self,
+        spec: &LutSpec,
+        exr_path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<LutSummary> {
+        crate::lut::write(&self.evaluator(), spec, exr_path, progress).lobe()
+    }
+
+    /// Renders a material preview sheet (rows of parameter sets, shaded under `scene`);
+    /// `progress` gets (columns done, columns).
+    pub fn preview(
+        &self,
+        sheet: &crate::preview::Sheet,
+        scene: &crate::preview::Scene,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<crate::preview::SheetImage> {
+        crate::preview::render(&self.evaluator(), sheet, scene, progress).lobe()
+    }
+
+    /// The stability sweep over `models` (every model's parameter edges × extreme directions),
+    /// on the CPU reference and, where the session has one, the GPU.
+    pub fn stability(
+        &self,
+        models: Vec<crate::model::Model>,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<crate::stability::Report> {
+        self.evaluator().check_cancelled()?;
+        crate::stability::sweep(crate::stability::Options {
+            gpu: self.gpu(),
+            models,
+            progress,
+        })
+        .lobe()
+    }
+
+    /// Throughput of a lobe table on `grid` on this session's backend (median of `repeats`).
+    pub fn bench_table(
+        &self,
+        params: &ParamSet,
+        grid: &Grid,
+        repeats: usize,
+    ) -> Result<crate::bench::Throughput> {
+        crate::bench::measure(&self.evaluator(), params, grid, repeats).lobe()
+    }
+
+    /// Throughput of directional-albedo integration on this session's backend.
+    pub fn bench_albedo(
+        &self,
+        params: &ParamSet,
+        repeats: usize,
+    ) -> Result<crate::bench::Throughput> {
+        crate::bench::measure_albedo(&self.evaluator(), params, repeats).lobe()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn assert_send_sync<T: Send + Sync>() {}
+
+    #[test]
+    fn a_session_can_move_to_another_thread_and_be_shared() {
+        assert_send_sync::<Session>();
+        assert_send_sync::<SessionOptions>();
+        assert_send_sync::<Error>();
+    }
+
+    #[test]
+    fn the_cpu_session_evaluates_lambert_as_albedo_over_pi() {
+        let s = Session::cpu();
+        let p = crate::resolve_params("lambert", None, &["albedo=0.5".into()]).unwrap();
+        let f = s.eval_pairs(&p, false, &[(DVec3::Z, DVec3::Z)]).unwrap();
+        assert!((f[0][0] - 0.5 / std::f64::consts::PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_cancelled_session_stops_with_the_cancelled_error() {
+        let s = Session::cpu();
+        s.cancel_token().cancel();
+        let p = crate::resolve_params("lambert", None, &[]).unwrap();
+        let grid = Grid::Isotropic {
+            n_theta_i: 4,
+            n_theta_o: 4,
+            n_dphi: 4,
+        };
+        let e = s.table(&p, false, &grid, 1 << 20).unwrap_err();
+        assert!(matches!(e, Error::Cancelled(_)), "{e}");
+    }
+}
