@@ -3,7 +3,8 @@
 
 use super::peak::PeakFrame;
 use super::rules::{Node, PLASTIC};
-use crate::model::{Brdf, ParamSet};
+use crate::model::quadrature::SamplingLobes;
+use crate::model::ParamSet;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
 
@@ -41,41 +42,19 @@ impl Mixture {
         }
     }
 
-    /// The mixture tuned from the model's parameters. Each peaked model's lobe is matched by a
-    /// power cosine (r·ωi)^n of the same width near its peak (small angles α between ωi and r):
-    /// - `phong`: n = shininess, exactly its lobe;
-    /// - `blinn_phong`: c_h^N with θh ≈ α/2: cos^N(α/2) ≈ e^{−Nα²/8} = cos^{N/4}α, so n = N/4;
-    /// - `ashikhmin_shirley`: likewise n = nu/4 and n = nv/4 (two lobes when anisotropic);
-    /// - `cook_torrance` (and `microfacet`, per axis): Beckmann's e^{−tan²θh/m²} ≈ e^{−α²/(4m²)}
-    ///   = cos^n α with n = 1/(2m²).
-    ///
-    /// Each width gets two lobes, n (2/3 of its share) and n/8 (1/3; see
-    /// [`BROAD_LOBE_DIVISOR`]). The cosine's share is diffuse/(diffuse + specular) of the
-    /// parameters' largest channels, clamped to [`COSINE_FRACTION`]. Models without a peaked
-    /// lobe (lambert, oren_nayar, and the layered ones, whose spike is added exactly) draw from
-    /// c_i/π alone.
+    /// The mixture tuned from the model's parameters: the model describes its peaked lobes as
+    /// power cosines about r ([`ParamSet::sampling_lobes`]), and each width gets two lobes, n
+    /// (2/3 of its share) and n/8 (1/3; see [`BROAD_LOBE_DIVISOR`]). The cosine's share is
+    /// diffuse/(diffuse + specular) of the largest channels, clamped to [`COSINE_FRACTION`].
+    /// Models without a peaked lobe draw from c_i/π alone.
     pub fn for_model(params: &ParamSet) -> Mixture {
-        let beckmann = |m: f64| 0.5 / (m * m);
-        let (diffuse, specular, widths) = match Brdf::new(params) {
-            Brdf::Phong(p) => (p.diffuse, p.specular, [p.shininess; 2]),
-            Brdf::BlinnPhong(p) => {
-                let n = 8192f64.powf(1.0 - p.smoothness) / 4.0;
-                (p.diffuse, p.specular, [n; 2])
-            }
-            Brdf::CookTorrance(p) => (p.diffuse, p.specular, [beckmann(p.roughness); 2]),
-            // The coat's Fresnel rises to 1 at grazing whatever R0 (`specular`) is: weigh the
-            // lobe as if it reflected everything, the base by what the coat lets through.
-            Brdf::AshikhminShirley(p) => (
-                p.diffuse * (DVec3::ONE - p.specular),
-                DVec3::ONE,
-                [p.nu / 4.0, p.nv / 4.0],
-            ),
-            Brdf::Microfacet(p) => (
-                p.diffuse,
-                p.specular,
-                [beckmann(p.alpha_x), beckmann(p.alpha_y)],
-            ),
-            _ => return Mixture::cosine_only(),
+        let Some(SamplingLobes {
+            diffuse,
+            specular,
+            exponents: widths,
+        }) = params.sampling_lobes()
+        else {
+            return Mixture::cosine_only();
         };
         let (d, s) = (diffuse.max_element(), specular.max_element());
         let cosine =
