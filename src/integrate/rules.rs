@@ -37,7 +37,8 @@ pub enum Rule {
     },
     Peak {
         order: usize,
-        /// Split each μ line's Δφ panels at the V-cavity masking kinks ([`v_cavity_kinks`]).
+        /// Split each μ line's Δφ panels at the V-cavity masking kinks
+        /// ([`v_cavity_kinks`](super::v_cavity_kinks)).
         v_cavity: bool,
     },
 }
