@@ -10,6 +10,7 @@ pub mod microfacet;
 pub mod oren_nayar;
 pub mod params;
 pub mod phong;
+pub mod quadrature;
 pub mod smooth_layered;
 pub mod terms;
 

@@ -1,0 +1,225 @@
+//! The albedo jobs: directional E(ωo) at given view directions and the hemispherical Ē with
+//! Kulla–Conty's E_avg, on a rule's table of directions or by the adaptive reference.
+
+use super::backend::rule_albedo;
+use super::gauss::{adaptive, gk15, gk15_combine, gk15_nodes, graded, Estimate};
+use super::reference::{reference_albedo, REFERENCE_RTOL};
+use super::{view_direction, Settings};
+use crate::eval::Evaluator;
+use crate::model::{ParamSet, Reference};
+use anyhow::{bail, Result};
+use glam::DVec3;
+use rayon::prelude::*;
+use std::f64::consts::TAU;
+
+/// E at one view direction, with the delta lobe reported apart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointAlbedo {
+    pub mu: f64,
+    pub phi: f64,
+    /// The total albedo, delta lobe included.
+    pub albedo: DVec3,
+    /// The delta lobe's part, exact: F_s(μ) for the seed's layered models.
+    pub delta: DVec3,
+    pub error: DVec3,
+    /// Integrand evaluations (nodes) spent on this direction, the coarse check included.
+    pub samples: u64,
+}
+
+/// E(ωo) at each (μ, φ) on `backend` (the reference runs on the CPU whatever the backend).
+pub fn directional(
+    backend: &Evaluator,
+    params: &ParamSet,
+    s: &Settings,
+    points: &[(f64, f64)],
+) -> Result<Vec<PointAlbedo>> {
+    for &(mu, _) in points {
+        if !(mu > 0.0 && mu <= 1.0) {
+            bail!(
+                "mu = {mu} is out of range; directional albedo needs mu = cos(theta_o) in (0, 1]"
+            );
+        }
+    }
+    let wo: Vec<DVec3> = points
+        .iter()
+        .map(|&(mu, phi)| view_direction(mu, phi))
+        .collect();
+    let r = Reference::new(params, s.white_furnace);
+    let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
+        Some(rule) => rule_albedo(backend, params, s.white_furnace, rule, &wo)?,
+        // The reference is the adaptive f64 integrator: it runs on the CPU whatever the backend.
+        None => wo
+            .par_iter()
+            .map(|&o| reference_albedo(&r, o, REFERENCE_RTOL))
+            .collect(),
+    };
+    Ok(points
+        .iter()
+        .zip(est)
+        .map(|(&(mu, phi), e)| {
+            let delta = r.delta_albedo(mu);
+            PointAlbedo {
+                mu,
+                phi,
+                albedo: e.value + delta,
+                delta,
+                error: e.error,
+                samples: e.evals,
+            }
+        })
+        .collect())
+}
+
+/// Hemispherical albedo and Kulla–Conty's E_avg.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HemiAlbedo {
+    /// Ē = (1/π) ∫ E(ωo) c_o dωo, delta lobe included.
+    pub albedo: DVec3,
+    /// The delta lobe's part of Ē.
+    pub delta: DVec3,
+    pub error: DVec3,
+    /// E_avg = 2 ∫₀¹ E(μ, φo) μ dμ at the φo asked for (= Ē for an isotropic model).
+    pub e_avg: DVec3,
+    pub e_avg_error: DVec3,
+    /// View directions integrated.
+    pub directions: usize,
+    /// Integrand evaluations in all.
+    pub samples: u64,
+}
+
+/// Levels of grading towards μ = 0 of the outer μ integral's panels: E(μ) changes fastest at
+/// grazing view, where a lobe meets the horizon.
+const MU_LEVELS: u32 = 5;
+
+/// Levels of grading towards μ = 1: E(μ) of Oren–Nayar carries sinθo = √(1 − μ²), whose
+/// derivative is infinite at the pole.
+const MU_POLE_LEVELS: u32 = 3;
+
+/// The outer μ rule's panels: [0, 2^-5, …, ½] graded towards 0, [½, …, 1 − 2^-4, 1] towards 1.
+fn mu_breaks() -> Vec<f64> {
+    let mut b: Vec<f64> = graded(MU_LEVELS).iter().map(|t| 0.5 * t).collect();
+    b.extend(graded(MU_POLE_LEVELS).iter().map(|t| 1.0 - 0.5 * t));
+    b.sort_by(f64::total_cmp);
+    b.dedup();
+    b
+}
+
+/// View azimuths of the outer φo trapezoid for an anisotropic model (the coarse check uses every
+/// other one).
+const PHI_O_NODES: usize = 16;
+
+/// Ē and E_avg by Gauss–Kronrod 7/15 on the μ panels of [`mu_breaks`] (for `reference`: adaptive
+/// from those panels), the integrand 2μE(μ); anisotropic models add a trapezoid over φo
+/// (spectral for the smooth periodic E(μ, ·)), checked against its every-other-node half.
+/// Errors: the μ rule's |K − G| plus the directional errors carried through its weights, plus
+/// the φo check.
+pub fn hemispherical(
+    backend: &Evaluator,
+    params: &ParamSet,
+    s: &Settings,
+    phi: f64,
+) -> Result<HemiAlbedo> {
+    let r = Reference::new(params, s.white_furnace);
+    let breaks = mu_breaks();
+    // The μ nodes of the fixed outer rule, in the order gk15 visits them.
+    let mus: Vec<f64> = breaks
+        .windows(2)
+        .flat_map(|w| gk15_nodes(w[0], w[1]))
+        .collect();
+    let phis: Vec<f64> = if params.is_isotropic() {
+        vec![phi]
+    } else {
+        let mut v = vec![phi];
+        v.extend((1..PHI_O_NODES).map(|l| phi + TAU * l as f64 / PHI_O_NODES as f64));
+        v
+    };
+    let table: Vec<Estimate> = match s.method.rule(s.samples, params) {
+        Some(rule) => {
+            let wo: Vec<DVec3> = phis
+                .iter()
+                .flat_map(|&p| mus.iter().map(move |&mu| view_direction(mu, p)))
+                .collect();
+            rule_albedo(backend, params, s.white_furnace, rule, &wo)?
+        }
+        None => Vec::new(),
+    };
+    // 2∫ E(μ, φo) μ dμ at azimuth index k.
+    let e_avg_at = |k: usize| -> Estimate {
+        let p = phis[k];
+        if table.is_empty() {
+            let g = |mu: f64| {
+                let e = reference_albedo(&r, view_direction(mu, p), REFERENCE_RTOL);
+                Estimate {
+                    value: 2.0 * mu * (e.value + r.delta_albedo(mu)),
+                    error: 2.0 * mu * e.error,
+                    evals: e.evals,
+                }
+            };
+            // The outer tolerance relative to the Lambert-like scale of the directional ones.
+            let first = gk15(&g, 0.0, 1.0);
+            let tol = (REFERENCE_RTOL * first.value.abs().max_element()).max(f64::MIN_POSITIVE);
+            adaptive(&g, &breaks, 10.0 * tol, true)
+        } else {
+            let row = &table[k * mus.len()..(k + 1) * mus.len()];
+            let mut total = Estimate::default();
+            for (w, part) in breaks.windows(2).zip(row.chunks(15)) {
+                let mu = gk15_nodes(w[0], w[1]);
+                let vals: Vec<Estimate> = part
+                    .iter()
+                    .zip(mu)
+                    .map(|(e, mu)| Estimate {
+                        value: 2.0 * mu * (e.value + r.delta_albedo(mu)),
+                        error: 2.0 * mu * e.error,
+                        evals: e.evals,
+                    })
+                    .collect();
+                let panel = gk15_combine(w[0], w[1], &vals);
+                total.value += panel.value;
+                total.error += panel.error;
+                total.evals += panel.evals;
+            }
+            total
+        }
+    };
+    let delta_avg = {
+        let g = |mu: f64| Estimate {
+            value: 2.0 * mu * r.delta_albedo(mu),
+            error: DVec3::ZERO,
+            evals: 0,
+        };
+        breaks
+            .windows(2)
+            .map(|w| gk15(&g, w[0], w[1]).value)
+            .sum::<DVec3>()
+    };
+    let e_avg = e_avg_at(0);
+    if phis.len() == 1 {
+        return Ok(HemiAlbedo {
+            albedo: e_avg.value,
+            delta: delta_avg,
+            error: e_avg.error,
+            e_avg: e_avg.value,
+            e_avg_error: e_avg.error,
+            directions: if table.is_empty() { 0 } else { mus.len() },
+            samples: e_avg.evals,
+        });
+    }
+    let rows: Vec<Estimate> = if table.is_empty() {
+        (0..phis.len()).into_par_iter().map(e_avg_at).collect()
+    } else {
+        (0..phis.len()).map(e_avg_at).collect()
+    };
+    let n = rows.len() as f64;
+    let fine: DVec3 = rows.iter().map(|e| e.value).sum::<DVec3>() / n;
+    let coarse: DVec3 = rows.iter().step_by(2).map(|e| e.value).sum::<DVec3>() / (n / 2.0);
+    let carried: DVec3 = rows.iter().map(|e| e.error).sum::<DVec3>() / n;
+    Ok(HemiAlbedo {
+        albedo: fine,
+        delta: delta_avg,
+        error: carried + (fine - coarse).abs(),
+        e_avg: e_avg.value,
+        e_avg_error: e_avg.error,
+        directions: phis.len() * mus.len(),
+        samples: rows.iter().map(|e| e.evals).sum(),
+    })
+}

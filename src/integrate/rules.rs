@@ -1,0 +1,203 @@
+//! The fixed rules over the hemisphere of ωi: the [`Rule`] a [`Method`](super::Method) picks,
+//! its coarse twin for the error estimate, and the node generators of the rules that need no
+//! model knowledge (midpoint, Gauss–Legendre × trapezoid, cosine-weighted QMC).
+
+use super::gauss::{gauss_legendre, gauss_on};
+use super::importance::{importance_nodes, Mixture, REPLICATES};
+use super::peak::peak_nodes;
+use glam::DVec3;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    pub wi: DVec3,
+    pub weight: f64,
+}
+
+/// A fixed quadrature rule over the hemisphere of ωi.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rule {
+    Midpoint {
+        n_theta: usize,
+    },
+    Gauss {
+        n_mu: usize,
+    },
+    Qmc {
+        n: usize,
+    },
+    /// `n` points in all, in [`REPLICATES`] independently shifted replicates; `replicate`
+    /// selects one of them (its own estimator, `n / REPLICATES` points) or, with None, all (each
+    /// weighted 1/REPLICATES: their mean).
+    Importance {
+        n: usize,
+        mix: Mixture,
+        replicate: Option<u32>,
+    },
+    Peak {
+        order: usize,
+        /// Split each μ line's Δφ panels at the V-cavity masking kinks
+        /// ([`v_cavity_kinks`](super::v_cavity_kinks)).
+        v_cavity: bool,
+    },
+}
+
+impl Rule {
+    /// Whether the nodes depend on ωo (they then travel to the GPU once per direction).
+    pub fn depends_on_wo(&self) -> bool {
+        matches!(self, Rule::Peak { .. } | Rule::Importance { .. })
+    }
+
+    /// The same rule at about half the nodes (a quarter for the 2D midpoint rule, whose h is then
+    /// doubled), and the factor that turns |fine − coarse| into an estimate of the fine rule's
+    /// error: 1/(2² − 1) for the midpoint rule's O(h²) (Richardson), 1 otherwise (the coarse
+    /// rule's own error: conservative for rules that converge faster than linearly).
+    pub fn coarse(&self) -> (Rule, f64) {
+        match *self {
+            Rule::Midpoint { n_theta } => (
+                Rule::Midpoint {
+                    n_theta: (n_theta / 2).max(1),
+                },
+                if n_theta >= 2 { 1.0 / 3.0 } else { 1.0 },
+            ),
+            Rule::Gauss { n_mu } => (
+                Rule::Gauss {
+                    n_mu: (n_mu * 2 / 3).max(1),
+                },
+                1.0,
+            ),
+            Rule::Qmc { n } => (Rule::Qmc { n: (n / 2).max(1) }, 1.0),
+            // Not used for the estimate ([`rule_albedo`] takes the replicates' spread), but a
+            // coarse rule exists for every rule.
+            Rule::Importance { n, mix, replicate } => (
+                Rule::Importance {
+                    n: (n / 2).max(1),
+                    mix,
+                    replicate,
+                },
+                1.0,
+            ),
+            Rule::Peak { order, v_cavity } => (
+                Rule::Peak {
+                    order: (order * 3 / 4).clamp(1, order.saturating_sub(1).max(1)),
+                    v_cavity,
+                },
+                1.0,
+            ),
+        }
+    }
+
+    pub fn nodes(&self, wo: DVec3) -> Vec<Node> {
+        match *self {
+            Rule::Midpoint { n_theta } => midpoint_nodes(n_theta, 4 * n_theta),
+            Rule::Gauss { n_mu } => gauss_nodes(n_mu, 4 * n_mu),
+            Rule::Qmc { n } => qmc_nodes(n),
+            Rule::Importance { n, mix, replicate } => {
+                let per = (n / REPLICATES as usize).max(1);
+                match replicate {
+                    Some(k) => importance_nodes(per, &mix, k, wo),
+                    None => (0..REPLICATES)
+                        .flat_map(|k| importance_nodes(per, &mix, k, wo))
+                        .map(|x| Node {
+                            wi: x.wi,
+                            weight: x.weight / REPLICATES as f64,
+                        })
+                        .collect(),
+                }
+            }
+            Rule::Peak { order, v_cavity } => peak_nodes(order, v_cavity, wo),
+        }
+    }
+}
+
+/// Midpoint rule in (θ, φ): dω = sinθ dθ dφ, so E ≈ Σ f c_i sinθ Δθ Δφ at the cell centres
+/// θ_k = (k + ½)Δθ, φ_l = (l + ½)Δφ (DESIGN §4's centring). Error O(Δθ²) (the φ sum of a smooth
+/// periodic integrand converges spectrally; kinks in f, e.g. max() terms, limit both to O(h²)).
+pub(super) fn midpoint_nodes(n_theta: usize, n_phi: usize) -> Vec<Node> {
+    let (dt, dp) = (FRAC_PI_2 / n_theta as f64, TAU / n_phi as f64);
+    let mut out = Vec::with_capacity(n_theta * n_phi);
+    for k in 0..n_theta {
+        let theta = (k as f64 + 0.5) * dt;
+        let (s, c) = theta.sin_cos();
+        for l in 0..n_phi {
+            let (sp, cp) = ((l as f64 + 0.5) * dp).sin_cos();
+            out.push(Node {
+                wi: DVec3::new(s * cp, s * sp, c),
+                weight: c * s * dt * dp,
+            });
+        }
+    }
+    out
+}
+
+/// Gauss–Legendre in μ = cosθ ∈ (0, 1) × trapezoid in φ: dω = dμ dφ, so E ≈ Σ w_μ (2π/Nφ) f μ.
+/// Spectral in φ for a smooth periodic integrand; order 2Nμ polynomial exactness in μ.
+pub(super) fn gauss_nodes(n_mu: usize, n_phi: usize) -> Vec<Node> {
+    let gl = gauss_legendre(n_mu);
+    let dp = TAU / n_phi as f64;
+    let mut out = Vec::with_capacity(n_mu * n_phi);
+    for (mu, w) in gauss_on(&gl, 0.0, 1.0) {
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        for l in 0..n_phi {
+            let (sp, cp) = ((l as f64 + 0.5) * dp).sin_cos();
+            out.push(Node {
+                wi: DVec3::new(s * cp, s * sp, mu),
+                weight: w * dp * mu,
+            });
+        }
+    }
+    out
+}
+
+/// The plastic number ρ (ρ³ = ρ + 1), the generator of Roberts' R2 sequence (Roberts 2018, "The
+/// unreasonable effectiveness of quasirandom sequences").
+pub(super) const PLASTIC: f64 = 1.324_717_957_244_746;
+
+/// Cosine-weighted quasi-Monte Carlo: the R2 points (u, v) = frac(½ + k(1/ρ, 1/ρ²)) mapped by
+/// Malley's method, ωi = (√u cos 2πv, √u sin 2πv, √(1 − u)), whose density is c_i/π; so
+/// E ≈ (π/N) Σ f. The first N/2 points are the coarse rule's (nested).
+pub(super) fn qmc_nodes(n: usize) -> Vec<Node> {
+    let (a1, a2) = (1.0 / PLASTIC, 1.0 / (PLASTIC * PLASTIC));
+    (0..n)
+        .map(|k| {
+            let u = (0.5 + a1 * k as f64).fract();
+            let v = (0.5 + a2 * k as f64).fract();
+            let r = u.sqrt();
+            let (sp, cp) = (TAU * v).sin_cos();
+            Node {
+                wi: DVec3::new(r * cp, r * sp, (1.0 - u).sqrt()),
+                weight: PI / n as f64,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::view_direction;
+
+    #[test]
+    fn rules_integrate_the_cosine_to_one() {
+        // ∫ c_i dω = π, so Σ w = π for every rule (Lambert with albedo 1 gives E = 1).
+        let wo = view_direction(0.3, 0.7);
+        for rule in [
+            Rule::Midpoint { n_theta: 200 },
+            Rule::Gauss { n_mu: 8 },
+            Rule::Peak {
+                order: 6,
+                v_cavity: false,
+            },
+        ] {
+            let s: f64 = rule.nodes(wo).iter().map(|n| n.weight).sum();
+            // The midpoint rule's O(h²): about (π/400)²/6 ≈ 1e-5 relative at nθ = 200.
+            let tol = if let Rule::Midpoint { .. } = rule {
+                5e-5
+            } else {
+                1e-13
+            };
+            assert!((s / PI - 1.0).abs() < tol, "{rule:?}: {}", s / PI);
+        }
+    }
+}
