@@ -31,6 +31,7 @@ use crate::grid::{direction, Grid};
 use crate::integrate::{albedo_report, Method, Settings as AlbedoSettings};
 use crate::material;
 use crate::model::{Model, ParamSet, Reference};
+use crate::output::StagingFolder;
 use crate::plot::{self, Common, Plotted, Request, Subject};
 use crate::preview::{self, LightKind, Scene, Shape, Sheet};
 use crate::stability::{parity_tolerance, REL_FLOOR};
@@ -333,86 +334,6 @@ impl Report {
     }
 }
 
-/// The staging folder beside the output folder, and how it is published.
-struct Staging {
-    tmp: tempfile::TempDir,
-    dest: PathBuf,
-}
-
-impl Staging {
-    fn new(dest: &Path) -> Result<Staging> {
-        if dest.exists() && !dest.is_dir() {
-            bail!(
-                "-o {}: a file of that name is in the way; the demo writes a folder",
-                dest.display()
-            );
-        }
-        let parent = match dest.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        std::fs::create_dir_all(&parent)
-            .with_context(|| format!("creating the folder {}", parent.display()))?;
-        let tmp = tempfile::Builder::new()
-            .prefix(".lobe-demo-")
-            .tempdir_in(&parent)
-            .with_context(|| format!("creating a staging folder in {}", parent.display()))?;
-        Ok(Staging {
-            tmp,
-            dest: dest.to_path_buf(),
-        })
-    }
-
-    fn path(&self, rel: &str) -> PathBuf {
-        self.tmp.path().join(rel)
-    }
-
-    /// Moves the finished files into place, `index.html` last.
-    fn publish(self, files: &[String]) -> Result<()> {
-        // tempfile makes the folder private (0700); the output is as readable as any other.
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let mut dirs = vec![self.tmp.path().to_path_buf()];
-            for f in files {
-                if let Some(p) = Path::new(f).parent().filter(|p| !p.as_os_str().is_empty()) {
-                    dirs.push(self.tmp.path().join(p));
-                }
-            }
-            for d in dirs {
-                std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o755))
-                    .with_context(|| format!("setting the permissions of {}", d.display()))?;
-            }
-        }
-        if !self.dest.exists() {
-            // One rename: the folder appears complete or not at all.
-            let from = self.tmp.keep();
-            return std::fs::rename(&from, &self.dest).with_context(|| {
-                let _ = std::fs::remove_dir_all(&from);
-                format!("renaming the finished demo onto {}", self.dest.display())
-            });
-        }
-        let mut order: Vec<&String> = files.iter().filter(|f| *f != INDEX).collect();
-        order.extend(files.iter().filter(|f| *f == INDEX));
-        for f in order {
-            let to = self.dest.join(f);
-            if let Some(p) = to.parent() {
-                std::fs::create_dir_all(p)
-                    .with_context(|| format!("creating the folder {}", p.display()))?;
-            }
-            if to.is_dir() {
-                bail!(
-                    "cannot write {}: a folder of that name is in the way",
-                    to.display()
-                );
-            }
-            std::fs::rename(self.tmp.path().join(f), &to)
-                .with_context(|| format!("moving the finished {} into place", to.display()))?;
-        }
-        Ok(())
-    }
-}
-
 /// Times one step and reports it.
 struct Steps<'p> {
     progress: &'p mut dyn Progress,
@@ -455,7 +376,13 @@ pub fn run(
     progress: &mut dyn Progress,
 ) -> Result<Report> {
     let started = Instant::now();
-    let staging = Staging::new(dir)?;
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "-o {}: a file of that name is in the way; the demo writes a folder",
+            dir.display()
+        );
+    }
+    let staging = StagingFolder::new(dir, "demo")?;
     let backend = eval.name();
     let materials: Vec<&'static str> = MATERIALS.to_vec();
     let models = models();
@@ -585,7 +512,7 @@ pub fn run(
         let mut lut_files = Vec::new();
         for f in &summary.files {
             let rel = f
-                .strip_prefix(staging.tmp.path())
+                .strip_prefix(staging.root())
                 .with_context(|| format!("{} is outside the demo's folder", f.display()))?;
             lut_files.push(rel.to_string_lossy().into_owned());
         }
@@ -752,7 +679,11 @@ pub fn run(
     report.seconds = started.elapsed().as_secs_f64();
     let html = page(&report, &plots, preview_size);
     std::fs::write(staging.path(INDEX), html).context("writing index.html")?;
-    staging.publish(&report.files)?;
+    // The page last: a folder with an index.html is complete.
+    let order: Vec<&String> = (report.files.iter().filter(|f| *f != INDEX))
+        .chain(report.files.iter().filter(|f| *f == INDEX))
+        .collect();
+    staging.commit(&order)?;
     let step = Step {
         name: "page",
         seconds: page_started.elapsed().as_secs_f64(),
