@@ -95,7 +95,7 @@ pub(super) fn page(
             .collect();
         let _ = writeln!(
             h,
-            "<li><b>Energy gain</b> (E &gt; 1, a physically impossible reflector): {}. The seed's smooth-layered model gains at grazing view (Fresnel → 1 plus the diffuse term); the coupled model exists to fix that.</li>",
+            "<li><b>Energy gain</b> (E &gt; 1, a physically impossible reflector): {}. Shirley's smooth-layered model gains at grazing view (Fresnel → 1 plus the diffuse term); the coupled model exists to fix that.</li>",
             esc(&list.join("; "))
         );
     }
