@@ -195,7 +195,7 @@ pub fn report(
     let total = all.len() as u64;
     let mut rows = Vec::with_capacity(all.len());
     for (i, (m, case, p)) in all.into_iter().enumerate() {
-        crate::interrupt::check()?;
+        eval.check_cancelled()?;
         let (white, wf) = white_configuration(&p)?;
         rows.push(evaluate(
             eval,

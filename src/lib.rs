@@ -17,6 +17,7 @@ pub mod interrupt;
 pub mod lut;
 pub mod material;
 pub mod model;
+pub mod output;
 pub mod plot;
 pub mod preview;
 pub mod scene;

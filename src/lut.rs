@@ -13,8 +13,8 @@
 //! E includes the delta lobe (`smooth_layered`, `coupled`); E_avg is taken at the view azimuth
 //! φo of the spec (it equals the hemispherical albedo for an isotropic model).
 //!
-//! Files, written like lobe tables (a temporary file beside each destination, renamed into place
-//! only when all are complete; no partial file on error):
+//! Files, written like lobe tables as one [`FileSet`] (a temporary file beside each destination,
+//! renamed into place only when all are complete; no partial file on error):
 //! - `PATH.exr`: float32 RGB, layer `E` (Nμ wide, x = j; Np tall, y = k) and layer `E_avg`
 //!   (1 wide, Np tall), with `lobe.*` header attributes;
 //! - `PATH.npy`: E, shape (Np, Nμ, 3); `PATH_avg.npy`: E_avg, shape (Np, 3);
@@ -24,7 +24,8 @@
 use crate::eval::Evaluator;
 use crate::integrate::{directional, hemispherical, Method, Settings};
 use crate::model::{Model, ParamKind, ParamSet, Value};
-use crate::table::{exr_rgb, exr_text, npy, persist, temp_beside};
+use crate::output::FileSet;
+use crate::table::{exr_rgb, exr_text, npy};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use glam::DVec3;
@@ -279,7 +280,7 @@ pub fn compute(
     let mut e_avg = Vec::with_capacity(ps.len());
     let mut max_error: f64 = 0.0;
     for (k, &p) in ps.iter().enumerate() {
-        crate::interrupt::check()?;
+        eval.check_cancelled()?;
         let params = spec.params_at(p)?;
         for pt in directional(eval, &params, &settings, &points)? {
             max_error = max_error.max(pt.error.max_element());
@@ -329,22 +330,9 @@ pub fn write(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<LutSummary> {
     let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
-    // As for lobe tables: the renames at the end cannot be undone one by one, so refuse a
-    // destination no rename can replace before computing anything.
-    for dest in [exr_path, &npy_path, &avg_path, &json_path] {
-        if dest.is_dir() {
-            bail!(
-                "cannot write {}: a folder of that name is in the way",
-                dest.display()
-            );
-        }
-    }
-    let tmps = [
-        temp_beside(exr_path)?,
-        temp_beside(&npy_path)?,
-        temp_beside(&avg_path)?,
-        temp_beside(&json_path)?,
-    ];
+    // Checked and created before anything is computed; the data first, the sidecar last.
+    let set = FileSet::new(&[&npy_path, &avg_path, exr_path, &json_path])?;
+    let (npy_tmp, avg_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2], &set[3]);
     let mut lut = compute(eval, spec, progress)?;
     let flat = |v: &[DVec3]| -> Vec<f32> {
         v.iter()
@@ -359,30 +347,21 @@ pub fn write(
             .with_context(|| format!("writing {}", dest.display()))
     };
     write_npy(
-        tmps[1].as_file(),
+        npy_tmp.file(),
         &[spec.n_p, spec.n_mu, 3],
         &flat(&lut.e),
         &npy_path,
     )?;
-    write_npy(
-        tmps[2].as_file(),
-        &[spec.n_p, 3],
-        &flat(&lut.e_avg),
-        &avg_path,
-    )?;
-    write_exr(tmps[0].as_file(), spec, &lut)
+    write_npy(avg_tmp.file(), &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
+    write_exr(exr_tmp.file(), spec, &lut)
         .with_context(|| format!("writing {}", exr_path.display()))?;
     let sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
     std::fs::write(
-        tmps[3].path(),
+        json_tmp.path(),
         serde_json::to_string_pretty(&sidecar)? + "\n",
     )
     .with_context(|| format!("writing {}", json_path.display()))?;
-    let [exr_tmp, npy_tmp, avg_tmp, json_tmp] = tmps;
-    persist(npy_tmp, &npy_path)?;
-    persist(avg_tmp, &avg_path)?;
-    persist(exr_tmp, exr_path)?;
-    persist(json_tmp, &json_path)?;
+    set.commit()?;
     lut.files = vec![exr_path.to_path_buf(), npy_path, avg_path, json_path];
     Ok(lut)
 }

@@ -40,12 +40,11 @@ use crate::eval::{Backend, Evaluator};
 use crate::gpu::preview::{GpuLight, GpuObject, GpuSceneHeader};
 use crate::material;
 use crate::model::{Brdf, Model, ParamSet, Reference};
-use crate::table::{persist, temp_beside};
+use crate::output::write_atomic;
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::io::BufWriter;
 use std::path::Path;
 
 /// The lab's light positions (DESIGN §3), in the camera's space (see the module's notes).
@@ -583,7 +582,6 @@ pub fn write_exr(
     path: &Path,
 ) -> Result<()> {
     use exr::prelude::*;
-    let tmp = temp_beside(path)?;
     let channels = SpecificChannels::rgb(|Vec2(x, y)| {
         let [r, g, b] = image.pixel(x, y);
         (r, g, b)
@@ -620,12 +618,13 @@ pub fn write_exr(
             .other
             .insert(Text::new_or_panic(k), crate::table::exr_text(&v));
     }
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(BufWriter::new(tmp.as_file()))
-        .map_err(|e| anyhow::anyhow!("EXR encoder: {e}"))
-        .with_context(|| format!("writing {}", path.display()))?;
-    persist(tmp, path)
+    write_atomic(path, |w| {
+        Image::from_layer(layer)
+            .write()
+            .to_buffered(w)
+            .map_err(|e| anyhow::anyhow!("EXR encoder: {e}"))
+            .with_context(|| format!("writing {}", path.display()))
+    })
 }
 
 /// Reads an EXR written by [`write_exr`] back: (width, height, rgb row-major).
@@ -783,10 +782,8 @@ pub fn write_png(
         canvas.text(text, LABEL_PAD, y, 1, width, CAPTION_TEXT);
     }
 
-    let tmp = temp_beside(path)?;
-    {
-        let mut encoder =
-            png::Encoder::new(BufWriter::new(tmp.as_file()), width as u32, height as u32);
+    write_atomic(path, |w| {
+        let mut encoder = png::Encoder::new(w, width as u32, height as u32);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
@@ -798,9 +795,8 @@ pub fn write_png(
             .with_context(|| format!("writing {}", path.display()))?;
         writer
             .finish()
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    persist(tmp, path)?;
+            .with_context(|| format!("writing {}", path.display()))
+    })?;
     Ok((width, height))
 }
 

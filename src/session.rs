@@ -282,9 +282,8 @@ impl Session {
         models: Vec<crate::model::Model>,
         progress: &mut dyn FnMut(&str),
     ) -> Result<crate::stability::Report> {
-        self.evaluator().check_cancelled()?;
         crate::stability::sweep(crate::stability::Options {
-            gpu: self.gpu(),
+            backend: self.evaluator(),
             models,
             progress,
         })

@@ -16,7 +16,8 @@
 //! renderer resolves do not dominate), and as a fraction of the tolerance the parity test allows
 //! ([`parity_tolerance`]): a ratio above 1 is a value the parity test would reject.
 
-use crate::gpu::{Gpu, GpuPair};
+use crate::eval::Evaluator;
+use crate::gpu::GpuPair;
 use crate::grid::direction;
 use crate::model::ashikhmin_shirley::ashikhmin_shirley_exponent;
 use crate::model::blinn_phong::blinn_phong_exponent;
@@ -518,8 +519,9 @@ impl Report {
 
 /// Options of a sweep.
 pub struct Options<'a> {
-    /// The GPU to compare with; None sweeps the CPU reference alone.
-    pub gpu: Option<&'a Gpu>,
+    /// Where to sweep: a GPU evaluator is compared with the f64 reference value by value; the
+    /// CPU evaluator sweeps the reference alone. Its cancellation token stops the sweep.
+    pub backend: Evaluator<'a>,
     /// Models to sweep (default: [`sweep_models`]).
     pub models: Vec<Model>,
     /// Called with a model's label before it is swept.
@@ -533,7 +535,7 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
     let mut by_key: BTreeMap<(usize, &'static str, String), Stats> = BTreeMap::new();
     let mut model_order: Vec<String> = Vec::new();
     for (mi, &model) in opts.models.iter().enumerate() {
-        crate::interrupt::check()?;
+        opts.backend.check_cancelled()?;
         let label = model_label(model);
         (opts.progress)(&label);
         model_order.push(label.clone());
@@ -563,7 +565,7 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
                     }
                 }
             }
-            let gpu_values = match opts.gpu {
+            let gpu_values = match opts.backend.as_gpu() {
                 Some(gpu) => Some(
                     gpu.eval_pairs(model, &blocks, &pairs, white_furnace)
                         .with_context(|| format!("evaluating {label} on the GPU"))?,
@@ -671,11 +673,11 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
         }
     }
     Ok(Report {
-        backend: match opts.gpu {
+        backend: match opts.backend.as_gpu() {
             Some(g) => format!("gpu ({}) vs cpu (f64 reference)", g.device().name()),
             None => "cpu (f64 reference) only".to_string(),
         },
-        gpu: opts.gpu.is_some(),
+        gpu: opts.backend.is_gpu(),
         rel_floor: REL_FLOOR,
         rows,
         total,

@@ -358,13 +358,13 @@ fn demo_on_the_cpu_quick_into_an_existing_folder() {
     );
 }
 
-/// Stops the demo (as Ctrl-C does) when a given step begins.
-struct StopAt(&'static str);
+/// Stops the demo (as Ctrl-C does, through the cancellation token) when a given step begins.
+struct StopAt(&'static str, lobe::CancelToken);
 
 impl Progress for StopAt {
     fn begin(&mut self, step: &str, _: u64) {
         if step == self.0 {
-            lobe::interrupt::request();
+            self.1.cancel();
         }
     }
     fn advance(&mut self, _: u64) {}
@@ -375,13 +375,13 @@ impl Progress for StopAt {
 fn an_interrupted_demo_leaves_no_page_and_no_files() {
     let tmp = tempfile::tempdir().unwrap();
     let dir: PathBuf = tmp.path().join("out");
+    let token = lobe::CancelToken::new();
     let result = demo::run(
-        &Evaluator::cpu(),
+        &Evaluator::cpu().with_cancel(&token),
         &dir,
         &Settings::quick(),
-        &mut StopAt("plots"),
+        &mut StopAt("plots", token.clone()),
     );
-    lobe::interrupt::reset();
     let err = format!("{:#}", result.expect_err("the demo should stop"));
     assert!(err.contains("interrupted"), "{err}");
     let left: Vec<_> = std::fs::read_dir(tmp.path())

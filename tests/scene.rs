@@ -219,9 +219,14 @@ fn an_interrupted_run_leaves_nothing() {
     let _lock = run_lock();
     let s = scene::parse(TWO_MODELS, "two.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
-    lobe::interrupt::request();
-    let r = s.run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |_| {});
-    lobe::interrupt::reset();
+    let token = lobe::CancelToken::new();
+    token.cancel();
+    let r = s.run(
+        &Evaluator::cpu().with_cancel(&token),
+        dir.path(),
+        Outputs::ALL,
+        &mut |_| {},
+    );
     let e = r.expect_err("an interrupted run must fail");
     assert!(format!("{e:#}").contains("interrupted"), "{e:#}");
     assert!(walk(dir.path()).is_empty(), "{:?}", walk(dir.path()));

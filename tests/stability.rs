@@ -30,7 +30,7 @@ fn sweep(test: &str) -> Option<Report> {
     let dev = common::gpu_device(test)?;
     let gpu = Gpu::new(dev);
     let report = stability::sweep(Options {
-        gpu: Some(&gpu),
+        backend: lobe::Evaluator::gpu(&gpu),
         models: stability::sweep_models(),
         progress: &mut |_| {},
     })
@@ -113,7 +113,7 @@ fn relative_error_is_small_where_well_conditioned() {
 #[test]
 fn cpu_reference_alone_has_no_nan_or_inf() {
     let report = stability::sweep(Options {
-        gpu: None,
+        backend: lobe::Evaluator::cpu(),
         models: stability::sweep_models(),
         progress: &mut |_| {},
     })

@@ -25,11 +25,12 @@ pub mod slice;
 pub mod surface3d;
 
 use crate::model::ParamSet;
+use crate::output::Pending;
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
 /// The font family name every text style uses.
@@ -683,46 +684,30 @@ pub(crate) fn render(
 ) -> Result<()> {
     register_fonts()?;
     let format = Format::of(path)?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
+    // plotters writes the file itself and picks the PNG encoder by the name's extension.
+    let ext = match format {
+        Format::Png => "png",
+        Format::Svg => "svg",
     };
-    let suffix = match format {
-        Format::Png => ".png",
-        Format::Svg => ".svg",
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".lobe-plot-")
-        .suffix(suffix)
-        .tempfile_in(&dir)
-        .with_context(|| format!("creating a file in {}", dir.display()))?;
-    let tmp_path = tmp.path().to_path_buf();
+    let pending = Pending::with_extension(path, ext)?;
+    let tmp_path = pending.path();
     match format {
         Format::Png => {
-            let root = BitMapBackend::new(&tmp_path, size).into_drawing_area();
+            let root = BitMapBackend::new(tmp_path, size).into_drawing_area();
             root.fill(&WHITE).drawing("the background")?;
             draw_png(&root)?;
             root.present()
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         Format::Svg => {
-            let root = SVGBackend::new(&tmp_path, size).into_drawing_area();
+            let root = SVGBackend::new(tmp_path, size).into_drawing_area();
             root.fill(&WHITE).drawing("the background")?;
             draw_svg(&root)?;
             root.present()
                 .with_context(|| format!("writing {}", path.display()))?;
         }
     }
-    // A temporary file is private (0600); a picture is as readable as any other output.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    tmp.persist(path)
-        .map_err(|e| anyhow!("writing {}: {}", path.display(), e.error))?;
-    Ok(())
+    pending.commit()
 }
 
 /// What to plot: the kind with its own options.

@@ -15,6 +15,7 @@ pub mod npy;
 use crate::eval::Evaluator;
 use crate::grid::Grid;
 use crate::model::ParamSet;
+use crate::output::FileSet;
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use serde_json::json;
@@ -37,46 +38,15 @@ pub fn sibling_paths(exr_path: &Path) -> (PathBuf, PathBuf) {
     )
 }
 
-/// A temporary file beside `dest`, renamed onto it by `persist`.
+/// A temporary file beside `dest`, renamed onto it by [`persist`]: the two steps of
+/// [`crate::output::Pending`] for the callers that still hold the temporary file themselves.
 pub fn temp_beside(dest: &Path) -> Result<tempfile::NamedTempFile> {
-    let dir = match dest.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "cannot write {}: the folder {} does not exist",
-            dest.display(),
-            dir.display()
-        );
-    }
-    tempfile::Builder::new()
-        .prefix(".lobe-")
-        .suffix(".partial")
-        .tempfile_in(dir)
-        .with_context(|| {
-            format!(
-                "cannot write {}: creating a file in {} failed",
-                dest.display(),
-                dir.display()
-            )
-        })
+    crate::output::temp_beside(dest)
 }
 
-/// Renames a finished temporary file onto `dest`, with the permissions a plainly created file gets
-/// (tempfile creates 0600).
+/// Renames a finished temporary file from [`temp_beside`] onto `dest`.
 pub fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = tmp
-            .as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    tmp.persist(dest)
-        .map_err(|e| e.error)
-        .with_context(|| format!("renaming the finished file onto {}", dest.display()))?;
-    Ok(())
+    crate::output::persist(tmp, dest)
 }
 
 /// Maps pixel (x, y) of the EXR mosaic to its npy cell index.
@@ -155,22 +125,11 @@ pub fn write_table(
     let cells = meta.grid.cells().context("the grid has too many cells")?;
     let mut shape = meta.grid.shape();
     shape.push(3);
-    // The three renames at the end cannot be undone one by one: refuse a destination that no
-    // rename can replace before any of them, so that no file of the set appears alone.
-    for dest in [exr_path, &npy_path, &json_path] {
-        if dest.is_dir() {
-            bail!(
-                "cannot write {}: a folder of that name is in the way",
-                dest.display()
-            );
-        }
-    }
-
-    let npy_tmp = temp_beside(&npy_path)?;
-    let exr_tmp = temp_beside(exr_path)?;
-    let json_tmp = temp_beside(&json_path)?;
+    // The npy first: the EXR is written from it; the sidecar last.
+    let set = FileSet::new(&[&npy_path, exr_path, &json_path])?;
+    let (npy_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2]);
     {
-        let mut w = BufWriter::new(npy_tmp.as_file());
+        let mut w = BufWriter::new(npy_tmp.file());
         w.write_all(&npy::header(&shape))
             .with_context(|| format!("writing {}", npy_path.display()))?;
         eval.eval_table(
@@ -180,7 +139,7 @@ pub fn write_table(
             &mut |first, values| {
                 // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
                 // way out and nothing is renamed into place.
-                crate::interrupt::check()?;
+                eval.check_cancelled()?;
                 npy::write_f32(&mut w, values)
                     .with_context(|| format!("writing {}", npy_path.display()))?;
                 progress(first + values.len() as u64 / 3, cells);
@@ -190,7 +149,7 @@ pub fn write_table(
         w.flush()
             .with_context(|| format!("writing {}", npy_path.display()))?;
     }
-    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp.as_file())
+    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp.file())
         .with_context(|| format!("writing {}", exr_path.display()))?;
     let sidecar = sidecar_json(meta, exr_path);
     std::fs::write(
@@ -198,10 +157,7 @@ pub fn write_table(
         serde_json::to_string_pretty(&sidecar)? + "\n",
     )
     .with_context(|| format!("writing {}", json_path.display()))?;
-    persist(npy_tmp, &npy_path)?;
-    persist(exr_tmp, exr_path)?;
-    persist(json_tmp, &json_path)?;
-    Ok(())
+    set.commit()
 }
 
 fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {

@@ -1,0 +1,317 @@
+//! The demo's page, `index.html`: one self-contained HTML file (inline style, no scripts) with the
+//! run's settings, step times, albedo tables, figures, the LUT, parity and the list of files.
+//! Element ids and `data-*` attributes are what tests/demo.rs reads back.
+
+use super::{AlbedoRow, PlannedPlot, PreviewSizes, Report, ALBEDO_MU, GAIN_FLOOR, PLOT_SIZE};
+use crate::stability::REL_FLOOR;
+use std::fmt::Write as _;
+
+/// HTML-escapes text.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// An RGB triple as the page shows it (and tests/demo.rs parses it): four decimals.
+pub fn rgb_text(v: [f64; 3]) -> String {
+    format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
+}
+
+const CSS: &str = "
+body { font-family: system-ui, -apple-system, 'Segoe UI', sans-serif; margin: 0 auto; max-width: 1280px; padding: 1em 2em 4em; color: #222; line-height: 1.45; }
+h1 { margin-bottom: 0.2em; } h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
+.meta { color: #555; }
+table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.9em; }
+th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+th { background: #f4f4f4; }
+td.num, td.rgb { font-family: ui-monospace, 'DejaVu Sans Mono', monospace; text-align: right; white-space: nowrap; }
+td.gain { background: #fde2e1; color: #a40000; font-weight: bold; }
+td.ok { color: #176b1a; } td.bad { background: #fde2e1; color: #a40000; font-weight: bold; }
+figure { margin: 1em 0 2em; } figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { color: #444; font-size: 0.92em; margin-top: 0.3em; }
+code { background: #f4f4f4; padding: 0 0.25em; border-radius: 3px; }
+.note { background: #f7f7ff; border-left: 4px solid #99c; padding: 0.5em 1em; }
+";
+
+fn figure(out: &mut String, src: &str, size: (usize, usize), caption: &str) {
+    let _ = writeln!(
+        out,
+        "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"{1}\" height=\"{2}\" alt=\"{3}\"></a><figcaption>{3}</figcaption></figure>",
+        esc(src),
+        size.0,
+        size.1,
+        esc(caption)
+    );
+}
+
+/// The whole page: every section, with links to the files in the output folder.
+pub(super) fn page(
+    r: &Report,
+    plots: &[PlannedPlot],
+    (preview_png, preview_exr): PreviewSizes,
+) -> String {
+    let mut h = String::new();
+    let _ = writeln!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>lobe demo</title><style>{CSS}</style></head><body>"
+    );
+    let _ = writeln!(h, "<h1>lobe demo</h1>");
+    let _ = writeln!(
+        h,
+        "<p class=\"meta\">Four materials (tin, gold, glazed ceramic, granite) under {} reflection models, evaluated on <b id=\"backend\">{}</b>; {} settings; {} files; steps before the page took {:.1} s.</p>",
+        r.albedo.iter().map(|a| &a.model).collect::<std::collections::BTreeSet<_>>().len(),
+        esc(&r.backend),
+        r.settings.name,
+        r.files.len(),
+        r.seconds
+    );
+    let _ = writeln!(
+        h,
+        "<p class=\"note\">Grids and sample counts are kept modest so that the whole demo finishes in under a minute on two CPU cores with lavapipe (Mesa's CPU Vulkan driver). Run <code>lobe table</code>, <code>lobe albedo</code>, <code>lobe plot</code> and <code>lobe preview</code> for finer versions. This run:</p><ul>"
+    );
+    for line in r.settings.describe() {
+        let _ = writeln!(h, "<li>{}</li>", esc(&line));
+    }
+    let _ = writeln!(h, "</ul>");
+
+    let _ = writeln!(h, "<h2>At a glance</h2><ul id=\"glance\">");
+    let gains: Vec<&AlbedoRow> = r.albedo.iter().filter(|a| a.gains_energy()).collect();
+    if gains.is_empty() {
+        let _ = writeln!(
+            h,
+            "<li>No model gains energy: E ≤ 1 at every view direction sampled.</li>"
+        );
+    } else {
+        let list: Vec<String> = gains
+            .iter()
+            .map(|a| {
+                format!(
+                    "{} {} (E = {:.3} at μ = {:.3})",
+                    a.material, a.model, a.max_e, a.max_e_mu
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            h,
+            "<li><b>Energy gain</b> (E &gt; 1, a physically impossible reflector): {}. Shirley's smooth-layered model gains at grazing view (Fresnel → 1 plus the diffuse term); the coupled model exists to fix that.</li>",
+            esc(&list.join("; "))
+        );
+    }
+    if let (Some(a), Some(e)) = (r.lut.alpha.last(), r.lut.e_avg.last()) {
+        let _ = writeln!(
+            h,
+            "<li><b>Energy loss</b> of single scattering: the GGX lobe under the white furnace keeps E<sub>avg</sub> = {:.3} at α = {:.3} (1 − E<sub>avg</sub> = {:.3} lost; see the LUT).</li>",
+            e,
+            a,
+            1.0 - e
+        );
+    }
+    match &r.parity {
+        None => {
+            let _ = writeln!(
+                h,
+                "<li><b>Parity</b>: not measured (<code>--backend cpu</code>).</li>"
+            );
+        }
+        Some(rows) => {
+            let worst = rows.iter().map(|x| x.max_rel).fold(0.0, f64::max);
+            let ratio = rows.iter().map(|x| x.max_ratio).fold(0.0, f64::max);
+            let over: usize = rows.iter().map(|x| x.over).sum();
+            let n: usize = rows.iter().map(|x| x.values).sum();
+            let _ = writeln!(
+                h,
+                "<li><b>GPU vs CPU parity</b> on {}: largest relative error {worst:.1e} over {n} values; largest error / tolerance {ratio:.3}; {over} over tolerance.</li>",
+                esc(&r.backend)
+            );
+        }
+    }
+    let _ = writeln!(h, "</ul>");
+
+    let _ = writeln!(
+        h,
+        "<h2>Steps</h2><table id=\"steps\"><tr><th>step</th><th>time</th><th>output</th></tr>"
+    );
+    for st in &r.steps {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td class=\"num\">{:.2} s</td><td>{}</td></tr>",
+            st.name,
+            st.seconds,
+            esc(&st.detail)
+        );
+    }
+    let _ = writeln!(h, "</table>");
+
+    let _ = writeln!(h, "<h2>Preview</h2>");
+    figure(
+        &mut h,
+        "preview/contact_sheet.png",
+        preview_png,
+        "Rows: materials; columns: models. Spheres under the lab's four point lights at (0,0,1), (0,1,1), (1,0,1), (−1,0,1), camera at the origin, no ambient light; sRGB, exposure 0 (a white Lambertian facing the camera reads 1). Mirror spikes of the layered models are not drawn.",
+    );
+    let _ = writeln!(
+        h,
+        "<p>Linear radiance: <a href=\"preview/contact_sheet.exr\">preview/contact_sheet.exr</a> ({}x{}, float RGB).</p>",
+        preview_exr.0, preview_exr.1
+    );
+
+    let _ = writeln!(h, "<h2>Albedo and energy</h2>");
+    let _ = writeln!(
+        h,
+        "<p>E(μ) is the directional albedo at view direction μ = cosθo (φo = 0), the mirror spike of the layered models included exactly; Ē the hemispherical albedo; <i>max E</i> the largest E seen over the E(μ) curve and the three points, any channel (above 1 + {GAIN_FLOOR:.0e}, marked <i>gain</i>, the model creates energy); <i>1 − E<sub>avg</sub></i> the energy not reflected (E<sub>avg</sub> = 2∫E(μ)μ dμ), absorption by the material's colour included. Each RGB cell reads r g b. Integrator: <code>peak</code>, {} nodes per direction; <i>err</i> is its own error estimate.</p>",
+        r.settings.albedo_samples
+    );
+    let mats: Vec<&str> = {
+        let mut v: Vec<&str> = Vec::new();
+        for a in &r.albedo {
+            if !v.contains(&a.material.as_str()) {
+                v.push(&a.material);
+            }
+        }
+        v
+    };
+    for mat in &mats {
+        let _ = writeln!(
+            h,
+            "<h3>{}</h3><table class=\"albedo\"><tr><th>model</th><th>E(μ=0.1)</th><th>E(μ=0.5)</th><th>E(μ=1)</th><th>Ē</th><th>max E</th><th>1 − E<sub>avg</sub></th><th>err</th><th>data</th></tr>",
+            esc(mat)
+        );
+        for a in r.albedo.iter().filter(|a| a.material == *mat) {
+            let loss = a.e_avg.map(|x| 1.0 - x);
+            let _ = write!(
+                h,
+                "<tr data-albedo=\"{}\" data-material=\"{}\" data-model=\"{}\"><td>{}</td>",
+                esc(&a.json),
+                esc(&a.material),
+                esc(&a.model),
+                esc(&a.model)
+            );
+            for (k, e) in a.e.iter().enumerate() {
+                let _ = write!(
+                    h,
+                    "<td class=\"rgb\" data-field=\"mu={}\">{}</td>",
+                    ALBEDO_MU[k],
+                    rgb_text(*e)
+                );
+            }
+            let _ = write!(
+                h,
+                "<td class=\"rgb\" data-field=\"hemispherical\">{}</td>",
+                rgb_text(a.hemispherical)
+            );
+            let _ = write!(
+                h,
+                "<td class=\"num{}\" data-field=\"max_e\" title=\"at μ = {:.3}\">{:.4}{}</td>",
+                if a.gains_energy() { " gain" } else { "" },
+                a.max_e_mu,
+                a.max_e,
+                if a.gains_energy() { " gain" } else { "" }
+            );
+            let _ = write!(
+                h,
+                "<td class=\"rgb\" data-field=\"loss\">{}</td><td class=\"num\">{:.1e}</td><td><a href=\"{}\">json</a></td></tr>",
+                rgb_text(loss),
+                a.error,
+                esc(&a.json)
+            );
+            let _ = writeln!(h);
+        }
+        let _ = writeln!(h, "</table>");
+    }
+    for pl in plots.iter().filter(|p| p.material.is_some()) {
+        figure(
+            &mut h,
+            &pl.file,
+            (PLOT_SIZE.0 as usize, PLOT_SIZE.1 as usize),
+            &pl.caption,
+        );
+    }
+
+    let _ = writeln!(h, "<h2>Albedo LUT</h2>");
+    let _ = writeln!(
+        h,
+        "<p>Kulla–Conty's table: E(μ, α) and E<sub>avg</sub>(α) of {} (<code>lobe albedo --lut</code> writes others). Largest error estimate of any entry: {:.1e}.</p>",
+        esc(&r.lut.what),
+        r.lut.max_error
+    );
+    let (e, mu, alpha) = r.lut.min_e;
+    figure(
+        &mut h,
+        &r.lut.png,
+        (r.lut.png_size.0 as usize, r.lut.png_size.1 as usize),
+        &format!("E(μ, α) of the GGX lobe under the white furnace; 1 − E is the energy single scattering loses. The smallest E in the table is {e:.3}, at μ = {mu:.3}, α = {alpha:.3}."),
+    );
+    let _ = writeln!(
+        h,
+        "<table id=\"lut\"><tr><th>α</th><th>E<sub>avg</sub></th><th>1 − E<sub>avg</sub></th></tr>"
+    );
+    let step = (r.lut.alpha.len() / 8).max(1);
+    for k in (0..r.lut.alpha.len()).step_by(step) {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"num\">{:.4}</td><td class=\"num\">{:.4}</td><td class=\"num\">{:.4}</td></tr>",
+            r.lut.alpha[k],
+            r.lut.e_avg[k],
+            1.0 - r.lut.e_avg[k]
+        );
+    }
+    let _ = writeln!(h, "</table><ul>");
+    for f in &r.lut.files {
+        let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
+    }
+    let _ = writeln!(h, "</ul>");
+
+    let _ = writeln!(h, "<h2>Lobes</h2>");
+    for pl in plots.iter().filter(|p| p.material.is_none()) {
+        let size = (pl.common.size.0 as usize, pl.common.size.1 as usize);
+        figure(&mut h, &pl.file, size, &pl.caption);
+    }
+
+    let _ = writeln!(h, "<h2>Lobe tables</h2><p>Gold under Cook–Torrance, f(ωi, ωo) in 1/sr without the cosine, on cell-centred grids (angles in radians). Each table is an EXR mosaic (one slice per light direction; the layout is in the EXR header and the JSON sidecar), a NumPy array and a JSON sidecar.</p><ul>");
+    for f in r.files.iter().filter(|f| f.starts_with("tables/")) {
+        let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
+    }
+    let _ = writeln!(h, "</ul>");
+
+    let _ = writeln!(h, "<h2>GPU vs CPU parity</h2>");
+    match &r.parity {
+        None => {
+            let _ = writeln!(
+                h,
+                "<p id=\"parity-none\">Not measured: this run used <code>--backend cpu</code> (the f64 reference alone), so there is no GPU result to compare. Run the demo on the GPU backend, or <code>cargo test --release --test parity</code>.</p>"
+            );
+        }
+        Some(rows) => {
+            let [a, b, c] = r.settings.parity_grid;
+            let _ = writeln!(
+                h,
+                "<p>The GPU kernels (f32, on <b>{}</b>) against the CPU reference (f64), per model, at every material preset, on θi × θo × φo = {a} × {b} × {c} cell-centred directions (φi = 0). Both sides see the same f32-rounded inputs. <i>rel. error</i> is |g − c| / max(|c|, {REL_FLOOR:.0e} sr⁻¹); <i>error / tolerance</i> uses the parity test's model (tests/parity.rs): |g − c| ≤ 10⁻⁶ sr⁻¹ + (64ε + 8ε|x|)·|c| + the reference's spread over an 8ε change of direction, x the exponent of the lobe's exp and ε the f32 epsilon; a ratio above 1 fails.</p>",
+                esc(&r.backend)
+            );
+            let _ = writeln!(h, "<table id=\"parity\"><tr><th>model</th><th>values</th><th>max rel. error</th><th>max error / tolerance</th><th>over tolerance</th><th>worst at</th></tr>");
+            for row in rows {
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{:.2e}</td><td class=\"num\">{:.3}</td><td class=\"num {}\">{}</td><td>{}</td></tr>",
+                    esc(&row.model),
+                    row.values,
+                    row.max_rel,
+                    row.max_ratio,
+                    if row.over == 0 { "ok" } else { "bad" },
+                    row.over,
+                    esc(&row.worst)
+                );
+            }
+            let _ = writeln!(h, "</table>");
+        }
+    }
+
+    let _ = writeln!(h, "<h2>Files</h2><ul class=\"files\">");
+    for f in &r.files {
+        let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
+    }
+    let _ = writeln!(h, "</ul></body></html>");
+    h
+}

@@ -1,0 +1,341 @@
+//! The demo's steps before the page, one function each, in the order [`super::run`] times them.
+//! Each writes into the staging folder, adds what it wrote to the list of files, and returns its
+//! result with a few words on what it produced.
+
+use super::lut_picture::draw_lut;
+use super::parity::parity_of;
+use super::{
+    AlbedoRow, LutInfo, ParityRow, PlannedPlot, PreviewSizes, Progress, Settings, ALBEDO_MU,
+};
+use crate::eval::Evaluator;
+use crate::integrate::{albedo_report, Method, Settings as AlbedoSettings};
+use crate::material;
+use crate::model::{Model, ParamSet};
+use crate::output::StagingFolder;
+use crate::plot::{self, Plotted};
+use crate::preview::{self, LightKind, Scene, Shape, Sheet};
+use crate::table::{write_table, TableMeta};
+use anyhow::{Context, Result};
+use glam::DVec3;
+use std::path::Path;
+
+/// What every step reads.
+pub(super) struct Demo<'a> {
+    pub staging: &'a StagingFolder,
+    pub settings: &'a Settings,
+    pub backend: &'a str,
+    pub materials: &'a [&'static str],
+    pub models: &'a [Model],
+}
+
+/// The gold Cook–Torrance tables: (file, grid).
+fn table_files(settings: &Settings) -> [(&'static str, crate::grid::Grid); 2] {
+    [
+        ("tables/gold_cook_torrance_full.exr", settings.table_full),
+        (
+            "tables/gold_cook_torrance_isotropic.exr",
+            settings.table_isotropic,
+        ),
+    ]
+}
+
+/// Cells in all the tables: the tables step's amount of work.
+pub(super) fn table_cells(settings: &Settings) -> u64 {
+    table_files(settings)
+        .iter()
+        .map(|(_, g)| g.cells().unwrap_or(0))
+        .sum()
+}
+
+/// Step 1, lobe tables: gold under Cook–Torrance on the full and the isotropic grid.
+pub(super) fn tables(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<((), String)> {
+    let cells = table_cells(d.settings);
+    let gold = material::preset("gold", Model::CookTorrance)?;
+    let mut before = 0;
+    for (rel, grid) in table_files(d.settings) {
+        let meta = TableMeta {
+            params: &gold,
+            white_furnace: false,
+            grid,
+            backend: d.backend.to_string(),
+        };
+        write_table(eval, &meta, &d.staging.path(rel), &mut |done, _| {
+            p.advance(before + done)
+        })?;
+        before += grid.cells().unwrap_or(0);
+        for ext in ["exr", "npy", "json"] {
+            files.push(
+                Path::new(rel)
+                    .with_extension(ext)
+                    .to_string_lossy()
+                    .into_owned(),
+            );
+        }
+    }
+    Ok((
+        (),
+        format!("2 gold cook_torrance tables, {cells} cells, EXR + npy + JSON"),
+    ))
+}
+
+/// Step 2, albedo: a JSON file per material × model, with `lobe albedo`'s default integrator.
+pub(super) fn albedo(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<(Vec<AlbedoRow>, String)> {
+    let albedo_settings = AlbedoSettings {
+        method: Method::Peak,
+        samples: d.settings.albedo_samples,
+        white_furnace: false,
+    };
+    let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&m| (m, 0.0)).collect();
+    let mut rows = Vec::new();
+    for mat in d.materials {
+        for &model in d.models {
+            eval.check_cancelled()?;
+            let params = material::preset(mat, model)?;
+            let report = albedo_report(eval, &params, &albedo_settings, &points, 0.0)
+                .with_context(|| format!("albedo of {mat} {}", model.name()))?;
+            let rel = format!("albedo/{mat}_{}.json", model.name());
+            let json = report.to_json(&params, false, d.backend);
+            std::fs::write(
+                d.staging.path(&rel),
+                serde_json::to_string_pretty(&json)? + "\n",
+            )
+            .with_context(|| format!("writing {rel}"))?;
+            files.push(rel.clone());
+            let h = &report.hemispherical;
+            let error = report
+                .points
+                .iter()
+                .map(|q| q.error.max_element())
+                .fold(h.error.max_element(), f64::max);
+            let e = [0, 1, 2].map(|k| report.points[k].albedo.to_array());
+            let (max_e, max_e_mu) = (0..3)
+                .map(|k| (e[k].into_iter().fold(f64::MIN, f64::max), ALBEDO_MU[k]))
+                .fold((f64::MIN, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+            rows.push(AlbedoRow {
+                material: mat.to_string(),
+                model: model.name().to_string(),
+                json: rel,
+                e,
+                hemispherical: h.albedo.to_array(),
+                e_avg: h.e_avg.to_array(),
+                error,
+                max_e,
+                max_e_mu,
+            });
+            p.advance(rows.len() as u64);
+        }
+    }
+    let detail = format!(
+        "{} JSON files (peak rule, {} nodes per direction)",
+        rows.len(),
+        d.settings.albedo_samples
+    );
+    Ok((rows, detail))
+}
+
+/// Step 3, one albedo LUT: Kulla–Conty's E(μ, α) and E_avg(α) of the GGX microfacet lobe under
+/// the white furnace (F = 1, no diffuse): what engines load to compensate the energy that single
+/// scattering loses.
+pub(super) fn lut(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<(LutInfo, String)> {
+    let settings = d.settings;
+    let mut params = ParamSet::defaults(Model::Microfacet(
+        crate::model::microfacet::MicrofacetConfig::DEFAULT,
+    ));
+    for assignment in ["diffuse=0", "specular=1"] {
+        params.set_text(assignment)?;
+    }
+    let mut spec = crate::lut::LutSpec::new(params, true);
+    spec.n_mu = settings.lut_res.0;
+    spec.n_p = settings.lut_res.1;
+    spec.samples = settings.lut_samples;
+    std::fs::create_dir_all(d.staging.path("lut")).context("creating lut/")?;
+    let exr = "lut/ggx_white_furnace_e_mu_alpha.exr";
+    let summary = crate::lut::write(eval, &spec, &d.staging.path(exr), &mut |done, _| {
+        p.advance(done)
+    })?;
+    let mut lut_files = Vec::new();
+    for f in &summary.files {
+        let rel = f
+            .strip_prefix(d.staging.root())
+            .with_context(|| format!("{} is outside the demo's folder", f.display()))?;
+        lut_files.push(rel.to_string_lossy().into_owned());
+    }
+    let png = "lut/ggx_white_furnace_e_mu_alpha.png".to_string();
+    let png_size = draw_lut(&spec, &summary, &d.staging.path(&png))?;
+    files.extend(lut_files.iter().cloned());
+    files.push(png.clone());
+    let what = format!(
+        "microfacet (GGX, height-correlated Smith), white furnace, {}; axis {} = {}..{} ({})",
+        spec.params.to_text(),
+        spec.keys.join(","),
+        spec.lo,
+        spec.hi,
+        spec.mapping.formula()
+    );
+    let detail = format!(
+        "{} μ × {} α GGX white-furnace LUT (EXR + npy + JSON + PNG), largest error estimate {:.1e}",
+        spec.n_mu, spec.n_p, summary.max_error
+    );
+    Ok((
+        LutInfo {
+            what,
+            files: lut_files,
+            png,
+            png_size,
+            alpha: summary.ps.clone(),
+            e_avg: summary.e_avg.iter().map(|v| v.x).collect(),
+            max_error: summary.max_error,
+            min_e: (0..summary.e.len())
+                .map(|i| {
+                    let (k, j) = (i / spec.n_mu, i % spec.n_mu);
+                    (summary.e[i].x, summary.mus[j], summary.ps[k])
+                })
+                .fold(
+                    (f64::INFINITY, 0.0, 0.0),
+                    |a, b| if b.0 < a.0 { b } else { a },
+                ),
+        },
+        detail,
+    ))
+}
+
+/// Step 4, the planned plots; returns each file with what was drawn.
+pub(super) fn plots(
+    eval: &Evaluator,
+    d: &Demo,
+    plots: &[PlannedPlot],
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<(Vec<(String, Plotted)>, String)> {
+    let mut out = Vec::new();
+    for (k, pl) in plots.iter().enumerate() {
+        eval.check_cancelled()?;
+        let drawn = plot::plot(
+            eval,
+            &pl.subjects,
+            &pl.common,
+            &pl.request,
+            &d.staging.path(&pl.file),
+        )
+        .with_context(|| format!("drawing {}", pl.file))?;
+        files.push(pl.file.clone());
+        out.push((pl.file.clone(), drawn));
+        p.advance(k as u64 + 1);
+    }
+    Ok((out, format!("{} PNG plots", plots.len())))
+}
+
+/// The E(μ) curves extend each albedo row's largest E (and where it was seen).
+pub(super) fn extend_max_e(
+    albedo: &mut [AlbedoRow],
+    plots: &[PlannedPlot],
+    curves: &[(String, Plotted)],
+) {
+    for (file, drawn) in curves {
+        let Plotted::Albedo(data) = drawn else {
+            continue;
+        };
+        let Some(pl) = plots.iter().find(|p| &p.file == file) else {
+            continue;
+        };
+        for c in &data.curves {
+            let s = &pl.subjects[c.subject];
+            let Some(row) = albedo.iter_mut().find(|r| {
+                Some(r.material.as_str()) == pl.material && r.model == s.params.model().name()
+            }) else {
+                continue;
+            };
+            for (mu, rgb) in c.mu.iter().zip(&c.rgb) {
+                let m = rgb.iter().copied().fold(f64::MIN, f64::max);
+                if m > row.max_e {
+                    row.max_e = m;
+                    row.max_e_mu = *mu;
+                }
+            }
+        }
+    }
+}
+
+/// Step 5, the preview contact sheet (rows materials, columns models) under the lab's lights, as
+/// PNG and EXR.
+pub(super) fn preview(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<(PreviewSizes, String)> {
+    let sheet = Sheet::new(
+        &d.materials
+            .iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>(),
+        d.models,
+    )?;
+    let scene = Scene::lab(
+        d.settings.preview_cell,
+        Shape::Sphere,
+        LightKind::Point,
+        DVec3::ZERO,
+    );
+    let image = preview::render(eval, &sheet, &scene, &mut |done, _| p.advance(done as u64))?;
+    preview::write_exr(
+        &image,
+        &sheet,
+        &scene,
+        d.backend,
+        &d.staging.path("preview/contact_sheet.exr"),
+    )?;
+    let caption = preview::caption(&scene, 0.0, d.backend);
+    let size = preview::write_png(
+        &image,
+        &sheet,
+        0.0,
+        &caption,
+        &d.staging.path("preview/contact_sheet.png"),
+    )?;
+    files.push("preview/contact_sheet.png".into());
+    files.push("preview/contact_sheet.exr".into());
+    Ok((
+        (size, (image.width(), image.height())),
+        format!(
+            "{} x {} spheres of {} px, PNG {}x{} + EXR",
+            sheet.materials.len(),
+            sheet.models.len(),
+            d.settings.preview_cell,
+            size.0,
+            size.1
+        ),
+    ))
+}
+
+/// Step 6, GPU against the f64 reference, per model (only on the GPU backend).
+pub(super) fn parity(
+    eval: &Evaluator,
+    d: &Demo,
+    p: &mut dyn Progress,
+) -> Result<(Vec<ParityRow>, String)> {
+    let mut rows = Vec::new();
+    for (k, &model) in d.models.iter().enumerate() {
+        eval.check_cancelled()?;
+        rows.push(parity_of(eval, model, d.materials, d.settings.parity_grid)?);
+        p.advance(k as u64 + 1);
+    }
+    let worst = rows.iter().map(|r| r.max_rel).fold(0.0, f64::max);
+    let n: usize = rows.iter().map(|r| r.values).sum();
+    Ok((rows, format!("{n} values, max relative error {worst:.1e}")))
+}
