@@ -24,8 +24,7 @@ use crate::eval::Evaluator;
 use crate::integrate::{directional, hemispherical, Settings};
 use crate::lut::{default_axis, LutSpec};
 use crate::material;
-use crate::model::terms::r0_from_ior;
-use crate::model::{Model, ParamError, ParamKind, ParamSet, Value};
+use crate::model::{Model, ParamError, ParamKind, ParamSet};
 use anyhow::Result;
 use glam::DVec3;
 use serde::Serialize;
@@ -66,35 +65,9 @@ pub struct EnergyRow {
 }
 
 /// The white configuration of `params` (see the module's documentation) and whether it runs
-/// under the white furnace.
+/// under the white furnace; the model states it ([`crate::model::ModelInfo::white`]).
 pub fn white_configuration(params: &ParamSet) -> Result<(ParamSet, bool), ParamError> {
-    let mut p = params.clone();
-    let one = Value::One(1.0);
-    let wf = match p.model() {
-        Model::Lambert | Model::OrenNayar => {
-            p.set("albedo", one)?;
-            false
-        }
-        Model::Phong
-        | Model::BlinnPhong
-        | Model::CookTorrance
-        | Model::AshikhminShirley
-        | Model::Microfacet(_) => {
-            p.set("diffuse", Value::One(0.0))?;
-            p.set("specular", one)?;
-            true
-        }
-        Model::SmoothLayered => {
-            let r0 = r0_from_ior(p.scalar("ior"));
-            p.set("diffuse", Value::One(1.0 - r0))?;
-            false
-        }
-        Model::Coupled => {
-            p.set("matte", one)?;
-            false
-        }
-    };
-    Ok((p, wf))
+    params.white_configuration()
 }
 
 /// The report's line for one case (`params` already in its white configuration).

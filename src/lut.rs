@@ -85,27 +85,11 @@ impl Mapping {
     }
 }
 
-/// The parameter axis a model's LUT sweeps by default: (keys set together, lo, hi, mapping).
-/// Every key takes the same value (Ashikhmin–Shirley's nu and nv: an isotropic lobe); an rgb
-/// key is set grey.
+/// The parameter axis a model's LUT sweeps by default, as the model states it
+/// ([`crate::model::ModelInfo::lut_axis`]): (keys set together, lo, hi, mapping).
 pub fn default_axis(model: Model) -> (Vec<&'static str>, f64, f64, Mapping) {
-    match model {
-        Model::Lambert => (vec!["albedo"], 0.0, 1.0, Mapping::Linear),
-        // The seed's range of exponents, 1 to 8192: three and a half decades.
-        Model::Phong => (vec!["shininess"], 1.0, 8192.0, Mapping::Log),
-        Model::BlinnPhong => (vec!["smoothness"], 0.0, 1.0, Mapping::Linear),
-        Model::OrenNayar => (
-            vec!["sigma"],
-            0.0,
-            std::f64::consts::FRAC_PI_2,
-            Mapping::Linear,
-        ),
-        // m = 0.01 (the sharpest seed lobe) to 1, denser where E changes fastest.
-        Model::CookTorrance => (vec!["roughness"], 0.01, 1.0, Mapping::Square),
-        Model::SmoothLayered | Model::Coupled => (vec!["ior"], 1.0, 3.0, Mapping::Linear),
-        Model::AshikhminShirley => (vec!["nu", "nv"], 1.0, 10000.0, Mapping::Log),
-        Model::Microfacet(_) => (vec!["alpha"], 0.01, 1.0, Mapping::Square),
-    }
+    let a = model.info().lut_axis;
+    (a.keys.to_vec(), a.lo, a.hi, a.mapping)
 }
 
 /// What to tabulate and how.

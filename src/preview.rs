@@ -447,10 +447,7 @@ impl Sheet {
         for (row, material) in self.materials.iter().enumerate() {
             for column in &self.params {
                 let p = &column[row];
-                let model = match p.model() {
-                    Model::Microfacet(c) => format!("microfacet[{}]", c.label()),
-                    m => m.name().to_string(),
-                };
+                let model = p.model().label();
                 out.push(format!("{material} / {model}: {}", p.to_text()));
             }
         }

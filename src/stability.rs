@@ -19,10 +19,6 @@
 use crate::eval::Evaluator;
 use crate::gpu::GpuPair;
 use crate::grid::direction;
-use crate::model::ashikhmin_shirley::ashikhmin_shirley_exponent;
-use crate::model::blinn_phong::blinn_phong_exponent;
-use crate::model::microfacet::{Microfacet, MicrofacetConfig};
-use crate::model::terms::{log1m, one_minus_cos_theta};
 use crate::model::{Brdf, Model, ParamSet, Reference};
 use anyhow::{Context, Result};
 use glam::DVec3;
@@ -53,34 +49,10 @@ pub mod tolerance {
 /// Denominator floor of the relative error, 1/sr: the parity test's absolute tolerance.
 pub const REL_FLOOR: f64 = tolerance::ATOL;
 
-/// |x| of the exponential exp(x) the model evaluates at (ωi, ωo) (see the tolerance model).
+/// |x| of the exponential exp(x) the model evaluates at (ωi, ωo) (see the tolerance model); the
+/// model states it ([`crate::model::ModelInfo::exponent`]).
 pub fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
-    let h = (wi + wo).normalize_or_zero();
-    let s_h = one_minus_cos_theta(h);
-    match params.model() {
-        Model::Phong => {
-            let r = DVec3::new(-wi.x, -wi.y, wi.z);
-            // 1 − r·ωo = |r − ωo|²/2 without cancellation; capped short of 1 where log → −∞
-            // (the lobe is 0 there on both sides).
-            let s = (0.5 * (r - wo).length_squared()).min(0.999_999);
-            params.scalar("shininess") * log1m(s).abs()
-        }
-        Model::BlinnPhong => blinn_phong_exponent(params.scalar("smoothness")) * log1m(s_h).abs(),
-        Model::AshikhminShirley => {
-            ashikhmin_shirley_exponent(h, params.scalar("nu"), params.scalar("nv"))
-                * log1m(s_h).abs()
-        }
-        Model::CookTorrance => {
-            let m = params.scalar("roughness");
-            (h.x * h.x + h.y * h.y) / (h.z * h.z) / (m * m)
-        }
-        Model::Microfacet(c) if c.distribution == 0 => {
-            let m = Microfacet::new(params);
-            (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
-                / (h.z * h.z)
-        }
-        _ => 0.0,
-    }
+    params.exponent_at(wi, wo)
 }
 
 /// The largest change of the f64 reference when ωi or ωo moves by [`tolerance::PERTURBATION`]
@@ -137,92 +109,13 @@ fn case(model: Model, sets: &[&str]) -> Result<Case> {
     Ok(Case { label, params })
 }
 
-/// The parameter edges swept for `model`.
+/// The parameter edges swept for `model`: its defaults, then the edges the model states
+/// ([`crate::model::ModelInfo::stability_edges`]).
 pub fn cases(model: Model) -> Result<Vec<Case>> {
-    let mut out: Vec<Result<Case>> = Vec::new();
-    let mut add = |sets: &[&str]| out.push(case(model, sets));
-    add(&[]);
-    match model {
-        Model::Lambert => {
-            add(&["albedo=0"]);
-            add(&["albedo=1"]);
-        }
-        Model::Phong => {
-            for n in ["0", "1e-4", "1", "8192", "1e5", "1e6"] {
-                let s = format!("shininess={n}");
-                add(&["diffuse=0", "specular=1", &s]);
-            }
-        }
-        Model::BlinnPhong => {
-            for s in ["0", "1e-4", "0.5", "0.9999", "1"] {
-                let s = format!("smoothness={s}");
-                add(&["diffuse=0", "specular=1", &s]);
-            }
-        }
-        Model::OrenNayar => {
-            add(&["sigma=0"]);
-            add(&["sigma=1e-4"]);
-            add(&["albedo=1", "sigma=1.5707963267948966"]);
-        }
-        Model::CookTorrance => {
-            for m in ["1e-4", "1e-2", "1"] {
-                for ior in ["1", "5"] {
-                    let (m, ior) = (format!("roughness={m}"), format!("ior={ior}"));
-                    add(&["diffuse=0", "specular=1", &m, &ior]);
-                }
-            }
-        }
-        Model::SmoothLayered => {
-            add(&["diffuse=1", "ior=1"]);
-            add(&["diffuse=0", "ior=5"]);
-        }
-        Model::Coupled => {
-            add(&["matte=1", "ior=1"]);
-            add(&["matte=1", "ior=5"]);
-            add(&["matte=0", "ior=5"]);
-        }
-        Model::AshikhminShirley => {
-            for (nu, nv) in [
-                ("0", "0"),
-                ("1e5", "1e5"),
-                ("0", "1e5"),
-                ("1e5", "0"),
-                ("1", "1e5"),
-                ("1e6", "1e6"),
-            ] {
-                let (nu, nv) = (format!("nu={nu}"), format!("nv={nv}"));
-                add(&["diffuse=0", "specular=1", &nu, &nv]);
-            }
-            add(&["diffuse=1", "specular=0", "nu=1e5", "nv=0"]);
-        }
-        Model::Microfacet(c) => {
-            for a in ["1e-4", "1"] {
-                let a = format!("alpha={a}");
-                add(&["diffuse=0", &a]);
-            }
-            add(&["diffuse=0", "alpha_x=1e-4", "alpha_y=1"]);
-            add(&["diffuse=0", "alpha_x=1", "alpha_y=1e-4"]);
-            match c.fresnel {
-                1 => {
-                    add(&["alpha=1e-4", "f0=0"]);
-                    add(&["alpha=1e-4", "f0=1"]);
-                    add(&["alpha=1e-4", "ior=1"]);
-                    add(&["alpha=1e-4", "ior=5"]);
-                }
-                2 => {
-                    add(&["alpha=1e-4", "ior=1"]);
-                    add(&["alpha=1e-4", "ior=5"]);
-                }
-                3 => {
-                    add(&["alpha=1e-4", "eta=0.01", "k=10"]);
-                    add(&["alpha=1e-4", "eta=10", "k=0"]);
-                    add(&["alpha=1e-4", "eta=1", "k=0"]);
-                }
-                _ => {}
-            }
-        }
-    }
-    out.into_iter().collect()
+    std::iter::once(&[][..])
+        .chain((model.info().stability_edges)(model))
+        .map(|sets| case(model, sets))
+        .collect()
 }
 
 /// One region of direction pairs.
@@ -358,22 +251,16 @@ pub fn regions() -> Vec<Region> {
     ]
 }
 
-/// The models the sweep covers: the eight seed models and every microfacet component choice.
+/// The models the sweep covers: every model with each of its component choices.
 pub fn sweep_models() -> Vec<Model> {
-    let mut out: Vec<Model> = Model::ALL
-        .into_iter()
-        .filter(|m| !matches!(m, Model::Microfacet(_)))
-        .collect();
     // Configurations that differ only in a component their formula does not use (Beckmann's G1
     // under V-cavity masking, for instance) evaluate the same function: sweep one of each.
     let mut labels = std::collections::BTreeSet::new();
-    out.extend(
-        MicrofacetConfig::all()
-            .into_iter()
-            .map(Model::Microfacet)
-            .filter(|m| labels.insert(model_label(*m))),
-    );
-    out
+    Model::ALL
+        .into_iter()
+        .flat_map(Model::variants)
+        .filter(|m| labels.insert(m.label()))
+        .collect()
 }
 
 /// The models named (as `lobe models` lists them); `microfacet` stands for every component
@@ -385,23 +272,16 @@ pub fn models_named(names: &[String]) -> Result<Vec<Model>> {
     let all = sweep_models();
     let mut out = Vec::new();
     for name in names {
-        match Model::from_name(name.trim())? {
-            Model::Microfacet(_) => {
-                out.extend(all.iter().filter(|m| matches!(m, Model::Microfacet(_))))
-            }
-            m => out.push(m),
-        }
+        let model = Model::from_name(name.trim())?;
+        out.extend(all.iter().filter(|m| m.name() == model.name()));
     }
     out.dedup();
     Ok(out)
 }
 
-/// A model's name with its components.
+/// A model's name with its components ([`Model::label`]).
 pub fn model_label(model: Model) -> String {
-    match model {
-        Model::Microfacet(c) => format!("microfacet[{}]", c.label()),
-        m => m.name().to_string(),
-    }
+    model.label()
 }
 
 /// Counts and worst errors of one group of evaluations.

@@ -140,26 +140,7 @@ pub struct EvalVariant {
 
 /// A microfacet parameter set equal to `p` (cook_torrance is converted), or None for other models.
 pub fn as_microfacet(p: &ParamSet) -> Option<ParamSet> {
-    match p.model() {
-        Model::Microfacet(_) => Some(p.clone()),
-        Model::CookTorrance => {
-            let mut m = ParamSet::defaults(Model::Microfacet(MicrofacetConfig::DEFAULT));
-            for (k, v) in [
-                ("distribution", "beckmann"),
-                ("masking", "v_cavity"),
-                ("beckmann_g1", "exact"),
-                ("fresnel", "schlick"),
-            ] {
-                m.set_text(&format!("{k}={v}")).ok()?;
-            }
-            m.set("alpha", p.get("roughness")).ok()?;
-            m.set("ior", p.get("ior")).ok()?;
-            m.set("diffuse", p.get("diffuse")).ok()?;
-            m.set("specular", p.get("specular")).ok()?;
-            Some(m)
-        }
-        _ => None,
-    }
+    p.as_microfacet()
 }
 
 fn with_choice(p: &ParamSet, key: &str, value: &str) -> ParamSet {
@@ -186,10 +167,7 @@ pub fn eval_variants(
             v("f64 CPU reference", params.clone(), false, false),
             v("f32 GPU", params.clone(), true, false),
         ];
-        if matches!(
-            params.model(),
-            Model::Phong | Model::BlinnPhong | Model::AshikhminShirley
-        ) {
+        if params.model().info().pow_lobe {
             out.push(v("f32 GPU, fast pow", params.clone(), true, true));
         }
         return (params.clone(), out);

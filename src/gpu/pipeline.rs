@@ -99,13 +99,10 @@ impl Pipeline {
         // On a CPU driver several evaluations per invocation amortise the invocation overhead;
         // on a GPU one per invocation keeps every lane busy.
         let evals_per_invocation = if dev.is_cpu() { 4 } else { 1 };
-        let components = match model_kind {
-            Model::Microfacet(c) => format!("[{}]", c.label()),
-            _ => String::new(),
-        };
         let label = format!(
-            "{}/{model}{components}{}",
+            "{}/{}{}",
             kernel.name(),
+            model_kind.label(),
             if white_furnace {
                 " (white furnace)"
             } else {

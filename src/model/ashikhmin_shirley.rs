@@ -2,8 +2,12 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{half_vector, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
+use super::terms::{
+    half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular,
+};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, white_specular_alone};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -51,6 +55,47 @@ pub const GPU_LAYOUT: Layout = &[
     ("specular", offset_of!(AshikhminShirleyParams, specular)),
     ("nv", offset_of!(AshikhminShirleyParams, nv)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "ashikhmin_shirley",
+    description: "Ashikhmin-Shirley anisotropic Phong: rough coat over a coupled diffuse base",
+    params: PARAMS,
+    gpu_struct: "AshikhminShirleyParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<AshikhminShirleyParams>(),
+    has_delta: false,
+    pow_lobe: true,
+    has_specular_fresnel: true,
+    lut_axis: LutAxis { keys: &["nu", "nv"], lo: 1.0, hi: 10000.0, mapping: Mapping::Log },
+    white: white_specular_alone,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: ashikhmin_shirley_exponent_at,
+    is_isotropic: is_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[
+        &["diffuse=0", "specular=1", "nu=0", "nv=0"],
+        &["diffuse=0", "specular=1", "nu=1e5", "nv=1e5"],
+        &["diffuse=0", "specular=1", "nu=0", "nv=1e5"],
+        &["diffuse=0", "specular=1", "nu=1e5", "nv=0"],
+        &["diffuse=0", "specular=1", "nu=1", "nv=1e5"],
+        &["diffuse=0", "specular=1", "nu=1e6", "nv=1e6"],
+        &["diffuse=1", "specular=0", "nu=1e5", "nv=0"],
+    ];
+
+/// |x| of c_h^e = exp(e log c_h) at (ωi, ωo), e the anisotropic exponent.
+fn ashikhmin_shirley_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    let h = (wi + wo).normalize_or_zero();
+    ashikhmin_shirley_exponent(h, p.scalar("nu"), p.scalar("nv"))
+        * log1m(one_minus_cos_theta(h)).abs()
+}
+
+/// Isotropic exactly when nu = nv.
+fn is_isotropic(p: &ParamSet) -> bool {
+    p.scalar("nu") == p.scalar("nv")
+}
 
 impl AshikhminShirley {
     pub fn new(p: &ParamSet) -> Self {

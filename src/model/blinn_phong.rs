@@ -2,8 +2,10 @@
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{one_minus_cos_theta, pow1m};
+use super::terms::{log1m, one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
@@ -42,6 +44,39 @@ pub const GPU_LAYOUT: Layout = &[
     ("smoothness", offset_of!(BlinnPhongParams, smoothness)),
     ("specular", offset_of!(BlinnPhongParams, specular)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "blinn_phong",
+    description: "normalized Blinn-Phong: diffuse + (N+8)/(8pi) cos^N theta_h, N = 8192^(1-s)",
+    params: PARAMS,
+    gpu_struct: "BlinnPhongParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<BlinnPhongParams>(),
+    has_delta: false,
+    pow_lobe: true,
+    has_specular_fresnel: false,
+    lut_axis: LutAxis { keys: &["smoothness"], lo: 0.0, hi: 1.0, mapping: Mapping::Linear },
+    white: white_specular_alone,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: blinn_phong_exponent_at,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[
+        &["diffuse=0", "specular=1", "smoothness=0"],
+        &["diffuse=0", "specular=1", "smoothness=1e-4"],
+        &["diffuse=0", "specular=1", "smoothness=0.5"],
+        &["diffuse=0", "specular=1", "smoothness=0.9999"],
+        &["diffuse=0", "specular=1", "smoothness=1"],
+    ];
+
+/// |x| of c_h^N = exp(N log c_h) at (ωi, ωo), with log c_h from 1 − c_h without cancellation.
+fn blinn_phong_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    let h = (wi + wo).normalize_or_zero();
+    blinn_phong_exponent(p.scalar("smoothness")) * log1m(one_minus_cos_theta(h)).abs()
+}
 
 impl BlinnPhong {
     pub fn new(p: &ParamSet) -> Self {

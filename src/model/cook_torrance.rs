@@ -4,6 +4,8 @@
 use super::params::ParamSpec;
 use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
@@ -50,6 +52,43 @@ pub const GPU_LAYOUT: Layout = &[
     ("roughness", offset_of!(CookTorranceParams, roughness)),
 ];
 
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "cook_torrance",
+    description: "Cook-Torrance: Beckmann D, V-cavity G, Schlick F, plus diffuse",
+    params: PARAMS,
+    gpu_struct: "CookTorranceParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<CookTorranceParams>(),
+    has_delta: false,
+    pow_lobe: false,
+    has_specular_fresnel: true,
+    // m = 0.01 (the sharpest lobe of the lab report's materials) to 1, denser where E changes
+    // fastest.
+    lut_axis: LutAxis { keys: &["roughness"], lo: 0.01, hi: 1.0, mapping: Mapping::Square },
+    white: white_specular_alone,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: cook_torrance_exponent_at,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[
+        &["diffuse=0", "specular=1", "roughness=1e-4", "ior=1"],
+        &["diffuse=0", "specular=1", "roughness=1e-4", "ior=5"],
+        &["diffuse=0", "specular=1", "roughness=1e-2", "ior=1"],
+        &["diffuse=0", "specular=1", "roughness=1e-2", "ior=5"],
+        &["diffuse=0", "specular=1", "roughness=1", "ior=1"],
+        &["diffuse=0", "specular=1", "roughness=1", "ior=5"],
+    ];
+
+/// |x| of Beckmann's exp(−tan²θh/m²) at (ωi, ωo).
+fn cook_torrance_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    let h = (wi + wo).normalize_or_zero();
+    let m = p.scalar("roughness");
+    (h.x * h.x + h.y * h.y) / (h.z * h.z) / (m * m)
+}
+
 impl CookTorrance {
     pub fn new(p: &ParamSet) -> Self {
         CookTorrance {
@@ -77,4 +116,24 @@ pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool
     let g = G_v_cavity(h.z, c_d, c_i, c_o);
     let f = F_specular(c_d, DVec3::splat(r0_from_ior(p.ior)), white_furnace);
     p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))
+}
+
+/// The `microfacet` configuration equal to `p`: Beckmann D with α = m, V-cavity masking,
+/// Schlick's Fresnel from the IOR (tests/microfacet.rs checks the two agree).
+pub fn as_microfacet(p: &ParamSet) -> Option<ParamSet> {
+    use super::microfacet::MicrofacetConfig;
+    let mut m = ParamSet::defaults(super::Model::Microfacet(MicrofacetConfig::DEFAULT));
+    for (k, v) in [
+        ("distribution", "beckmann"),
+        ("masking", "v_cavity"),
+        ("beckmann_g1", "exact"),
+        ("fresnel", "schlick"),
+    ] {
+        m.set_text(&format!("{k}={v}")).ok()?;
+    }
+    m.set("alpha", p.get("roughness")).ok()?;
+    m.set("ior", p.get("ior")).ok()?;
+    m.set("diffuse", p.get("diffuse")).ok()?;
+    m.set("specular", p.get("specular")).ok()?;
+    Some(m)
 }

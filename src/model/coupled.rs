@@ -1,9 +1,11 @@
 //! Shirley et al. 1997, the coupled matte-specular model. The functions here return the non-delta
 //! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
 
-use super::params::ParamSpec;
+use super::params::{ParamError, ParamSpec, Value};
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -37,6 +39,33 @@ pub const GPU_LAYOUT: Layout = &[
     ("matte", offset_of!(CoupledParams, matte)),
     ("ior", offset_of!(CoupledParams, ior)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "coupled",
+    description: "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
+    params: PARAMS,
+    gpu_struct: "CoupledParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<CoupledParams>(),
+    has_delta: true,
+    pow_lobe: false,
+    has_specular_fresnel: false,
+    lut_axis: LutAxis { keys: &["ior"], lo: 1.0, hi: 3.0, mapping: Mapping::Linear },
+    white: white_configuration,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: no_exponent,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[&["matte=1", "ior=1"], &["matte=1", "ior=5"], &["matte=0", "ior=5"]];
+
+/// The white configuration: the matte layer at 1.
+fn white_configuration(p: &mut ParamSet) -> Result<bool, ParamError> {
+    p.set("matte", Value::One(1.0))?;
+    Ok(false)
+}
 
 impl Coupled {
     pub fn new(p: &ParamSet) -> Self {

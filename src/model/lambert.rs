@@ -2,6 +2,8 @@
 
 use super::params::ParamSpec;
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent, white_albedo};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
@@ -27,6 +29,27 @@ pub struct LambertParams {
 }
 
 pub const GPU_LAYOUT: Layout = &[("albedo", offset_of!(LambertParams, albedo))];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "lambert",
+    description: "ideal diffuse: albedo/pi",
+    params: PARAMS,
+    gpu_struct: "LambertParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<LambertParams>(),
+    has_delta: false,
+    pow_lobe: false,
+    has_specular_fresnel: false,
+    lut_axis: LutAxis { keys: &["albedo"], lo: 0.0, hi: 1.0, mapping: Mapping::Linear },
+    white: white_albedo,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: no_exponent,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[&["albedo=0"], &["albedo=1"]];
 
 impl Lambert {
     pub fn new(p: &ParamSet) -> Self {

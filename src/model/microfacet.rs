@@ -11,7 +11,9 @@ use super::terms::{
     alpha_tan2, half_vector, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
     F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,
 };
-use super::{f32x3, Layout, ParamSet, Value};
+use super::{f32x3, Layout, Model, ParamSet, Value};
+use super::registry::{LutAxis, ModelInfo, white_specular_alone};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
@@ -209,6 +211,69 @@ pub const GPU_LAYOUT: Layout = &[
     ("eta", offset_of!(MicrofacetParams, eta)),
     ("k", offset_of!(MicrofacetParams, k)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "microfacet",
+    description: "general microfacet: Beckmann or GGX D, V-cavity or Smith G, Schlick or exact Fresnel, plus diffuse",
+    params: PARAMS,
+    gpu_struct: "MicrofacetParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<MicrofacetParams>(),
+    has_delta: false,
+    pow_lobe: false,
+    has_specular_fresnel: true,
+    lut_axis: LutAxis { keys: &["alpha"], lo: 0.01, hi: 1.0, mapping: Mapping::Square },
+    white: white_specular_alone,
+    stability_edges: stability_edges,
+    exponent: microfacet_exponent_at,
+    is_isotropic: is_isotropic,
+};
+
+/// |x| of Beckmann's exp(−(h_x²/α_x² + h_y²/α_y²)/h_z²) at (ωi, ωo); GGX has no exponential.
+fn microfacet_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    match p.model() {
+        Model::Microfacet(c) if DISTRIBUTIONS[c.distribution as usize] == "beckmann" => {
+            let h = (wi + wo).normalize_or_zero();
+            let m = Microfacet::new(p);
+            (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
+                / (h.z * h.z)
+        }
+        _ => 0.0,
+    }
+}
+
+fn is_isotropic(p: &ParamSet) -> bool {
+    Microfacet::new(p).is_isotropic()
+}
+
+/// Roughness at both ends and at both anisotropic extremes, then each Fresnel term's own edges.
+fn stability_edges(model: Model) -> Vec<&'static [&'static str]> {
+    let mut out: Vec<&'static [&'static str]> = vec![
+        &["diffuse=0", "alpha=1e-4"],
+        &["diffuse=0", "alpha=1"],
+        &["diffuse=0", "alpha_x=1e-4", "alpha_y=1"],
+        &["diffuse=0", "alpha_x=1", "alpha_y=1e-4"],
+    ];
+    if let Model::Microfacet(c) = model {
+        out.extend_from_slice(match FRESNELS[c.fresnel as usize] {
+            "schlick" => &[
+                &["alpha=1e-4", "f0=0"],
+                &["alpha=1e-4", "f0=1"],
+                &["alpha=1e-4", "ior=1"],
+                &["alpha=1e-4", "ior=5"],
+            ],
+            "dielectric" => &[&["alpha=1e-4", "ior=1"], &["alpha=1e-4", "ior=5"]],
+            "conductor" => &[
+                &["alpha=1e-4", "eta=0.01", "k=10"],
+                &["alpha=1e-4", "eta=10", "k=0"],
+                &["alpha=1e-4", "eta=1", "k=0"],
+            ],
+            _ => &[],
+        });
+    }
+    out
+}
 
 impl Microfacet {
     pub fn new(p: &ParamSet) -> Self {

@@ -11,12 +11,14 @@ pub mod oren_nayar;
 pub mod params;
 pub mod phong;
 pub mod quadrature;
+pub mod registry;
 pub mod smooth_layered;
 pub mod terms;
 
 use glam::DVec3;
 use microfacet::MicrofacetConfig;
 pub use params::{ParamError, ParamKind, ParamSpec, Value};
+pub use registry::{LutAxis, ModelInfo};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Field names and byte offsets of a std430 parameter block, checked against the SPIR-V.
@@ -67,19 +69,10 @@ impl Model {
 
     /// The name used on the command line, in file names and in the GLSL function.
     pub fn name(self) -> &'static str {
-        match self {
-            Model::Lambert => "lambert",
-            Model::Phong => "phong",
-            Model::BlinnPhong => "blinn_phong",
-            Model::OrenNayar => "oren_nayar",
-            Model::CookTorrance => "cook_torrance",
-            Model::SmoothLayered => "smooth_layered",
-            Model::Coupled => "coupled",
-            Model::AshikhminShirley => "ashikhmin_shirley",
-            Model::Microfacet(_) => "microfacet",
-        }
+        self.info().name
     }
 
+    /// Looks a model up by [`Model::name`].
     pub fn from_name(name: &str) -> Result<Model, ParamError> {
         Model::ALL
             .into_iter()
@@ -90,94 +83,34 @@ impl Model {
             })
     }
 
+    /// One line for `lobe models`.
     pub fn description(self) -> &'static str {
-        match self {
-            Model::Lambert => "ideal diffuse: albedo/pi",
-            Model::Phong => "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
-            Model::BlinnPhong => "normalized Blinn-Phong: diffuse + (N+8)/(8pi) cos^N theta_h, N = 8192^(1-s)",
-            Model::OrenNayar => "Oren-Nayar qualitative model: rough diffuse with retro-reflection",
-            Model::CookTorrance => "Cook-Torrance: Beckmann D, V-cavity G, Schlick F, plus diffuse",
-            Model::SmoothLayered => "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
-            Model::Coupled => "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
-            Model::AshikhminShirley => "Ashikhmin-Shirley anisotropic Phong: rough coat over a coupled diffuse base",
-            Model::Microfacet(_) => "general microfacet: Beckmann or GGX D, V-cavity or Smith G, Schlick or exact Fresnel, plus diffuse",
-        }
+        self.info().description
     }
 
+    /// The parameter table.
     pub fn params(self) -> &'static [ParamSpec] {
-        match self {
-            Model::Lambert => lambert::PARAMS,
-            Model::Phong => phong::PARAMS,
-            Model::BlinnPhong => blinn_phong::PARAMS,
-            Model::OrenNayar => oren_nayar::PARAMS,
-            Model::CookTorrance => cook_torrance::PARAMS,
-            Model::SmoothLayered => smooth_layered::PARAMS,
-            Model::Coupled => coupled::PARAMS,
-            Model::AshikhminShirley => ashikhmin_shirley::PARAMS,
-            Model::Microfacet(_) => microfacet::PARAMS,
-        }
+        self.info().params
     }
 
     /// Name of the std430 parameter struct on both sides (`CookTorranceParams`).
     pub fn gpu_struct_name(self) -> &'static str {
-        match self {
-            Model::Lambert => "LambertParams",
-            Model::Phong => "PhongParams",
-            Model::BlinnPhong => "BlinnPhongParams",
-            Model::OrenNayar => "OrenNayarParams",
-            Model::CookTorrance => "CookTorranceParams",
-            Model::SmoothLayered => "SmoothLayeredParams",
-            Model::Coupled => "CoupledParams",
-            Model::AshikhminShirley => "AshikhminShirleyParams",
-            Model::Microfacet(_) => "MicrofacetParams",
-        }
+        self.info().gpu_struct
     }
 
     /// Field offsets and size of the parameter block, for the layout test.
     pub fn gpu_layout(self) -> (Layout, usize) {
-        use std::mem::size_of;
-        match self {
-            Model::Lambert => (lambert::GPU_LAYOUT, size_of::<lambert::LambertParams>()),
-            Model::Phong => (phong::GPU_LAYOUT, size_of::<phong::PhongParams>()),
-            Model::BlinnPhong => (
-                blinn_phong::GPU_LAYOUT,
-                size_of::<blinn_phong::BlinnPhongParams>(),
-            ),
-            Model::OrenNayar => (
-                oren_nayar::GPU_LAYOUT,
-                size_of::<oren_nayar::OrenNayarParams>(),
-            ),
-            Model::CookTorrance => (
-                cook_torrance::GPU_LAYOUT,
-                size_of::<cook_torrance::CookTorranceParams>(),
-            ),
-            Model::SmoothLayered => (
-                smooth_layered::GPU_LAYOUT,
-                size_of::<smooth_layered::SmoothLayeredParams>(),
-            ),
-            Model::Coupled => (coupled::GPU_LAYOUT, size_of::<coupled::CoupledParams>()),
-            Model::AshikhminShirley => (
-                ashikhmin_shirley::GPU_LAYOUT,
-                size_of::<ashikhmin_shirley::AshikhminShirleyParams>(),
-            ),
-            Model::Microfacet(_) => (
-                microfacet::GPU_LAYOUT,
-                size_of::<microfacet::MicrofacetParams>(),
-            ),
-        }
+        (self.info().gpu_layout, self.info().gpu_size)
     }
 
-    /// Models with a mirror spike that tables cannot hold (DESIGN §3).
+    /// Models with a mirror spike that tables cannot hold (docs/design.md §3).
     pub fn has_delta(self) -> bool {
-        matches!(self, Model::SmoothLayered | Model::Coupled)
+        self.info().has_delta
     }
 
     /// Whether a Fresnel factor multiplies a specular lobe, i.e. the white furnace changes it.
     pub fn has_specular_fresnel(self) -> bool {
-        matches!(
-            self,
-            Model::CookTorrance | Model::AshikhminShirley | Model::Microfacet(_)
-        )
+        self.info().has_specular_fresnel
     }
 
     /// Specialization constants 3.. of this model's pipelines (its component choices).
@@ -335,14 +268,10 @@ impl ParamSet {
         out
     }
 
-    /// Whether f depends on φi and φo only through φo − φi. Only Ashikhmin–Shirley with nu ≠ nv
-    /// is anisotropic among the seed models.
+    /// Whether f depends on φi and φo only through φo − φi (the model decides: Ashikhmin–Shirley
+    /// and microfacet are anisotropic when their two roughnesses differ).
     pub fn is_isotropic(&self) -> bool {
-        match self.model {
-            Model::AshikhminShirley => self.scalar("nu") == self.scalar("nv"),
-            Model::Microfacet(_) => microfacet::Microfacet::new(self).is_isotropic(),
-            _ => true,
-        }
+        (self.model.info().is_isotropic)(self)
     }
 
     /// A compact one-line form, `diffuse=0.2 specular=0.8,0.7,0.1 roughness=0.3`.

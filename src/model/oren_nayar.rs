@@ -3,6 +3,8 @@
 
 use super::params::ParamSpec;
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent, white_albedo};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2};
@@ -36,6 +38,27 @@ pub const GPU_LAYOUT: Layout = &[
     ("albedo", offset_of!(OrenNayarParams, albedo)),
     ("sigma", offset_of!(OrenNayarParams, sigma)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "oren_nayar",
+    description: "Oren-Nayar qualitative model: rough diffuse with retro-reflection",
+    params: PARAMS,
+    gpu_struct: "OrenNayarParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<OrenNayarParams>(),
+    has_delta: false,
+    pow_lobe: false,
+    has_specular_fresnel: false,
+    lut_axis: LutAxis { keys: &["sigma"], lo: 0.0, hi: FRAC_PI_2, mapping: Mapping::Linear },
+    white: white_albedo,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: no_exponent,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[&["sigma=0"], &["sigma=1e-4"], &["albedo=1", "sigma=1.5707963267948966"]];
 
 impl OrenNayar {
     pub fn new(p: &ParamSet) -> Self {

@@ -2,8 +2,10 @@
 //! r = 2 c_i n − ωi. Twin of `glsl/brdf/phong.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::pow1m;
+use super::terms::{log1m, pow1m};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
@@ -42,6 +44,44 @@ pub const GPU_LAYOUT: Layout = &[
     ("shininess", offset_of!(PhongParams, shininess)),
     ("specular", offset_of!(PhongParams, specular)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "phong",
+    description: "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
+    params: PARAMS,
+    gpu_struct: "PhongParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<PhongParams>(),
+    has_delta: false,
+    pow_lobe: true,
+    has_specular_fresnel: false,
+    // Exponents 1 to 8192 (the lab report's largest): three and a half decades.
+    lut_axis: LutAxis { keys: &["shininess"], lo: 1.0, hi: 8192.0, mapping: Mapping::Log },
+    white: white_specular_alone,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: phong_exponent_at,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[
+        &["diffuse=0", "specular=1", "shininess=0"],
+        &["diffuse=0", "specular=1", "shininess=1e-4"],
+        &["diffuse=0", "specular=1", "shininess=1"],
+        &["diffuse=0", "specular=1", "shininess=8192"],
+        &["diffuse=0", "specular=1", "shininess=1e5"],
+        &["diffuse=0", "specular=1", "shininess=1e6"],
+    ];
+
+/// |x| of the lobe's power cos^n = exp(n log(r·ωo)) at (ωi, ωo): n |log(1 − s)| with
+/// 1 − r·ωo = s = |r − ωo|²/2 computed without cancellation, capped short of 1 where the log
+/// runs to −∞ (the lobe is 0 there on both sides).
+fn phong_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
+    let r = DVec3::new(-wi.x, -wi.y, wi.z);
+    let s = (0.5 * (r - wo).length_squared()).min(0.999_999);
+    p.scalar("shininess") * log1m(s).abs()
+}
 
 impl Phong {
     pub fn new(p: &ParamSet) -> Self {

@@ -2,9 +2,11 @@
 //! non-delta part; [`smooth_layered_delta`] gives the spike's albedo. Twin of
 //! `glsl/brdf/smooth_layered.glsl`.
 
-use super::params::ParamSpec;
+use super::params::{ParamError, ParamSpec, Value};
 use super::terms::{r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
+use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent};
+use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
@@ -38,6 +40,35 @@ pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(SmoothLayeredParams, diffuse)),
     ("ior", offset_of!(SmoothLayeredParams, ior)),
 ];
+
+/// What the rest of the crate knows about this model (see [`super::registry`]).
+pub const INFO: ModelInfo = ModelInfo {
+    name: "smooth_layered",
+    description: "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
+    params: PARAMS,
+    gpu_struct: "SmoothLayeredParams",
+    gpu_layout: GPU_LAYOUT,
+    gpu_size: std::mem::size_of::<SmoothLayeredParams>(),
+    has_delta: true,
+    pow_lobe: false,
+    has_specular_fresnel: false,
+    lut_axis: LutAxis { keys: &["ior"], lo: 1.0, hi: 3.0, mapping: Mapping::Linear },
+    white: white_configuration,
+    stability_edges: |_| STABILITY_EDGES.to_vec(),
+    exponent: no_exponent,
+    is_isotropic: always_isotropic,
+};
+
+/// The parameter edges `lobe stability` sweeps.
+const STABILITY_EDGES: &[&[&str]] = &[&["diffuse=1", "ior=1"], &["diffuse=0", "ior=5"]];
+
+/// The white configuration: diffuse = 1 − R0, so that the layer would reflect exactly 1 at
+/// normal incidence if it conserved energy (it gains towards grazing, which `lobe energy` shows).
+fn white_configuration(p: &mut ParamSet) -> Result<bool, ParamError> {
+    let r0 = r0_from_ior(p.scalar("ior"));
+    p.set("diffuse", Value::One(1.0 - r0))?;
+    Ok(false)
+}
 
 impl SmoothLayered {
     pub fn new(p: &ParamSet) -> Self {
