@@ -1,50 +1,71 @@
 //! Scenes: a TOML file naming materials (a model with parameters, or a built-in preset), lights,
 //! a camera, and the outputs to produce: lobe tables, albedos and previews. `lobe run FILE` makes
-//! everything the scene asks for; `lobe table --scene FILE` only its tables.
+//! everything the scene asks for; `lobe table --scene FILE` only its tables. docs/scenes.md
+//! lists every key with its type, default and valid range; this is its example:
 //!
 //! ```toml
-//! name = "lab"
+//! name = "gold-study"
 //! ambient = 0.0                      # radiance of a uniform sky: one number or [r, g, b]
 //!
 //! [camera]
 //! position = [0.0, 0.0, 0.0]         # looks down -z, +y up (OpenGL eye space)
 //! fov_y_deg = 45.0
 //!
+//! # No intensity: all lights are equal, scaled so that a white Lambertian facing the camera
+//! # reads 1 (see `preview`).
 //! [[lights]]
-//! position = [0.0, 0.0, 1.0]
-//! kind = "point"                     # or "directional" (position read as a direction)
-//! # intensity = 1.0                  # default: all lights equal, a white Lambertian facing the
-//!                                    # camera reads 1 (see `preview`)
+//! position = [0.0, 0.0, 1.0]         # kind = "point" (default) or "directional"
+//!
+//! [[lights]]
+//! position = [1.0, 0.0, 1.0]
+//!
 //! [[materials]]
 //! name = "gold"
 //! model = "cook_torrance"
 //! preset = "gold"                    # optional: start from a built-in preset
 //! params = { roughness = 0.12 }      # optional: then these (numbers, [r, g, b] or names)
 //!
+//! [[materials]]
+//! name = "brushed"
+//! model = "ashikhmin_shirley"
+//! preset = "tin"
+//!
 //! [[tables]]
-//! material = "gold"
-//! grid = "auto"                      # auto (isotropic when the material is), full, isotropic,
-//!                                    # halfdiff (theta_h, theta_d, phi_d; 4 axes when anisotropic)
+//! material = "gold"                  # grid = "auto": isotropic, as gold is
 //! n_theta = 32                       # cells over theta in [0, 90 deg], for theta_i and theta_o
-//! n_phi = 64                         # cells over phi in [0, 360 deg); isotropic: n_phi/2 over [0, 180]
-//! output = "gold.exr"                # relative to the output folder; .npy and .json beside it
+//! n_dphi = 32                        # cells over dphi in [0, 180 deg] (default n_phi / 2)
+//! output = "tables/gold.exr"         # relative to the output folder; .npy and .json beside it
+//!
+//! [[tables]]
+//! material = "brushed"               # anisotropic: the full grid
+//! n_theta = 16
+//! n_phi = 32                         # cells over phi in [0, 360 deg), for phi_i and phi_o
+//! output = "tables/brushed.exr"
 //!
 //! [[albedos]]
-//! material = "gold"
-//! method = "peak"                    # optional: any `lobe albedo --method` (default peak)
-//! samples = 65536                    # optional: nodes per view direction
-//! output = "gold-albedo.json"        # E at mu = 0.1, 0.25, 0.5, 0.75, 1 and the hemispherical albedo
+//! material = "gold"                  # method (default peak), samples: as `lobe albedo`
+//! output = "albedo/gold.json"        # E at mu = 0.1, 0.25, 0.5, 0.75, 1 and the hemispherical albedo
 //!
 //! [[previews]]
-//! materials = ["gold"]               # rows; default: every material
-//! models = ["cook_torrance"]         # columns; default: the models of those materials
-//! shape = "sphere"                   # or "icosahedron"
-//! cell = 128
-//! output = "lab.png"                 # the .exr (linear radiance) beside it
+//! models = ["cook_torrance", "ashikhmin_shirley"]   # columns; rows: materials (default all)
+//! cell = 96
+//! output = "study.png"               # the .exr (linear radiance) beside it
 //! ```
 //!
-//! A preview is a contact sheet (rows materials, columns models): a cell whose model is not the
-//! material's own takes the material's preset for that model, so such a sheet needs presets.
+//! Table resolution: `n_phi` (default 64) always counts cells over the full circle
+//! [0, 360 deg). The isotropic grids (`isotropic`, and `halfdiff` on an isotropic material) have
+//! one azimuth axis over the half circle [0, 180 deg] instead (dphi, or phi_d), whose cells
+//! `n_dphi` gives; without it the axis takes n_phi / 2 cells, the same angular step. An odd
+//! n_phi there, n_phi with n_dphi, and n_dphi on a grid without that axis are refused, and each
+//! table's log line states every axis's cells and the key they come from
+//! ([`TableJob::resolution`]): a requested resolution is never changed silently.
+//!
+//! A preview is a contact sheet (rows materials, columns models, one column per model name): a
+//! cell whose model is the material's own shows the material's parameters, any other cell the
+//! material's preset for that model, so such a sheet needs presets.
+//!
+//! The output folder and the sub-folders outputs name are created as needed. A run's summary
+//! lists every file written (a table's three, an albedo's one, a preview's two).
 //!
 //! Every error names the file, the line and the column of the offending text.
 
@@ -126,7 +147,16 @@ pub struct TableJob {
     pub grid: Grid,
     pub white_furnace: bool,
     pub output: PathBuf,
+    /// Why this grid, and how each axis's cells follow from the section's keys (for the log):
+    /// the isotropic grids' azimuth covers [0, 180 deg], so its cells are not `n_phi`'s.
+    pub resolution: String,
 }
+
+/// Cells over theta in [0, 90 deg] when a table gives no `n_theta`.
+pub const DEFAULT_N_THETA: usize = 32;
+/// Cells over phi in [0, 360 deg) when a table gives no `n_phi` (and no `n_dphi`): 32 over
+/// [0, 180 deg] on the isotropic grids.
+pub const DEFAULT_N_PHI: usize = 64;
 
 #[derive(Clone, Debug)]
 pub struct AlbedoJob {
@@ -226,11 +256,14 @@ impl Outputs {
     };
 }
 
-/// What a run produced, and what it could not.
+/// What a run produced.
 #[derive(Clone, Debug, Default)]
 pub struct RunSummary {
-    /// Files written, each with a one-line description.
-    pub written: Vec<(PathBuf, String)>,
+    /// Every file written, in order: a table's .exr, .npy and .json, an albedo's .json, a
+    /// preview's .png and .exr.
+    pub written: Vec<PathBuf>,
+    /// One line per output (a table, an albedo, a preview), as `log` received it.
+    pub lines: Vec<String>,
 }
 
 /// View directions μ = cos θo at which a scene's [[albedos]] report E(μ) (φo = 0), beside the
@@ -318,7 +351,9 @@ impl Scene {
         out
     }
 
-    /// The parameters of preview cell (material `row`, model `model`).
+    /// The parameters of preview cell (material `row`, column `model`): the material's own when
+    /// its model has that name (a microfacet material keeps its own components), else its preset
+    /// for `model`.
     fn cell_params(&self, row: usize, model: Model) -> Result<ParamSet> {
         let m = &self.materials[row];
         if model.name() == m.params.model().name() {
@@ -359,5 +394,37 @@ mod tests {
     fn syntax_error_is_located() {
         let e = parse("name = \"x\"\n[[materials]\n", "s.toml").unwrap_err();
         assert_eq!((e.file.as_str(), e.line), ("s.toml", 2), "{e}");
+    }
+
+    /// The first TOML block after `marker` in `text`, with `prefix` taken off each line.
+    fn toml_block(text: &str, marker: &str, prefix: &str) -> String {
+        let lines: Vec<&str> = text
+            .lines()
+            .map(|l| {
+                l.strip_prefix(prefix)
+                    .unwrap_or(l.trim_start_matches(prefix.trim_end()))
+            })
+            .collect();
+        let start = lines
+            .iter()
+            .position(|l| l.trim() == marker)
+            .expect("the example's opening fence");
+        let len = lines[start + 1..]
+            .iter()
+            .position(|l| l.trim() == "```")
+            .expect("the example's closing fence");
+        lines[start + 1..start + 1 + len].join("\n")
+    }
+
+    /// docs/scenes.md's example parses, and the module doc's is the same scene.
+    #[test]
+    fn the_documented_examples_parse_and_agree() {
+        let docs = toml_block(include_str!("../../docs/scenes.md"), "```toml", "");
+        let here = toml_block(include_str!("mod.rs"), "```toml", "//! ");
+        let a = parse(&docs, "example.toml").unwrap_or_else(|e| panic!("docs/scenes.md: {e}"));
+        let b = parse(&here, "example.toml").unwrap_or_else(|e| panic!("module doc: {e}"));
+        assert_eq!(format!("{a:?}"), format!("{b:?}"));
+        assert_eq!(a.tables.len(), 2);
+        assert_eq!(a.previews[0].models.len(), 2);
     }
 }

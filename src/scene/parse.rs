@@ -3,7 +3,7 @@
 
 use super::{
     line_column, AlbedoJob, Material, PreviewJob, Scene, SceneError, SceneLight, TableJob,
-    MAX_ALBEDO_SAMPLES, MAX_PREVIEW_CELL, MAX_TABLE_CELLS,
+    DEFAULT_N_PHI, DEFAULT_N_THETA, MAX_ALBEDO_SAMPLES, MAX_PREVIEW_CELL, MAX_TABLE_CELLS,
 };
 use crate::grid::Grid;
 use crate::integrate::Method;
@@ -69,6 +69,7 @@ struct TableFile {
     grid: Option<Spanned<String>>,
     n_theta: Option<Spanned<i64>>,
     n_phi: Option<Spanned<i64>>,
+    n_dphi: Option<Spanned<i64>>,
     #[serde(default)]
     white_furnace: bool,
     output: Spanned<String>,
@@ -422,24 +423,34 @@ impl OutputNames {
     }
 }
 
-/// A resolution key: absent (then `default`) or at least 1.
-fn count(
-    loc: &Locator,
-    v: &Option<Spanned<i64>>,
-    default: i64,
-    key: &str,
-) -> Result<usize, SceneError> {
+/// A resolution key, when given: at least 1.
+fn count(loc: &Locator, v: &Option<Spanned<i64>>, key: &str) -> Result<Option<usize>, SceneError> {
     let Some(v) = v else {
-        return Ok(default as usize);
+        return Ok(None);
     };
     let n = *v.get_ref();
     if n < 1 {
         return Err(loc.at(v.span(), format!("{key} = {n}: expected at least 1")));
     }
-    usize::try_from(n).map_err(|_| loc.at(v.span(), format!("{key} = {n} is too large")))
+    usize::try_from(n)
+        .map(Some)
+        .map_err(|_| loc.at(v.span(), format!("{key} = {n} is too large")))
+}
+
+/// An angle in degrees with at most three decimals, for the log.
+fn degrees(x: f64) -> String {
+    let s = format!("{x:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 /// One `[[tables]]` section: its grid follows the material's isotropy unless `grid` says.
+///
+/// The azimuth rule: `n_phi` always counts cells over the full circle [0, 360 deg). The
+/// isotropic grids (`isotropic`, and `halfdiff` on an isotropic material) have instead one
+/// azimuth axis over the half circle [0, 180 deg] (dphi, or phi_d); `n_dphi` gives its cells.
+/// Without `n_dphi` that axis takes n_phi / 2 cells, the same angular step as n_phi cells over
+/// the full circle, and an odd n_phi is refused because no whole number of cells keeps its step.
+/// The job's [`TableJob::resolution`] says which rule gave each axis its cells.
 fn table(
     loc: &Locator,
     t: &Spanned<TableFile>,
@@ -448,9 +459,11 @@ fn table(
 ) -> Result<TableJob, SceneError> {
     let tf = t.get_ref();
     let material = find_material(loc, materials, &tf.material)?;
-    let params = &materials[material].params;
-    let n_theta = count(loc, &tf.n_theta, 32, "n_theta")?;
-    let n_phi = count(loc, &tf.n_phi, 64, "n_phi")?;
+    let m = &materials[material];
+    let params = &m.params;
+    let n_theta = count(loc, &tf.n_theta, "n_theta")?.unwrap_or(DEFAULT_N_THETA);
+    let n_phi = count(loc, &tf.n_phi, "n_phi")?.unwrap_or(DEFAULT_N_PHI);
+    let n_dphi = count(loc, &tf.n_dphi, "n_dphi")?;
     let (kind, kind_span) = match &tf.grid {
         None => ("auto", t.span()),
         Some(g) => (g.get_ref().as_str(), g.span()),
@@ -463,7 +476,7 @@ fn table(
                 kind_span,
                 format!(
                     "grid = \"isotropic\" needs an isotropic material, but '{}' ({} {}) is anisotropic; use grid = \"full\" or \"auto\"",
-                    materials[material].name,
+                    m.name,
                     params.model().name(),
                     params.to_text()
                 ),
@@ -478,41 +491,122 @@ fn table(
             ))
         }
     };
-    let grid = if isotropic {
-        if n_phi < 2 {
-            let span = tf.n_phi.as_ref().map_or(t.span(), |s| s.span());
-            return Err(loc.at(
-                span,
-                "n_phi must be at least 2 on the isotropic grid (n_phi/2 cells over [0, 180 deg])",
-            ));
-        }
-        if halfdiff {
-            Grid::HalfDiff {
-                n_theta_h: n_theta,
-                n_theta_d: n_theta,
-                n_phi_d: n_phi / 2,
+    let grid_name = match (halfdiff, isotropic) {
+        (true, _) => "halfdiff",
+        (false, true) => "isotropic",
+        (false, false) => "full",
+    };
+    let reason = match kind {
+        "auto" | "halfdiff" => format!(
+            "grid = \"{kind}\" and '{}' is {}",
+            m.name,
+            if isotropic {
+                "isotropic"
+            } else {
+                "anisotropic"
             }
-        } else {
-            Grid::Isotropic {
-                n_theta_i: n_theta,
-                n_theta_o: n_theta,
-                n_dphi: n_phi / 2,
+        ),
+        _ => format!("grid = \"{kind}\""),
+    };
+    let by_default = |v: &Option<Spanned<i64>>| if v.is_none() { " by default" } else { "" };
+    let thetas = if halfdiff {
+        "theta_h, theta_d"
+    } else {
+        "theta_i, theta_o"
+    };
+    let theta_text = format!(
+        "{thetas}: {n_theta} cells each over [0, 90 deg] (n_theta = {n_theta}{})",
+        by_default(&tf.n_theta)
+    );
+    // (cells of the azimuth axes, how they follow from the keys, the key to lower if too large)
+    let (n_azimuth, azimuth_text, given) = if isotropic {
+        let axis = if halfdiff { "phi_d" } else { "dphi" };
+        match (&tf.n_phi, n_dphi) {
+            (Some(p), Some(d)) => {
+                return Err(loc.at(
+                    p.span(),
+                    format!(
+                        "n_phi = {n_phi} and n_dphi = {d} both given, but the {grid_name} grid of '{}' ({reason}) has one azimuth axis, {axis} over [0, 180 deg]; keep n_dphi (its cells) or n_phi (cells over [0, 360 deg), of which it takes half)",
+                        m.name
+                    ),
+                ))
             }
-        }
-    } else if halfdiff {
-        Grid::HalfDiffFull {
-            n_theta_h: n_theta,
-            n_phi_h: n_phi,
-            n_theta_d: n_theta,
-            n_phi_d: n_phi,
+            (_, Some(d)) => (
+                d,
+                format!("{axis}: {d} cells over [0, 180 deg] (n_dphi = {d})"),
+                format!("n_dphi = {d}"),
+            ),
+            (p, None) => {
+                if n_phi % 2 == 1 {
+                    let span = p.as_ref().map_or(t.span(), |s| s.span());
+                    return Err(loc.at(
+                        span,
+                        format!(
+                            "n_phi = {n_phi} is odd, but the {grid_name} grid of '{}' ({reason}) covers [0, 180 deg] with n_phi / 2 cells of the width n_phi gives over [0, 360 deg); use an even n_phi, or n_dphi = the cells over [0, 180 deg]",
+                            m.name
+                        ),
+                    ));
+                }
+                let d = n_phi / 2;
+                (
+                    d,
+                    format!(
+                        "{axis}: {d} cells over [0, 180 deg], half of n_phi = {n_phi}{} over [0, 360 deg) for the same {} deg step",
+                        by_default(p),
+                        degrees(360.0 / n_phi as f64)
+                    ),
+                    format!("n_phi = {n_phi}"),
+                )
+            }
         }
     } else {
-        Grid::Full {
-            n_theta_i: n_theta,
-            n_phi_i: n_phi,
-            n_theta_o: n_theta,
-            n_phi_o: n_phi,
+        if let Some(d) = &tf.n_dphi {
+            return Err(loc.at(
+                d.span(),
+                format!(
+                    "n_dphi = {}: the {grid_name} grid of '{}' ({reason}) has no [0, 180 deg] azimuth axis; give n_phi, the cells over [0, 360 deg)",
+                    d.get_ref(),
+                    m.name
+                ),
+            ));
         }
+        let phis = if halfdiff {
+            "phi_h, phi_d"
+        } else {
+            "phi_i, phi_o"
+        };
+        (
+            n_phi,
+            format!(
+                "{phis}: {n_phi} cells each over [0, 360 deg) (n_phi = {n_phi}{})",
+                by_default(&tf.n_phi)
+            ),
+            format!("n_phi = {n_phi}"),
+        )
+    };
+    let grid = match (halfdiff, isotropic) {
+        (true, true) => Grid::HalfDiff {
+            n_theta_h: n_theta,
+            n_theta_d: n_theta,
+            n_phi_d: n_azimuth,
+        },
+        (false, true) => Grid::Isotropic {
+            n_theta_i: n_theta,
+            n_theta_o: n_theta,
+            n_dphi: n_azimuth,
+        },
+        (true, false) => Grid::HalfDiffFull {
+            n_theta_h: n_theta,
+            n_phi_h: n_azimuth,
+            n_theta_d: n_theta,
+            n_phi_d: n_azimuth,
+        },
+        (false, false) => Grid::Full {
+            n_theta_i: n_theta,
+            n_phi_i: n_azimuth,
+            n_theta_o: n_theta,
+            n_phi_o: n_azimuth,
+        },
     };
     match grid.cells() {
         Some(c) if c <= MAX_TABLE_CELLS => {}
@@ -521,9 +615,9 @@ fn table(
             return Err(loc.at(
                 span,
                 format!(
-                    "the {} table of '{}' would have more than {MAX_TABLE_CELLS} cells (n_theta = {n_theta}, n_phi = {n_phi}); lower the resolution",
+                    "the {} table of '{}' would have more than {MAX_TABLE_CELLS} cells (n_theta = {n_theta}, {given}); lower the resolution",
                     grid.name(),
-                    materials[material].name
+                    m.name
                 ),
             ));
         }
@@ -533,6 +627,7 @@ fn table(
         grid,
         white_furnace: tf.white_furnace,
         output: names.claim(loc, &tf.output, "exr", "table")?,
+        resolution: format!("{grid_name} grid since {reason}; {theta_text}; {azimuth_text}"),
     })
 }
 
@@ -589,12 +684,15 @@ fn preview(
     if rows.is_empty() {
         return Err(loc.at(p.span(), "a preview needs at least one material"));
     }
+    // One column per model name: the header shows the name, and a material whose model has that
+    // name is drawn with its own parameters in it (see `Scene::cell_params`), so two microfacet
+    // materials of different distributions share the one "microfacet" column.
     let models: Vec<Model> = match &pf.models {
         None => {
             let mut v: Vec<Model> = Vec::new();
             for &r in &rows {
                 let m = materials[r].params.model();
-                if !v.contains(&m) {
+                if !v.iter().any(|x| x.name() == m.name()) {
                     v.push(m);
                 }
             }
@@ -604,9 +702,22 @@ fn preview(
             if list.is_empty() {
                 return Err(loc.at(p.span(), "a preview needs at least one model"));
             }
-            list.iter()
-                .map(|s| Model::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string())))
-                .collect::<Result<_, _>>()?
+            let mut v: Vec<Model> = Vec::new();
+            for s in list {
+                let m =
+                    Model::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?;
+                if v.iter().any(|x| x.name() == m.name()) {
+                    return Err(loc.at(
+                        s.span(),
+                        format!(
+                            "model '{}' is listed twice; each model is one column of the sheet",
+                            m.name()
+                        ),
+                    ));
+                }
+                v.push(m);
+            }
+            v
         }
     };
     // A cell of another model than the material's own takes the material's preset for it.

@@ -5,9 +5,10 @@ use crate::eval::Evaluator;
 use crate::preview::{self, Sheet};
 use crate::{integrate, interrupt, table};
 use anyhow::{bail, Context, Result};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Creates the folder an output goes in (a scene's outputs may name sub-folders).
+/// Creates the folder an output goes in, with its parents: the output folder itself when it is
+/// new, and the sub-folders a scene's output paths may name.
 fn create_parent(path: &Path) -> Result<()> {
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent)
@@ -17,8 +18,8 @@ fn create_parent(path: &Path) -> Result<()> {
 }
 
 impl Scene {
-    /// Produces the outputs `what` asks for under `out_dir`, evaluating on `e`. `log` receives a
-    /// line per output as it is written. Stops with "interrupted" on Ctrl-C (between and inside
+    /// Produces the outputs `what` asks for under `out_dir` (made, with its parents, when
+    /// missing), evaluating on `e`. `log` receives a line per output as it is written. Stops with "interrupted" on Ctrl-C (between and inside
     /// outputs), leaving no partial file.
     pub fn run(
         &self,
@@ -28,15 +29,18 @@ impl Scene {
         log: &mut dyn FnMut(&str),
     ) -> Result<RunSummary> {
         let mut summary = RunSummary::default();
-        if !out_dir.is_dir() {
+        // A missing folder (and its parents) is made with the first file written into it, so a
+        // run that fails before writing anything leaves nothing behind.
+        if out_dir.exists() && !out_dir.is_dir() {
             bail!(
-                "the output folder {} does not exist (create it, or pick another with --output-dir)",
+                "the output folder {} is a file, not a folder; pick another with --output-dir",
                 out_dir.display()
             );
         }
-        let mut done = |path: &Path, line: String| {
+        let mut done = |files: Vec<PathBuf>, line: String| {
             log(&line);
-            summary.written.push((path.to_path_buf(), line));
+            summary.written.extend(files);
+            summary.lines.push(line);
         };
         if what.tables {
             for t in &self.tables {
@@ -59,13 +63,13 @@ impl Scene {
         Ok(summary)
     }
 
-    /// Writes one table (.exr, .npy and .json); `done` receives its path and log line.
+    /// Writes one table (.exr, .npy and .json); `done` receives the files and the log line.
     fn run_table(
         &self,
         e: &Evaluator,
         t: &TableJob,
         out_dir: &Path,
-        done: &mut dyn FnMut(&Path, String),
+        done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let m = &self.materials[t.material];
         let path = out_dir.join(&t.output);
@@ -80,16 +84,18 @@ impl Scene {
         table::write_table(e, &meta, &path, &mut |_, _| {})
             .with_context(|| format!("table of material '{}'", m.name))?;
         let line = format!(
-            "table {} ({} {}, {} grid {:?}, {} cells, {:.2} s)",
+            "table {} ({} {}, {} grid {:?}, {} cells, {:.2} s; {})",
             path.display(),
             m.name,
             m.params.model().name(),
             t.grid.name(),
             t.grid.shape(),
             t.grid.cells().unwrap_or(0),
-            started.elapsed().as_secs_f64()
+            started.elapsed().as_secs_f64(),
+            t.resolution
         );
-        done(&path, line);
+        let (npy, json) = table::sibling_paths(&path);
+        done(vec![path, npy, json], line);
         Ok(())
     }
 
@@ -99,7 +105,7 @@ impl Scene {
         e: &Evaluator,
         a: &AlbedoJob,
         out_dir: &Path,
-        done: &mut dyn FnMut(&Path, String),
+        done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let m = &self.materials[a.material];
         let path = out_dir.join(&a.output);
@@ -130,7 +136,7 @@ impl Scene {
             h.z,
             report.seconds
         );
-        done(&path, line);
+        done(vec![path], line);
         Ok(())
     }
 
@@ -140,7 +146,7 @@ impl Scene {
         e: &Evaluator,
         p: &PreviewJob,
         out_dir: &Path,
-        done: &mut dyn FnMut(&Path, String),
+        done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let sheet = self.sheet(p)?;
         let scene = self.preview_scene(p.cell, p.shape)?;
@@ -162,7 +168,7 @@ impl Scene {
             p.cell,
             started.elapsed().as_secs_f64()
         );
-        done(&path, line);
+        done(vec![path, exr_path], line);
         Ok(())
     }
 
