@@ -149,7 +149,7 @@ fn scene_cases() -> Vec<(&'static str, String, Vec<&'static str>, Vec<&'static s
         ("materials as a string", "materials = \"gold\"\n".into(), vec![], vec!["scene.toml:1:13", "invalid type"]),
         ("a scene without outputs", "name = \"nothing\"\n".into(), vec![], vec!["scene.toml:1:1", "asks for no output"]),
         ("an empty file", String::new(), vec![], vec!["scene.toml:1:1", "asks for no output"]),
-        ("output folder that does not exist", BASE.to_string(), vec!["--output-dir", "no/such/dir"], vec!["no/such/dir", "does not exist"]),
+        ("output folder that is a file", BASE.to_string(), vec!["--output-dir", "scene.toml"], vec!["scene.toml", "is a file"]),
         ("table --scene with a scene without tables", with("").replace("[[tables]]\nmaterial = \"gold\"\nn_theta = 4\nn_phi = 8\noutput = \"gold.exr\"\n", "[[previews]]\nmaterials = [\"gold\"]\noutput = \"p.png\"\n"), vec!["@table"], vec!["asks for no tables"]),
     ]
 }

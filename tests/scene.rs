@@ -64,7 +64,8 @@ fn a_scene_with_two_models_builds_exactly_two_pipelines() {
     let summary = s
         .run(&Evaluator::gpu(&gpu), dir.path(), Outputs::ALL, &mut |_| {})
         .unwrap();
-    assert_eq!(summary.written.len(), 3);
+    assert_eq!(summary.lines.len(), 3);
+    assert_eq!(summary.written.len(), 9, "three tables of three files each");
     let built = gpu.built_pipelines();
     let labels: Vec<&str> = built.iter().map(|(l, _)| l.as_str()).collect();
     assert_eq!(built.len(), 2, "built: {labels:?}");
@@ -170,9 +171,20 @@ fn the_lab_runs_on_the_cpu_with_every_output() {
         .run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |_| {})
         .unwrap();
     assert_eq!(
-        summary.written.len(),
+        summary.lines.len(),
         s.tables.len() + s.albedos.len() + s.previews.len()
     );
+    // Every file is counted once: a table's .exr, .npy and .json, an albedo's .json, a
+    // preview's .png and .exr; and the files on disk are exactly those.
+    assert_eq!(
+        summary.written.len(),
+        3 * s.tables.len() + s.albedos.len() + 2 * s.previews.len()
+    );
+    let mut on_disk = walk(dir.path());
+    on_disk.sort();
+    let mut written = summary.written.clone();
+    written.sort();
+    assert_eq!(written, on_disk);
     // The gold albedo JSON: E at the scene's view directions, and the hemispherical albedo.
     let gold: serde_json::Value =
         serde_json::from_reader(std::fs::File::open(dir.path().join("albedo/gold.json")).unwrap())
@@ -239,6 +251,234 @@ fn errors_name_the_line_and_column() {
     assert_eq!((e.line, e.column), (5, 24), "{e}");
     assert!(e.to_string().starts_with("x.toml:5:24: "), "{e}");
     assert!(e.message.contains("roughness"), "{e}");
+}
+
+/// `lobe run --output-dir` makes a folder that does not exist, with its parents, and its count
+/// of files written is the count of files on disk.
+#[test]
+fn lobe_run_makes_the_output_folder_and_counts_every_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("two.toml"), TWO_MODELS).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args([
+            "run",
+            "two.toml",
+            "--output-dir",
+            "new/dir",
+            "--backend",
+            "cpu",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let files = walk(&dir.path().join("new/dir"));
+    assert_eq!(files.len(), 9, "{files:?}");
+    assert!(
+        stdout.contains(&format!("lobe: {} files written", files.len())),
+        "{stdout}"
+    );
+}
+
+const ISOTROPIC_TABLE: &str = r#"
+[[materials]]
+name = "gold"
+model = "cook_torrance"
+preset = "gold"
+[[materials]]
+name = "tin"
+model = "ashikhmin_shirley"
+preset = "tin"
+"#;
+
+fn one_table(keys: &str) -> Result<scene::Scene, scene::SceneError> {
+    let text = format!("{ISOTROPIC_TABLE}[[tables]]\n{keys}\noutput = \"t.exr\"\n");
+    scene::parse(&text, "t.toml")
+}
+
+/// n_phi counts cells over [0, 360 deg) on every grid; the isotropic grid's dphi axis covers
+/// [0, 180 deg], so it takes n_phi / 2 cells (the same step) unless n_dphi gives its cells, and
+/// the job says which.
+#[test]
+fn the_isotropic_grid_takes_n_dphi_or_half_of_n_phi_and_says_so() {
+    let s = one_table("material = \"gold\"\nn_theta = 8\nn_phi = 64").unwrap();
+    let t = &s.tables[0];
+    assert_eq!(
+        t.grid,
+        Grid::Isotropic {
+            n_theta_i: 8,
+            n_theta_o: 8,
+            n_dphi: 32
+        }
+    );
+    for part in [
+        "grid = \"auto\" and 'gold' is isotropic",
+        "dphi: 32 cells over [0, 180 deg], half of n_phi = 64",
+        "5.625 deg step",
+    ] {
+        assert!(t.resolution.contains(part), "{}", t.resolution);
+    }
+
+    let s = one_table("material = \"gold\"\nn_theta = 8\nn_dphi = 64").unwrap();
+    let t = &s.tables[0];
+    assert_eq!(
+        t.grid,
+        Grid::Isotropic {
+            n_theta_i: 8,
+            n_theta_o: 8,
+            n_dphi: 64
+        }
+    );
+    assert!(
+        t.resolution
+            .contains("dphi: 64 cells over [0, 180 deg] (n_dphi = 64)"),
+        "{}",
+        t.resolution
+    );
+
+    // On the three-axis halfdiff grid n_dphi gives phi_d's cells.
+    let s = one_table("material = \"gold\"\ngrid = \"halfdiff\"\nn_theta = 4\nn_dphi = 6").unwrap();
+    assert_eq!(
+        s.tables[0].grid,
+        Grid::HalfDiff {
+            n_theta_h: 4,
+            n_theta_d: 4,
+            n_phi_d: 6
+        }
+    );
+
+    // Without either key: 64 over the full circle, so 32 over the half circle.
+    let s = one_table("material = \"gold\"\nn_theta = 4").unwrap();
+    assert_eq!(s.tables[0].grid.shape(), vec![4, 4, 32]);
+    assert!(s.tables[0].resolution.contains("n_phi = 64 by default"));
+
+    // The full grid keeps n_phi as given.
+    let s = one_table("material = \"tin\"\nn_theta = 4\nn_phi = 8").unwrap();
+    assert_eq!(s.tables[0].grid.shape(), vec![4, 8, 4, 8]);
+    assert!(
+        s.tables[0]
+            .resolution
+            .contains("phi_i, phi_o: 8 cells each over [0, 360 deg) (n_phi = 8)"),
+        "{}",
+        s.tables[0].resolution
+    );
+}
+
+/// A resolution that no rule can honour as written is refused, at the key, never changed.
+#[test]
+fn azimuth_keys_that_cannot_be_honoured_are_refused() {
+    let cases = [
+        (
+            "material = \"gold\"\nn_phi = 63",
+            (12, 9),
+            vec!["n_phi = 63 is odd", "n_dphi"],
+        ),
+        (
+            "material = \"gold\"\nn_phi = 64\nn_dphi = 32",
+            (12, 9),
+            vec!["both given", "one azimuth axis"],
+        ),
+        (
+            "material = \"tin\"\nn_dphi = 32",
+            (12, 10),
+            vec!["n_dphi = 32", "'tin' is anisotropic", "give n_phi"],
+        ),
+        (
+            "material = \"gold\"\ngrid = \"full\"\nn_dphi = 32",
+            (13, 10),
+            vec!["n_dphi = 32", "full grid", "give n_phi"],
+        ),
+        (
+            "material = \"gold\"\nn_dphi = 0",
+            (12, 10),
+            vec!["n_dphi = 0", "at least 1"],
+        ),
+    ];
+    for (keys, (line, column), needles) in cases {
+        let e = one_table(keys).expect_err(keys);
+        assert_eq!((e.line, e.column), (line, column), "{keys}: {e}");
+        for n in needles {
+            assert!(e.message.contains(n), "{keys}: {e}");
+        }
+    }
+}
+
+/// The run's log line of a table states the resolution used and why.
+#[test]
+fn a_tables_log_line_states_its_resolution() {
+    let _lock = run_lock();
+    let s = one_table("material = \"gold\"\nn_theta = 2\nn_phi = 8").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mut lines = Vec::new();
+    s.run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |l| {
+        lines.push(l.to_string())
+    })
+    .unwrap();
+    assert_eq!(lines.len(), 1);
+    assert!(
+        lines[0].contains("isotropic grid [2, 2, 4]")
+            && lines[0].contains("dphi: 4 cells over [0, 180 deg], half of n_phi = 8"),
+        "{}",
+        lines[0]
+    );
+}
+
+/// Two materials of one model (microfacet, two distributions) share one column labelled once,
+/// each drawn with its own parameters; a model listed twice is refused.
+#[test]
+fn a_preview_has_one_column_per_model() {
+    let _lock = run_lock();
+    let text = r#"
+[[lights]]
+position = [0.0, 0.0, 1.0]
+[[materials]]
+name = "smooth"
+model = "microfacet"
+params = { distribution = "ggx", alpha = 0.2 }
+[[materials]]
+name = "rough"
+model = "microfacet"
+params = { distribution = "beckmann", alpha = 0.5 }
+[[previews]]
+cell = 8
+output = "p.png"
+"#;
+    let s = scene::parse(text, "p.toml").unwrap_or_else(|e| panic!("{e}"));
+    let p = &s.previews[0];
+    let names: Vec<&str> = p.models.iter().map(|m| m.name()).collect();
+    assert_eq!(names, ["microfacet"]);
+    let sheet = s.sheet(p).unwrap();
+    assert_eq!(sheet.params.len(), 1);
+    for (row, m) in s.materials.iter().enumerate() {
+        assert_eq!(sheet.params[0][row], m.params, "{}", m.name);
+    }
+    // The EXR header lists the columns as the PNG labels them.
+    let dir = tempfile::tempdir().unwrap();
+    s.run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |_| {})
+        .unwrap();
+    let image = exr::prelude::read_first_flat_layer_from_file(dir.path().join("p.exr")).unwrap();
+    let columns: Vec<String> = image
+        .layer_data
+        .attributes
+        .other
+        .iter()
+        .filter(|(k, _)| *k == "lobe.columns")
+        .map(|(_, v)| match v {
+            exr::meta::attribute::AttributeValue::Text(t) => t.to_string(),
+            other => panic!("lobe.columns is {other:?}"),
+        })
+        .collect();
+    assert_eq!(columns, ["microfacet"]);
+
+    let twice = text.replace("cell = 8", "models = [\"microfacet\", \"microfacet\"]");
+    let e = scene::parse(&twice, "p.toml").unwrap_err();
+    assert_eq!((e.line, e.column), (13, 25), "{e}");
+    assert!(e.message.contains("listed twice"), "{e}");
 }
 
 fn arbitrary_toml_like() -> impl Strategy<Value = String> {

@@ -1,0 +1,779 @@
+//! The scene parser: TOML text to a validated [`Scene`], one function per section of the file.
+//! Every error is a [`SceneError`] located at the text it is about.
+
+use super::{
+    line_column, AlbedoJob, Material, PreviewJob, Scene, SceneError, SceneLight, TableJob,
+    DEFAULT_N_PHI, DEFAULT_N_THETA, MAX_ALBEDO_SAMPLES, MAX_PREVIEW_CELL, MAX_TABLE_CELLS,
+};
+use crate::grid::Grid;
+use crate::integrate::Method;
+use crate::material;
+use crate::model::{Model, ParamSet, Value};
+use crate::preview::{self, LightKind, Shape};
+use glam::DVec3;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::PathBuf;
+use toml::Spanned;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    name: Option<String>,
+    #[allow(dead_code)]
+    description: Option<String>,
+    camera: Option<Spanned<CameraFile>>,
+    ambient: Option<Spanned<toml::Value>>,
+    #[serde(default)]
+    lights: Vec<Spanned<LightFile>>,
+    #[serde(default)]
+    materials: Vec<Spanned<MaterialFile>>,
+    #[serde(default)]
+    tables: Vec<Spanned<TableFile>>,
+    #[serde(default)]
+    albedos: Vec<Spanned<AlbedoFile>>,
+    #[serde(default)]
+    previews: Vec<Spanned<PreviewFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    position: Option<Spanned<[f64; 3]>>,
+    fov_y_deg: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightFile {
+    position: Spanned<[f64; 3]>,
+    kind: Option<Spanned<String>>,
+    intensity: Option<Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    name: Spanned<String>,
+    model: Spanned<String>,
+    preset: Option<Spanned<String>>,
+    #[serde(default)]
+    params: BTreeMap<String, Spanned<toml::Value>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TableFile {
+    material: Spanned<String>,
+    grid: Option<Spanned<String>>,
+    n_theta: Option<Spanned<i64>>,
+    n_phi: Option<Spanned<i64>>,
+    n_dphi: Option<Spanned<i64>>,
+    #[serde(default)]
+    white_furnace: bool,
+    output: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AlbedoFile {
+    material: Spanned<String>,
+    #[serde(default)]
+    white_furnace: bool,
+    /// Quadrature method and nodes per view direction (default: `lobe albedo`'s).
+    method: Option<Spanned<String>>,
+    samples: Option<Spanned<i64>>,
+    output: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PreviewFile {
+    materials: Option<Vec<Spanned<String>>>,
+    models: Option<Vec<Spanned<String>>>,
+    shape: Option<Spanned<String>>,
+    cell: Option<Spanned<i64>>,
+    exposure: Option<Spanned<f64>>,
+    output: Spanned<String>,
+}
+
+/// Builds located errors for one file.
+struct Locator<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Locator<'_> {
+    fn at(&self, span: Range<usize>, message: impl Into<String>) -> SceneError {
+        let (line, column) = line_column(self.text, span.start);
+        SceneError {
+            file: self.file.to_string(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+}
+
+/// One number (grey) or three, as RGB.
+fn rgb_of(v: &toml::Value) -> Option<DVec3> {
+    let num = |x: &toml::Value| x.as_float().or_else(|| x.as_integer().map(|i| i as f64));
+    match v {
+        toml::Value::Array(a) if a.len() == 3 => {
+            let c: Vec<f64> = a.iter().filter_map(num).collect();
+            (c.len() == 3).then(|| DVec3::new(c[0], c[1], c[2]))
+        }
+        x => num(x).map(DVec3::splat),
+    }
+}
+
+/// Parses and validates a scene. `file` names it in errors. Never panics, whatever the text.
+pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
+    let loc = Locator { file, text };
+    let raw: SceneFile = toml::from_str(text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        loc.at(span, e.message().trim().to_string())
+    })?;
+    let (camera_position, fov_y_deg) = camera(&loc, raw.camera.as_ref())?;
+    let ambient = ambient(&loc, raw.ambient.as_ref())?;
+    let lights = lights(&loc, &raw.lights, camera_position)?;
+    let materials = materials(&loc, &raw.materials)?;
+    let mut names = OutputNames::default();
+    let tables = raw
+        .tables
+        .iter()
+        .map(|t| table(&loc, t, &materials, &mut names))
+        .collect::<Result<Vec<_>, _>>()?;
+    let albedos = raw
+        .albedos
+        .iter()
+        .map(|a| albedo(&loc, a, &materials, &mut names))
+        .collect::<Result<Vec<_>, _>>()?;
+    let previews = raw
+        .previews
+        .iter()
+        .map(|p| preview(&loc, p, &materials, &lights, &mut names))
+        .collect::<Result<Vec<_>, _>>()?;
+    if tables.is_empty() && albedos.is_empty() && previews.is_empty() {
+        return Err(loc.at(
+            0..0,
+            "the scene asks for no output: add [[tables]], [[albedos]] or [[previews]]",
+        ));
+    }
+    Ok(Scene {
+        file: file.to_string(),
+        name: raw.name.unwrap_or_else(|| "scene".to_string()),
+        camera_position,
+        fov_y_deg,
+        ambient,
+        lights,
+        materials,
+        tables,
+        albedos,
+        previews,
+    })
+}
+
+/// `[camera]`: (position, vertical field of view in degrees).
+fn camera(loc: &Locator, cam: Option<&Spanned<CameraFile>>) -> Result<(DVec3, f64), SceneError> {
+    let (mut position, mut fov_y_deg) = (DVec3::ZERO, preview::FOV_Y_DEG);
+    let Some(cam) = cam else {
+        return Ok((position, fov_y_deg));
+    };
+    if let Some(p) = &cam.get_ref().position {
+        position = DVec3::from_array(*p.get_ref());
+        if !position.is_finite() {
+            return Err(loc.at(p.span(), "camera position must be finite"));
+        }
+    }
+    if let Some(f) = &cam.get_ref().fov_y_deg {
+        fov_y_deg = *f.get_ref();
+        if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return Err(loc.at(
+                f.span(),
+                format!("fov_y_deg = {fov_y_deg}: expected a field of view in (0, 180) degrees"),
+            ));
+        }
+    }
+    Ok((position, fov_y_deg))
+}
+
+/// `ambient`: the radiance of a uniform sky, grey or RGB.
+fn ambient(loc: &Locator, a: Option<&Spanned<toml::Value>>) -> Result<DVec3, SceneError> {
+    let Some(a) = a else {
+        return Ok(DVec3::ZERO);
+    };
+    match rgb_of(a.get_ref()) {
+        Some(v) if v.is_finite() && v.min_element() >= 0.0 => Ok(v),
+        _ => Err(loc.at(
+            a.span(),
+            "ambient: expected a radiance >= 0, one number or [r, g, b]",
+        )),
+    }
+}
+
+/// `[[lights]]`, point lights moved into the camera's frame (the preview's camera sits at the
+/// origin).
+fn lights(
+    loc: &Locator,
+    raw: &[Spanned<LightFile>],
+    camera_position: DVec3,
+) -> Result<Vec<SceneLight>, SceneError> {
+    let mut lights = Vec::new();
+    for l in raw {
+        let lf = l.get_ref();
+        let position = DVec3::from_array(*lf.position.get_ref());
+        if !position.is_finite() {
+            return Err(loc.at(lf.position.span(), "light position must be finite"));
+        }
+        let kind = match lf.kind.as_ref().map(|k| (k.get_ref().as_str(), k.span())) {
+            None | Some(("point", _)) => LightKind::Point,
+            Some(("directional", _)) => LightKind::Directional,
+            Some((other, span)) => {
+                return Err(loc.at(
+                    span,
+                    format!("unknown light kind '{other}'; the kinds are: point, directional"),
+                ))
+            }
+        };
+        if kind == LightKind::Directional && position == DVec3::ZERO {
+            return Err(loc.at(
+                lf.position.span(),
+                "a directional light needs a non-zero direction",
+            ));
+        }
+        let intensity = match &lf.intensity {
+            None => None,
+            Some(i) => match rgb_of(i.get_ref()) {
+                Some(v) if v.is_finite() && v.min_element() >= 0.0 => Some(v),
+                _ => {
+                    return Err(loc.at(
+                        i.span(),
+                        "light intensity: expected a number >= 0 or [r, g, b]",
+                    ))
+                }
+            },
+        };
+        lights.push(SceneLight {
+            position: position
+                - if kind == LightKind::Point {
+                    camera_position
+                } else {
+                    DVec3::ZERO
+                },
+            kind,
+            intensity,
+        });
+    }
+    let explicit = lights.iter().filter(|l| l.intensity.is_some()).count();
+    if explicit != 0 && explicit != lights.len() {
+        let l = &raw[lights
+            .iter()
+            .position(|l| l.intensity.is_none())
+            .unwrap_or(0)];
+        return Err(loc.at(
+            l.span(),
+            "give every light an intensity, or none (then all are equal and normalised)",
+        ));
+    }
+    Ok(lights)
+}
+
+/// `[[materials]]`, in file order; names are unique.
+fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Material>, SceneError> {
+    let mut materials: Vec<Material> = Vec::new();
+    for m in raw {
+        let mf = m.get_ref();
+        let name = mf.name.get_ref().clone();
+        if name.trim().is_empty() {
+            return Err(loc.at(mf.name.span(), "a material needs a non-empty name"));
+        }
+        if materials.iter().any(|x| x.name == name) {
+            return Err(loc.at(
+                mf.name.span(),
+                format!("material '{name}' is defined twice"),
+            ));
+        }
+        let model = Model::from_name(mf.model.get_ref())
+            .map_err(|e| loc.at(mf.model.span(), e.to_string()))?;
+        let mut params = match &mf.preset {
+            Some(p) => {
+                material::preset(p.get_ref(), model).map_err(|e| loc.at(p.span(), e.to_string()))?
+            }
+            None => ParamSet::defaults(model),
+        };
+        for (key, v) in &mf.params {
+            set_param(loc, &mut params, key, v)?;
+        }
+        materials.push(Material {
+            name,
+            params,
+            preset: mf.preset.as_ref().map(|p| p.get_ref().clone()),
+        });
+    }
+    Ok(materials)
+}
+
+/// One entry of a material's `params`: a number, [r, g, b], or a name (a choice such as a
+/// distribution), checked by the model's own parameter table.
+fn set_param(
+    loc: &Locator,
+    params: &mut ParamSet,
+    key: &str,
+    v: &Spanned<toml::Value>,
+) -> Result<(), SceneError> {
+    let value = match v.get_ref() {
+        toml::Value::String(s) => {
+            return params
+                .set_text(&format!("{key}={s}"))
+                .map_err(|e| loc.at(v.span(), e.to_string()));
+        }
+        toml::Value::Float(x) => Value::One(*x),
+        toml::Value::Integer(i) => Value::One(*i as f64),
+        toml::Value::Array(a) if a.len() == 3 => match rgb_of(v.get_ref()) {
+            Some(c) => Value::Three(c.to_array()),
+            None => {
+                return Err(loc.at(
+                    v.span(),
+                    format!("parameter '{key}': expected three numbers [r, g, b]"),
+                ))
+            }
+        },
+        other => {
+            return Err(loc.at(
+                v.span(),
+                format!(
+                    "parameter '{key}': expected a number, [r, g, b] or a name, not {}",
+                    other.type_str()
+                ),
+            ))
+        }
+    };
+    params
+        .set(key, value)
+        .map_err(|e| loc.at(v.span(), e.to_string()))
+}
+
+/// The index of the material `s` names.
+fn find_material(
+    loc: &Locator,
+    materials: &[Material],
+    s: &Spanned<String>,
+) -> Result<usize, SceneError> {
+    materials
+        .iter()
+        .position(|m| m.name == *s.get_ref())
+        .ok_or_else(|| {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            loc.at(
+                s.span(),
+                format!(
+                    "unknown material '{}'; the scene's materials are: {}",
+                    s.get_ref(),
+                    if names.is_empty() {
+                        "(none: add a [[materials]] section)".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ),
+            )
+        })
+}
+
+/// The output paths claimed so far, by name without extension: a table writes .npy and .json
+/// beside its .exr, a preview its .exr beside the .png, so two outputs may not share a stem.
+#[derive(Default)]
+struct OutputNames {
+    taken: Vec<(PathBuf, Range<usize>)>,
+}
+
+impl OutputNames {
+    /// Checks the output `s` of a `what` (ending in `.ext`) and claims its name.
+    fn claim(
+        &mut self,
+        loc: &Locator,
+        s: &Spanned<String>,
+        ext: &str,
+        what: &str,
+    ) -> Result<PathBuf, SceneError> {
+        let p = PathBuf::from(s.get_ref());
+        if s.get_ref().trim().is_empty() {
+            return Err(loc.at(s.span(), format!("{what} output: empty path")));
+        }
+        if p.extension().and_then(|e| e.to_str()) != Some(ext) {
+            return Err(loc.at(
+                s.span(),
+                format!("{what} output '{}' must end in .{ext}", s.get_ref()),
+            ));
+        }
+        let stem = p.with_extension("");
+        if let Some((_, first)) = self.taken.iter().find(|(q, _)| *q == stem) {
+            let (line, _) = line_column(loc.text, first.start);
+            return Err(loc.at(
+                s.span(),
+                format!(
+                    "output '{}' clashes with the output on line {line} (same name before the extension)",
+                    s.get_ref()
+                ),
+            ));
+        }
+        self.taken.push((stem, s.span()));
+        Ok(p)
+    }
+}
+
+/// A resolution key, when given: at least 1.
+fn count(loc: &Locator, v: &Option<Spanned<i64>>, key: &str) -> Result<Option<usize>, SceneError> {
+    let Some(v) = v else {
+        return Ok(None);
+    };
+    let n = *v.get_ref();
+    if n < 1 {
+        return Err(loc.at(v.span(), format!("{key} = {n}: expected at least 1")));
+    }
+    usize::try_from(n)
+        .map(Some)
+        .map_err(|_| loc.at(v.span(), format!("{key} = {n} is too large")))
+}
+
+/// An angle in degrees with at most three decimals, for the log.
+fn degrees(x: f64) -> String {
+    let s = format!("{x:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// One `[[tables]]` section: its grid follows the material's isotropy unless `grid` says.
+///
+/// The azimuth rule: `n_phi` always counts cells over the full circle [0, 360 deg). The
+/// isotropic grids (`isotropic`, and `halfdiff` on an isotropic material) have instead one
+/// azimuth axis over the half circle [0, 180 deg] (dphi, or phi_d); `n_dphi` gives its cells.
+/// Without `n_dphi` that axis takes n_phi / 2 cells, the same angular step as n_phi cells over
+/// the full circle, and an odd n_phi is refused because no whole number of cells keeps its step.
+/// The job's [`TableJob::resolution`] says which rule gave each axis its cells.
+fn table(
+    loc: &Locator,
+    t: &Spanned<TableFile>,
+    materials: &[Material],
+    names: &mut OutputNames,
+) -> Result<TableJob, SceneError> {
+    let tf = t.get_ref();
+    let material = find_material(loc, materials, &tf.material)?;
+    let m = &materials[material];
+    let params = &m.params;
+    let n_theta = count(loc, &tf.n_theta, "n_theta")?.unwrap_or(DEFAULT_N_THETA);
+    let n_phi = count(loc, &tf.n_phi, "n_phi")?.unwrap_or(DEFAULT_N_PHI);
+    let n_dphi = count(loc, &tf.n_dphi, "n_dphi")?;
+    let (kind, kind_span) = match &tf.grid {
+        None => ("auto", t.span()),
+        Some(g) => (g.get_ref().as_str(), g.span()),
+    };
+    let halfdiff = kind == "halfdiff";
+    let isotropic = match kind {
+        "auto" | "halfdiff" => params.is_isotropic(),
+        "isotropic" if !params.is_isotropic() => {
+            return Err(loc.at(
+                kind_span,
+                format!(
+                    "grid = \"isotropic\" needs an isotropic material, but '{}' ({} {}) is anisotropic; use grid = \"full\" or \"auto\"",
+                    m.name,
+                    params.model().name(),
+                    params.to_text()
+                ),
+            ))
+        }
+        "isotropic" => true,
+        "full" => false,
+        other => {
+            return Err(loc.at(
+                kind_span,
+                format!("unknown grid '{other}'; the grids are: auto, full, isotropic, halfdiff"),
+            ))
+        }
+    };
+    let grid_name = match (halfdiff, isotropic) {
+        (true, _) => "halfdiff",
+        (false, true) => "isotropic",
+        (false, false) => "full",
+    };
+    let reason = match kind {
+        "auto" | "halfdiff" => format!(
+            "grid = \"{kind}\" and '{}' is {}",
+            m.name,
+            if isotropic {
+                "isotropic"
+            } else {
+                "anisotropic"
+            }
+        ),
+        _ => format!("grid = \"{kind}\""),
+    };
+    let by_default = |v: &Option<Spanned<i64>>| if v.is_none() { " by default" } else { "" };
+    let thetas = if halfdiff {
+        "theta_h, theta_d"
+    } else {
+        "theta_i, theta_o"
+    };
+    let theta_text = format!(
+        "{thetas}: {n_theta} cells each over [0, 90 deg] (n_theta = {n_theta}{})",
+        by_default(&tf.n_theta)
+    );
+    // (cells of the azimuth axes, how they follow from the keys, the key to lower if too large)
+    let (n_azimuth, azimuth_text, given) = if isotropic {
+        let axis = if halfdiff { "phi_d" } else { "dphi" };
+        match (&tf.n_phi, n_dphi) {
+            (Some(p), Some(d)) => {
+                return Err(loc.at(
+                    p.span(),
+                    format!(
+                        "n_phi = {n_phi} and n_dphi = {d} both given, but the {grid_name} grid of '{}' ({reason}) has one azimuth axis, {axis} over [0, 180 deg]; keep n_dphi (its cells) or n_phi (cells over [0, 360 deg), of which it takes half)",
+                        m.name
+                    ),
+                ))
+            }
+            (_, Some(d)) => (
+                d,
+                format!("{axis}: {d} cells over [0, 180 deg] (n_dphi = {d})"),
+                format!("n_dphi = {d}"),
+            ),
+            (p, None) => {
+                if n_phi % 2 == 1 {
+                    let span = p.as_ref().map_or(t.span(), |s| s.span());
+                    return Err(loc.at(
+                        span,
+                        format!(
+                            "n_phi = {n_phi} is odd, but the {grid_name} grid of '{}' ({reason}) covers [0, 180 deg] with n_phi / 2 cells of the width n_phi gives over [0, 360 deg); use an even n_phi, or n_dphi = the cells over [0, 180 deg]",
+                            m.name
+                        ),
+                    ));
+                }
+                let d = n_phi / 2;
+                (
+                    d,
+                    format!(
+                        "{axis}: {d} cells over [0, 180 deg], half of n_phi = {n_phi}{} over [0, 360 deg) for the same {} deg step",
+                        by_default(p),
+                        degrees(360.0 / n_phi as f64)
+                    ),
+                    format!("n_phi = {n_phi}"),
+                )
+            }
+        }
+    } else {
+        if let Some(d) = &tf.n_dphi {
+            return Err(loc.at(
+                d.span(),
+                format!(
+                    "n_dphi = {}: the {grid_name} grid of '{}' ({reason}) has no [0, 180 deg] azimuth axis; give n_phi, the cells over [0, 360 deg)",
+                    d.get_ref(),
+                    m.name
+                ),
+            ));
+        }
+        let phis = if halfdiff {
+            "phi_h, phi_d"
+        } else {
+            "phi_i, phi_o"
+        };
+        (
+            n_phi,
+            format!(
+                "{phis}: {n_phi} cells each over [0, 360 deg) (n_phi = {n_phi}{})",
+                by_default(&tf.n_phi)
+            ),
+            format!("n_phi = {n_phi}"),
+        )
+    };
+    let grid = match (halfdiff, isotropic) {
+        (true, true) => Grid::HalfDiff {
+            n_theta_h: n_theta,
+            n_theta_d: n_theta,
+            n_phi_d: n_azimuth,
+        },
+        (false, true) => Grid::Isotropic {
+            n_theta_i: n_theta,
+            n_theta_o: n_theta,
+            n_dphi: n_azimuth,
+        },
+        (true, false) => Grid::HalfDiffFull {
+            n_theta_h: n_theta,
+            n_phi_h: n_azimuth,
+            n_theta_d: n_theta,
+            n_phi_d: n_azimuth,
+        },
+        (false, false) => Grid::Full {
+            n_theta_i: n_theta,
+            n_phi_i: n_azimuth,
+            n_theta_o: n_theta,
+            n_phi_o: n_azimuth,
+        },
+    };
+    match grid.cells() {
+        Some(c) if c <= MAX_TABLE_CELLS => {}
+        _ => {
+            let span = tf.n_theta.as_ref().map_or(t.span(), |s| s.span());
+            return Err(loc.at(
+                span,
+                format!(
+                    "the {} table of '{}' would have more than {MAX_TABLE_CELLS} cells (n_theta = {n_theta}, {given}); lower the resolution",
+                    grid.name(),
+                    m.name
+                ),
+            ));
+        }
+    }
+    Ok(TableJob {
+        material,
+        grid,
+        white_furnace: tf.white_furnace,
+        output: names.claim(loc, &tf.output, "exr", "table")?,
+        resolution: format!("{grid_name} grid since {reason}; {theta_text}; {azimuth_text}"),
+    })
+}
+
+/// One `[[albedos]]` section.
+fn albedo(
+    loc: &Locator,
+    a: &Spanned<AlbedoFile>,
+    materials: &[Material],
+    names: &mut OutputNames,
+) -> Result<AlbedoJob, SceneError> {
+    let af = a.get_ref();
+    let method = match &af.method {
+        None => Method::Peak,
+        Some(m) => Method::from_name(m.get_ref()).map_err(|e| loc.at(m.span(), e.to_string()))?,
+    };
+    let samples = match &af.samples {
+        None => method.default_samples(),
+        Some(n) if (16..=MAX_ALBEDO_SAMPLES).contains(n.get_ref()) => *n.get_ref() as usize,
+        Some(n) => {
+            return Err(loc.at(
+                n.span(),
+                format!(
+                    "samples = {}: expected nodes per view direction in [16, {MAX_ALBEDO_SAMPLES}]",
+                    n.get_ref()
+                ),
+            ))
+        }
+    };
+    Ok(AlbedoJob {
+        material: find_material(loc, materials, &af.material)?,
+        white_furnace: af.white_furnace,
+        method,
+        samples,
+        output: names.claim(loc, &af.output, "json", "albedo")?,
+    })
+}
+
+/// One `[[previews]]` section: rows materials, columns models.
+fn preview(
+    loc: &Locator,
+    p: &Spanned<PreviewFile>,
+    materials: &[Material],
+    lights: &[SceneLight],
+    names: &mut OutputNames,
+) -> Result<PreviewJob, SceneError> {
+    let pf = p.get_ref();
+    let rows: Vec<usize> = match &pf.materials {
+        None => (0..materials.len()).collect(),
+        Some(list) => list
+            .iter()
+            .map(|s| find_material(loc, materials, s))
+            .collect::<Result<_, _>>()?,
+    };
+    if rows.is_empty() {
+        return Err(loc.at(p.span(), "a preview needs at least one material"));
+    }
+    // One column per model name: the header shows the name, and a material whose model has that
+    // name is drawn with its own parameters in it (see `Scene::cell_params`), so two microfacet
+    // materials of different distributions share the one "microfacet" column.
+    let models: Vec<Model> = match &pf.models {
+        None => {
+            let mut v: Vec<Model> = Vec::new();
+            for &r in &rows {
+                let m = materials[r].params.model();
+                if !v.iter().any(|x| x.name() == m.name()) {
+                    v.push(m);
+                }
+            }
+            v
+        }
+        Some(list) => {
+            if list.is_empty() {
+                return Err(loc.at(p.span(), "a preview needs at least one model"));
+            }
+            let mut v: Vec<Model> = Vec::new();
+            for s in list {
+                let m =
+                    Model::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?;
+                if v.iter().any(|x| x.name() == m.name()) {
+                    return Err(loc.at(
+                        s.span(),
+                        format!(
+                            "model '{}' is listed twice; each model is one column of the sheet",
+                            m.name()
+                        ),
+                    ));
+                }
+                v.push(m);
+            }
+            v
+        }
+    };
+    // A cell of another model than the material's own takes the material's preset for it.
+    for &r in &rows {
+        let m = &materials[r];
+        for &model in &models {
+            if model.name() != m.params.model().name() && m.preset.is_none() {
+                return Err(loc.at(
+                    p.span(),
+                    format!(
+                        "material '{}' has no preset, so it can be previewed only under its own model {}, not {}; give it a preset or list models = [\"{}\"]",
+                        m.name,
+                        m.params.model().name(),
+                        model.name(),
+                        m.params.model().name()
+                    ),
+                ));
+            }
+        }
+    }
+    let shape = match &pf.shape {
+        None => Shape::Sphere,
+        Some(s) => Shape::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?,
+    };
+    let cell = match &pf.cell {
+        None => preview::DEFAULT_CELL,
+        Some(c) => match u32::try_from(*c.get_ref()) {
+            Ok(v) if (1..=MAX_PREVIEW_CELL).contains(&v) => v,
+            _ => {
+                return Err(loc.at(
+                    c.span(),
+                    format!(
+                        "cell = {}: expected a cell size in [1, {MAX_PREVIEW_CELL}] pixels",
+                        c.get_ref()
+                    ),
+                ))
+            }
+        },
+    };
+    let exposure = match &pf.exposure {
+        None => 0.0,
+        Some(e) if e.get_ref().is_finite() => *e.get_ref(),
+        Some(e) => return Err(loc.at(e.span(), "exposure must be a finite number of stops")),
+    };
+    if lights.is_empty() {
+        return Err(loc.at(
+            p.span(),
+            "a preview needs lights: add [[lights]] sections to the scene",
+        ));
+    }
+    Ok(PreviewJob {
+        materials: rows,
+        models,
+        shape,
+        cell,
+        exposure,
+        output: names.claim(loc, &pf.output, "png", "preview")?,
+    })
+}
