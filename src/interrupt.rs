@@ -1,14 +1,13 @@
-//! Ctrl-C: the handler only sets a flag; long loops call [`check`] between chunks and return the
-//! error "interrupted", so that everything unwinds through the ordinary error path: temporary
-//! files are dropped (and so removed), no output is renamed into place, and the process exits
-//! with a message and a non-zero status instead of dying mid-write.
+//! Cancellation: whoever wants work stopped (a Ctrl-C handler, a GUI's cancel button, another
+//! thread) sets a [`CancelToken`]; long loops check it between chunks and return [`Interrupted`],
+//! so that everything unwinds through the ordinary error path: temporary files are dropped (and
+//! so removed), no output is renamed into place, and the caller reports a sentence instead of
+//! dying mid-write. The library installs no signal handler; the command line does.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-/// A flag shared between whoever wants work stopped (a Ctrl-C handler, a GUI's cancel button,
-/// another thread) and the job's loops, which check it between chunks and return [`Interrupted`].
-/// Clones share the flag.
+/// A flag shared between whoever wants work stopped and the job's loops. Clones share the flag.
 #[derive(Clone, Debug, Default)]
 pub struct CancelToken(Arc<AtomicBool>);
 
@@ -43,33 +42,7 @@ impl CancelToken {
     }
 }
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-/// The error a loop returns once Ctrl-C was pressed.
+/// The error a loop returns once its cancellation token is set.
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted (Ctrl-C); no partial output was kept")]
 pub struct Interrupted;
-
-/// Whether Ctrl-C was pressed.
-pub fn is_interrupted() -> bool {
-    INTERRUPTED.load(Ordering::SeqCst)
-}
-
-/// Err(Interrupted) once Ctrl-C was pressed.
-pub fn check() -> Result<(), Interrupted> {
-    if is_interrupted() {
-        Err(Interrupted)
-    } else {
-        Ok(())
-    }
-}
-
-/// Sets the flag as Ctrl-C would (for tests and for callers that stop work themselves).
-pub fn request() {
-    INTERRUPTED.store(true, Ordering::SeqCst);
-}
-
-/// Clears the flag (for tests).
-pub fn reset() {
-    INTERRUPTED.store(false, Ordering::SeqCst);
-}

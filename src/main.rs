@@ -530,7 +530,6 @@ fn install_ctrl_c() -> Result<()> {
                 std::process::exit(130);
             }
             token.cancel();
-            lobe::interrupt::request();
         })
         .map_err(|e| anyhow::anyhow!("installing the Ctrl-C handler: {e}"));
     });

@@ -415,7 +415,7 @@ fn a_tables_log_line_states_its_resolution() {
     let s = one_table("material = \"gold\"\nn_theta = 2\nn_phi = 8").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let mut lines = Vec::new();
-    s.run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |l| {
+    s.run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |l| {
         lines.push(l.to_string())
     })
     .unwrap();
@@ -459,7 +459,7 @@ output = "p.png"
     }
     // The EXR header lists the columns as the PNG labels them.
     let dir = tempfile::tempdir().unwrap();
-    s.run(&Evaluator::Cpu, dir.path(), Outputs::ALL, &mut |_| {})
+    s.run(&Evaluator::cpu(), dir.path(), Outputs::ALL, &mut |_| {})
         .unwrap();
     let image = exr::prelude::read_first_flat_layer_from_file(dir.path().join("p.exr")).unwrap();
     let columns: Vec<String> = image

@@ -2,11 +2,9 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::terms::{
-    half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular,
-};
+use super::registry::{white_specular_alone, LutAxis, ModelInfo};
+use super::terms::{half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, white_specular_alone};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -67,7 +65,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: false,
     pow_lobe: true,
     has_specular_fresnel: true,
-    lut_axis: LutAxis { keys: &["nu", "nv"], lo: 1.0, hi: 10000.0, mapping: Mapping::Log },
+    lut_axis: LutAxis {
+        keys: &["nu", "nv"],
+        lo: 1.0,
+        hi: 10000.0,
+        mapping: Mapping::Log,
+    },
     white: white_specular_alone,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: ashikhmin_shirley_exponent_at,
@@ -76,14 +79,14 @@ pub const INFO: ModelInfo = ModelInfo {
 
 /// The parameter edges `lobe stability` sweeps.
 const STABILITY_EDGES: &[&[&str]] = &[
-        &["diffuse=0", "specular=1", "nu=0", "nv=0"],
-        &["diffuse=0", "specular=1", "nu=1e5", "nv=1e5"],
-        &["diffuse=0", "specular=1", "nu=0", "nv=1e5"],
-        &["diffuse=0", "specular=1", "nu=1e5", "nv=0"],
-        &["diffuse=0", "specular=1", "nu=1", "nv=1e5"],
-        &["diffuse=0", "specular=1", "nu=1e6", "nv=1e6"],
-        &["diffuse=1", "specular=0", "nu=1e5", "nv=0"],
-    ];
+    &["diffuse=0", "specular=1", "nu=0", "nv=0"],
+    &["diffuse=0", "specular=1", "nu=1e5", "nv=1e5"],
+    &["diffuse=0", "specular=1", "nu=0", "nv=1e5"],
+    &["diffuse=0", "specular=1", "nu=1e5", "nv=0"],
+    &["diffuse=0", "specular=1", "nu=1", "nv=1e5"],
+    &["diffuse=0", "specular=1", "nu=1e6", "nv=1e6"],
+    &["diffuse=1", "specular=0", "nu=1e5", "nv=0"],
+];
 
 /// |x| of c_h^e = exp(e log c_h) at (ωi, ωo), e the anisotropic exponent.
 fn ashikhmin_shirley_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {

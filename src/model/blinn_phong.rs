@@ -2,9 +2,9 @@
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
 use super::params::ParamSpec;
+use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -56,7 +56,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: false,
     pow_lobe: true,
     has_specular_fresnel: false,
-    lut_axis: LutAxis { keys: &["smoothness"], lo: 0.0, hi: 1.0, mapping: Mapping::Linear },
+    lut_axis: LutAxis {
+        keys: &["smoothness"],
+        lo: 0.0,
+        hi: 1.0,
+        mapping: Mapping::Linear,
+    },
     white: white_specular_alone,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: blinn_phong_exponent_at,
@@ -65,12 +70,12 @@ pub const INFO: ModelInfo = ModelInfo {
 
 /// The parameter edges `lobe stability` sweeps.
 const STABILITY_EDGES: &[&[&str]] = &[
-        &["diffuse=0", "specular=1", "smoothness=0"],
-        &["diffuse=0", "specular=1", "smoothness=1e-4"],
-        &["diffuse=0", "specular=1", "smoothness=0.5"],
-        &["diffuse=0", "specular=1", "smoothness=0.9999"],
-        &["diffuse=0", "specular=1", "smoothness=1"],
-    ];
+    &["diffuse=0", "specular=1", "smoothness=0"],
+    &["diffuse=0", "specular=1", "smoothness=1e-4"],
+    &["diffuse=0", "specular=1", "smoothness=0.5"],
+    &["diffuse=0", "specular=1", "smoothness=0.9999"],
+    &["diffuse=0", "specular=1", "smoothness=1"],
+];
 
 /// |x| of c_h^N = exp(N log c_h) at (ωi, ωo), with log c_h from 1 − c_h without cancellation.
 fn blinn_phong_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {

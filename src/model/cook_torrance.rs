@@ -2,9 +2,9 @@
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
 use super::params::ParamSpec;
+use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -65,7 +65,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_specular_fresnel: true,
     // m = 0.01 (the sharpest lobe of the lab report's materials) to 1, denser where E changes
     // fastest.
-    lut_axis: LutAxis { keys: &["roughness"], lo: 0.01, hi: 1.0, mapping: Mapping::Square },
+    lut_axis: LutAxis {
+        keys: &["roughness"],
+        lo: 0.01,
+        hi: 1.0,
+        mapping: Mapping::Square,
+    },
     white: white_specular_alone,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: cook_torrance_exponent_at,
@@ -74,13 +79,13 @@ pub const INFO: ModelInfo = ModelInfo {
 
 /// The parameter edges `lobe stability` sweeps.
 const STABILITY_EDGES: &[&[&str]] = &[
-        &["diffuse=0", "specular=1", "roughness=1e-4", "ior=1"],
-        &["diffuse=0", "specular=1", "roughness=1e-4", "ior=5"],
-        &["diffuse=0", "specular=1", "roughness=1e-2", "ior=1"],
-        &["diffuse=0", "specular=1", "roughness=1e-2", "ior=5"],
-        &["diffuse=0", "specular=1", "roughness=1", "ior=1"],
-        &["diffuse=0", "specular=1", "roughness=1", "ior=5"],
-    ];
+    &["diffuse=0", "specular=1", "roughness=1e-4", "ior=1"],
+    &["diffuse=0", "specular=1", "roughness=1e-4", "ior=5"],
+    &["diffuse=0", "specular=1", "roughness=1e-2", "ior=1"],
+    &["diffuse=0", "specular=1", "roughness=1e-2", "ior=5"],
+    &["diffuse=0", "specular=1", "roughness=1", "ior=1"],
+    &["diffuse=0", "specular=1", "roughness=1", "ior=5"],
+];
 
 /// |x| of Beckmann's exp(−tan²θh/m²) at (ωi, ωo).
 fn cook_torrance_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {

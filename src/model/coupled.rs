@@ -2,9 +2,9 @@
 //! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
 
 use super::params::{ParamError, ParamSpec, Value};
+use super::registry::{always_isotropic, no_exponent, LutAxis, ModelInfo};
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -43,7 +43,8 @@ pub const GPU_LAYOUT: Layout = &[
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
     name: "coupled",
-    description: "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
+    description:
+        "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
     params: PARAMS,
     gpu_struct: "CoupledParams",
     gpu_layout: GPU_LAYOUT,
@@ -51,7 +52,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: true,
     pow_lobe: false,
     has_specular_fresnel: false,
-    lut_axis: LutAxis { keys: &["ior"], lo: 1.0, hi: 3.0, mapping: Mapping::Linear },
+    lut_axis: LutAxis {
+        keys: &["ior"],
+        lo: 1.0,
+        hi: 3.0,
+        mapping: Mapping::Linear,
+    },
     white: white_configuration,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,
@@ -59,7 +65,11 @@ pub const INFO: ModelInfo = ModelInfo {
 };
 
 /// The parameter edges `lobe stability` sweeps.
-const STABILITY_EDGES: &[&[&str]] = &[&["matte=1", "ior=1"], &["matte=1", "ior=5"], &["matte=0", "ior=5"]];
+const STABILITY_EDGES: &[&[&str]] = &[
+    &["matte=1", "ior=1"],
+    &["matte=1", "ior=5"],
+    &["matte=0", "ior=5"],
+];
 
 /// The white configuration: the matte layer at 1.
 fn white_configuration(p: &mut ParamSet) -> Result<bool, ParamError> {

@@ -1,8 +1,8 @@
 //! Lambert: f = albedo / π. Twin of `glsl/brdf/lambert.glsl`.
 
 use super::params::ParamSpec;
+use super::registry::{always_isotropic, no_exponent, white_albedo, LutAxis, ModelInfo};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent, white_albedo};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -41,7 +41,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: false,
     pow_lobe: false,
     has_specular_fresnel: false,
-    lut_axis: LutAxis { keys: &["albedo"], lo: 0.0, hi: 1.0, mapping: Mapping::Linear },
+    lut_axis: LutAxis {
+        keys: &["albedo"],
+        lo: 0.0,
+        hi: 1.0,
+        mapping: Mapping::Linear,
+    },
     white: white_albedo,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,

@@ -7,12 +7,12 @@
 //! so a pipeline holds only the components it uses.
 
 use super::params::ParamSpec;
+use super::registry::{white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{
     alpha_tan2, half_vector, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
     F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,
 };
 use super::{f32x3, Layout, Model, ParamSet, Value};
-use super::registry::{LutAxis, ModelInfo, white_specular_alone};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;

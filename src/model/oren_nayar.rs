@@ -2,8 +2,8 @@
 //! Twin of `glsl/brdf/oren_nayar.glsl`.
 
 use super::params::ParamSpec;
+use super::registry::{always_isotropic, no_exponent, white_albedo, LutAxis, ModelInfo};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent, white_albedo};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -50,7 +50,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: false,
     pow_lobe: false,
     has_specular_fresnel: false,
-    lut_axis: LutAxis { keys: &["sigma"], lo: 0.0, hi: FRAC_PI_2, mapping: Mapping::Linear },
+    lut_axis: LutAxis {
+        keys: &["sigma"],
+        lo: 0.0,
+        hi: FRAC_PI_2,
+        mapping: Mapping::Linear,
+    },
     white: white_albedo,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,
@@ -58,7 +63,11 @@ pub const INFO: ModelInfo = ModelInfo {
 };
 
 /// The parameter edges `lobe stability` sweeps.
-const STABILITY_EDGES: &[&[&str]] = &[&["sigma=0"], &["sigma=1e-4"], &["albedo=1", "sigma=1.5707963267948966"]];
+const STABILITY_EDGES: &[&[&str]] = &[
+    &["sigma=0"],
+    &["sigma=1e-4"],
+    &["albedo=1", "sigma=1.5707963267948966"],
+];
 
 impl OrenNayar {
     pub fn new(p: &ParamSet) -> Self {

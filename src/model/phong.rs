@@ -2,9 +2,9 @@
 //! r = 2 c_i n − ωi. Twin of `glsl/brdf/phong.glsl`.
 
 use super::params::ParamSpec;
+use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, pow1m};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, white_specular_alone};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -48,7 +48,8 @@ pub const GPU_LAYOUT: Layout = &[
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
     name: "phong",
-    description: "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
+    description:
+        "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
     params: PARAMS,
     gpu_struct: "PhongParams",
     gpu_layout: GPU_LAYOUT,
@@ -57,7 +58,12 @@ pub const INFO: ModelInfo = ModelInfo {
     pow_lobe: true,
     has_specular_fresnel: false,
     // Exponents 1 to 8192 (the lab report's largest): three and a half decades.
-    lut_axis: LutAxis { keys: &["shininess"], lo: 1.0, hi: 8192.0, mapping: Mapping::Log },
+    lut_axis: LutAxis {
+        keys: &["shininess"],
+        lo: 1.0,
+        hi: 8192.0,
+        mapping: Mapping::Log,
+    },
     white: white_specular_alone,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: phong_exponent_at,
@@ -66,13 +72,13 @@ pub const INFO: ModelInfo = ModelInfo {
 
 /// The parameter edges `lobe stability` sweeps.
 const STABILITY_EDGES: &[&[&str]] = &[
-        &["diffuse=0", "specular=1", "shininess=0"],
-        &["diffuse=0", "specular=1", "shininess=1e-4"],
-        &["diffuse=0", "specular=1", "shininess=1"],
-        &["diffuse=0", "specular=1", "shininess=8192"],
-        &["diffuse=0", "specular=1", "shininess=1e5"],
-        &["diffuse=0", "specular=1", "shininess=1e6"],
-    ];
+    &["diffuse=0", "specular=1", "shininess=0"],
+    &["diffuse=0", "specular=1", "shininess=1e-4"],
+    &["diffuse=0", "specular=1", "shininess=1"],
+    &["diffuse=0", "specular=1", "shininess=8192"],
+    &["diffuse=0", "specular=1", "shininess=1e5"],
+    &["diffuse=0", "specular=1", "shininess=1e6"],
+];
 
 /// |x| of the lobe's power cos^n = exp(n log(r·ωo)) at (ωi, ωo): n |log(1 − s)| with
 /// 1 − r·ωo = s = |r − ωo|²/2 computed without cancellation, capped short of 1 where the log

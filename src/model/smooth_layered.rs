@@ -3,9 +3,9 @@
 //! `glsl/brdf/smooth_layered.glsl`.
 
 use super::params::{ParamError, ParamSpec, Value};
+use super::registry::{always_isotropic, no_exponent, LutAxis, ModelInfo};
 use super::terms::{r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
-use super::registry::{LutAxis, ModelInfo, always_isotropic, no_exponent};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -44,7 +44,8 @@ pub const GPU_LAYOUT: Layout = &[
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
     name: "smooth_layered",
-    description: "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
+    description:
+        "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
     params: PARAMS,
     gpu_struct: "SmoothLayeredParams",
     gpu_layout: GPU_LAYOUT,
@@ -52,7 +53,12 @@ pub const INFO: ModelInfo = ModelInfo {
     has_delta: true,
     pow_lobe: false,
     has_specular_fresnel: false,
-    lut_axis: LutAxis { keys: &["ior"], lo: 1.0, hi: 3.0, mapping: Mapping::Linear },
+    lut_axis: LutAxis {
+        keys: &["ior"],
+        lo: 1.0,
+        hi: 3.0,
+        mapping: Mapping::Linear,
+    },
     white: white_configuration,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,

@@ -3,7 +3,7 @@
 use super::{AlbedoJob, Outputs, PreviewJob, RunSummary, Scene, TableJob, ALBEDO_MU};
 use crate::eval::Evaluator;
 use crate::preview::{self, Sheet};
-use crate::{integrate, interrupt, table};
+use crate::{integrate, table};
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 
@@ -44,19 +44,19 @@ impl Scene {
         };
         if what.tables {
             for t in &self.tables {
-                interrupt::check()?;
+                e.check_cancelled()?;
                 self.run_table(e, t, out_dir, &mut done)?;
             }
         }
         if what.albedos {
             for a in &self.albedos {
-                interrupt::check()?;
+                e.check_cancelled()?;
                 self.run_albedo(e, a, out_dir, &mut done)?;
             }
         }
         if what.previews {
             for p in &self.previews {
-                interrupt::check()?;
+                e.check_cancelled()?;
                 self.run_preview(e, p, out_dir, &mut done)?;
             }
         }
@@ -118,7 +118,7 @@ impl Scene {
         let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&mu| (mu, 0.0)).collect();
         let report = integrate::albedo_report(e, &m.params, &settings, &points, 0.0)
             .with_context(|| format!("albedo of material '{}'", m.name))?;
-        interrupt::check()?;
+        e.check_cancelled()?;
         let mut json = report.to_json(&m.params, a.white_furnace, &e.name());
         json["material"] = serde_json::json!(m.name);
         let tmp = table::temp_beside(&path)?;
@@ -155,7 +155,7 @@ impl Scene {
         let exr_path = path.with_extension("exr");
         let started = std::time::Instant::now();
         let image = preview::render(e, &sheet, &scene, &mut |_, _| {})?;
-        interrupt::check()?;
+        e.check_cancelled()?;
         preview::write_exr(&image, &sheet, &scene, &e.name(), &exr_path)?;
         let caption = preview::caption(&scene, p.exposure, &e.name());
         preview::write_png(&image, &sheet, p.exposure, &caption, &path)?;
