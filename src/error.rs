@@ -3,6 +3,7 @@
 
 use crate::gpu::GpuError;
 use crate::interrupt::Interrupted;
+use crate::model::runtime::NoReference;
 use crate::model::ParamError;
 
 /// Everything a [`crate::Session`] call can fail with.
@@ -20,14 +21,9 @@ pub enum Error {
     /// A request outside what the job accepts: the message names the input and its valid range.
     #[error("{0}")]
     Invalid(String),
-    /// The job needs the f64 CPU reference, which this model does not have.
-    #[error("model '{model}' has no f64 CPU reference, which {job} needs")]
-    NoReference {
-        /// The model's name.
-        model: String,
-        /// What needed the reference.
-        job: String,
-    },
+    /// The job needs the f64 CPU reference, which this model (defined at run time) lacks.
+    #[error(transparent)]
+    NoReference(#[from] NoReference),
     /// Reading or writing a file.
     #[error("{what}: {source}")]
     Io {
@@ -54,6 +50,10 @@ impl Error {
         };
         let e = match e.downcast::<GpuError>() {
             Ok(g) => return Error::Gpu(g),
+            Err(e) => e,
+        };
+        let e = match e.downcast::<NoReference>() {
+            Ok(n) => return Error::NoReference(n),
             Err(e) => e,
         };
         let io = e.chain().find_map(|c| c.downcast_ref::<std::io::Error>());

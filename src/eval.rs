@@ -122,6 +122,7 @@ impl<'a> Evaluator<'a> {
                 Ok(out.into_iter().map(|c| c.map(f64::from)).collect())
             }
             Backend::Cpu => {
+                params.model().require_reference("the CPU backend")?;
                 let r = Reference::new(params, white_furnace);
                 Ok(pairs
                     .par_iter()
@@ -160,6 +161,7 @@ impl<'a> Evaluator<'a> {
                 )
             }
             Backend::Cpu => {
+                params.model().require_reference("the CPU backend")?;
                 let r = Reference::new(params, white_furnace);
                 let cells = wi.len() as u64 * wo.len() as u64;
                 let n_wo = wo.len() as u64;

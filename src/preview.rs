@@ -532,6 +532,7 @@ pub fn render(
                         .with_context(|| format!("rendering the {} column", model.name()))?
                 }
                 Backend::Cpu => {
+                    model.require_reference("the CPU backend")?;
                     let refs: Vec<Reference> = group
                         .iter()
                         .map(|&row| Reference::new(&column[row], false))

@@ -416,6 +416,7 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
     let mut model_order: Vec<String> = Vec::new();
     for (mi, &model) in opts.models.iter().enumerate() {
         opts.backend.check_cancelled()?;
+        model.require_reference("the stability sweep")?;
         let label = model_label(model);
         (opts.progress)(&label);
         model_order.push(label.clone());

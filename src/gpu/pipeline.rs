@@ -5,7 +5,6 @@
 use super::buffer::Buffer;
 use super::device::Device;
 use super::error::{Context, GpuError, Result};
-use super::shaders;
 use crate::model::Model;
 use ash::vk;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -88,8 +87,9 @@ impl Pipeline {
     ) -> Result<Pipeline> {
         let start = Instant::now();
         let model = model_kind.name();
-        let bytes =
-            shaders::spirv(kernel.name(), model).ok_or_else(|| GpuError::MissingKernel {
+        let bytes = model_kind
+            .spirv(kernel.name())
+            .ok_or_else(|| GpuError::MissingKernel {
                 kernel: kernel.name().into(),
                 model: model.into(),
             })?;

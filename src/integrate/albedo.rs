@@ -48,10 +48,14 @@ pub fn directional(
     let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => rule_albedo(backend, params, s.white_furnace, rule, &wo)?,
         // The reference is the adaptive f64 integrator: it runs on the CPU whatever the backend.
-        None => wo
-            .par_iter()
-            .map(|&o| reference_albedo(&r, o, REFERENCE_RTOL))
-            .collect(),
+        None => {
+            params
+                .model()
+                .require_reference("the reference integrator")?;
+            wo.par_iter()
+                .map(|&o| reference_albedo(&r, o, REFERENCE_RTOL))
+                .collect()
+        }
     };
     Ok(points
         .iter()
@@ -141,7 +145,12 @@ pub fn hemispherical(
                 .collect();
             rule_albedo(backend, params, s.white_furnace, rule, &wo)?
         }
-        None => Vec::new(),
+        None => {
+            params
+                .model()
+                .require_reference("the reference integrator")?;
+            Vec::new()
+        }
     };
     // 2∫ E(μ, φo) μ dμ at azimuth index k.
     let e_avg_at = |k: usize| -> Estimate {

@@ -79,6 +79,7 @@ pub fn sum_rule(
 ) -> Result<Vec<(DVec3, u64)>> {
     match backend.backend() {
         Backend::Cpu => {
+            params.model().require_reference("the CPU backend")?;
             let r = Reference::new(params, white_furnace);
             let shared = (!rule.depends_on_wo()).then(|| rule.nodes(DVec3::Z));
             Ok(wo

@@ -12,6 +12,7 @@ pub mod params;
 pub mod phong;
 pub mod quadrature;
 pub mod registry;
+pub mod runtime;
 pub mod smooth_layered;
 pub mod terms;
 
@@ -42,6 +43,9 @@ pub enum Model {
     /// The general microfacet model; its components are part of the model because each choice
     /// is a different pipeline (specialization constants).
     Microfacet(MicrofacetConfig),
+    /// A model defined at run time ([`runtime::RuntimeModel`]): SPIR-V kernels from the caller,
+    /// and an f64 reference only where the caller gave one.
+    Runtime(&'static runtime::RuntimeModel),
 }
 
 impl Model {
@@ -73,14 +77,43 @@ impl Model {
     }
 
     /// Looks a model up by [`Model::name`].
+    /// Looks a model up by name: the built-in models, then those registered at run time.
     pub fn from_name(name: &str) -> Result<Model, ParamError> {
-        Model::ALL
-            .into_iter()
+        let known = || Model::ALL.into_iter().chain(runtime::registered());
+        known()
             .find(|m| m.name() == name)
             .ok_or_else(|| ParamError::UnknownModel {
                 name: name.to_string(),
-                list: Model::ALL.map(Model::name).join(", "),
+                list: known().map(Model::name).collect::<Vec<_>>().join(", "),
             })
+    }
+
+    /// Whether the model has an f64 CPU reference (every built-in model does).
+    pub fn has_reference(self) -> bool {
+        match self {
+            Model::Runtime(r) => r.reference().is_some(),
+            _ => true,
+        }
+    }
+
+    /// `Err(NoReference)` for a model without an f64 reference; `job` says what needed it.
+    pub fn require_reference(self, job: &str) -> Result<(), runtime::NoReference> {
+        if self.has_reference() {
+            Ok(())
+        } else {
+            Err(runtime::NoReference {
+                model: self.name().to_string(),
+                job: job.to_string(),
+            })
+        }
+    }
+
+    /// The SPIR-V of `kernel` for this model: built into the binary, or given at run time.
+    pub fn spirv(self, kernel: &str) -> Option<&'static [u8]> {
+        match self {
+            Model::Runtime(r) => r.kernel(kernel),
+            m => crate::gpu::shaders::spirv(kernel, m.name()),
+        }
     }
 
     /// One line for `lobe models`.
@@ -309,6 +342,7 @@ pub enum Brdf {
     Coupled(coupled::Coupled),
     AshikhminShirley(ashikhmin_shirley::AshikhminShirley),
     Microfacet(microfacet::Microfacet),
+    Runtime(runtime::RuntimeBrdf),
 }
 
 /// A model ready to evaluate on the CPU: parameters plus the white-furnace switch.
@@ -332,6 +366,7 @@ impl Brdf {
                 Brdf::AshikhminShirley(ashikhmin_shirley::AshikhminShirley::new(p))
             }
             Model::Microfacet(_) => Brdf::Microfacet(microfacet::Microfacet::new(p)),
+            Model::Runtime(r) => Brdf::Runtime(runtime::RuntimeBrdf::new(r, p)),
         }
     }
 
@@ -348,6 +383,7 @@ impl Brdf {
             Brdf::Coupled(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::AshikhminShirley(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::Microfacet(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::Runtime(m) => m.gpu_block(),
         }
     }
 }
@@ -376,6 +412,7 @@ impl Reference {
             Brdf::Coupled(p) => coupled::coupled(p, wi, wo),
             Brdf::AshikhminShirley(p) => ashikhmin_shirley::ashikhmin_shirley(p, wi, wo, wf),
             Brdf::Microfacet(p) => microfacet::microfacet(p, wi, wo, wf),
+            Brdf::Runtime(p) => p.eval(wi, wo),
         }
     }
 

@@ -49,9 +49,12 @@ impl ParamSet {
                 p.specular,
                 [beckmann(p.alpha_x), beckmann(p.alpha_y)],
             ),
-            Brdf::Lambert(_) | Brdf::OrenNayar(_) | Brdf::SmoothLayered(_) | Brdf::Coupled(_) => {
-                return None
-            }
+            // A model defined at run time states no lobes: cosine sampling alone.
+            Brdf::Lambert(_)
+            | Brdf::OrenNayar(_)
+            | Brdf::SmoothLayered(_)
+            | Brdf::Coupled(_)
+            | Brdf::Runtime(_) => return None,
         };
         Some(SamplingLobes {
             diffuse,

@@ -96,6 +96,7 @@ impl Model {
             Model::Coupled => &coupled::INFO,
             Model::AshikhminShirley => &ashikhmin_shirley::INFO,
             Model::Microfacet(_) => &microfacet::INFO,
+            Model::Runtime(r) => r.info(),
         }
     }
 

@@ -1,0 +1,341 @@
+//! Models defined at run time, beside the built-in closed set: a parameter table, SPIR-V kernels
+//! compiled by the caller (from a GLSL file, say), and, where one exists, an f64 reference. A
+//! model without a reference says so ([`Model::has_reference`]), and every job that needs the
+//! f64 reference (the CPU backend, the adaptive integrator, the stability sweep) refuses it with
+//! [`NoReference`].
+//!
+//! Registered models live for the rest of the process (their names must be unique), so that a
+//! [`Model`] stays a small `Copy` value whatever defined it.
+
+use super::params::{ParamError, ParamKind, ParamSpec};
+use super::registry::{no_exponent, LutAxis, ModelInfo};
+use super::{Model, ParamSet};
+use crate::lut::Mapping;
+use glam::DVec3;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+/// An f64 reference: f(ωi, ωo) from the parameter values in table order (an rgb key gives three
+/// numbers, a scalar one).
+pub type ReferenceFn = Arc<dyn Fn(&[f64], DVec3, DVec3) -> DVec3 + Send + Sync>;
+
+/// Most parameter numbers a run-time model may have (an rgb key counts three).
+pub const MAX_VALUES: usize = 64;
+
+/// What a job that needs the f64 reference says of a model that has none.
+#[derive(Debug, thiserror::Error)]
+#[error("model '{model}' has no f64 CPU reference (it was defined at run time without one), which {job} needs; evaluate it on the GPU backend")]
+pub struct NoReference {
+    /// The model's name.
+    pub model: String,
+    /// What needed the reference.
+    pub job: String,
+}
+
+/// A model defined at run time. Build it with [`RuntimeModel::new`], add kernels and a
+/// reference, then [`RuntimeModel::register`] it.
+pub struct RuntimeModel {
+    info: ModelInfo,
+    isotropic: bool,
+    kernels: BTreeMap<String, &'static [u8]>,
+    reference: Option<ReferenceFn>,
+}
+
+impl std::fmt::Debug for RuntimeModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RuntimeModel")
+            .field("name", &self.info.name)
+            .field("kernels", &self.kernels.keys().collect::<Vec<_>>())
+            .field("reference", &self.reference.is_some())
+            .finish()
+    }
+}
+
+/// Registered names are unique, so a model is its name.
+impl PartialEq for RuntimeModel {
+    fn eq(&self, other: &Self) -> bool {
+        self.info.name == other.info.name
+    }
+}
+
+impl Eq for RuntimeModel {}
+
+impl std::hash::Hash for RuntimeModel {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.info.name.hash(state)
+    }
+}
+
+impl PartialOrd for RuntimeModel {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for RuntimeModel {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.info.name.cmp(other.info.name)
+    }
+}
+
+fn leak(s: &str) -> &'static str {
+    Box::leak(s.to_string().into_boxed_str())
+}
+
+/// The std430 layout of a block holding the parameters in table order: a scalar is a `float`
+/// (4-byte aligned), an rgb key a `vec3` (16-byte aligned, 12 bytes); the block's size is rounded
+/// up to its largest alignment. A GLSL struct that declares the same members in the same order
+/// has exactly this layout.
+pub fn std430_layout(params: &[ParamSpec]) -> (Vec<(&'static str, usize)>, usize) {
+    let mut offset = 0usize;
+    let mut align = 4usize;
+    let mut out = Vec::new();
+    for p in params {
+        let (a, size) = match p.kind {
+            ParamKind::Rgb => (16, 12),
+            _ => (4, 4),
+        };
+        align = align.max(a);
+        offset = offset.div_ceil(a) * a;
+        out.push((p.key, offset));
+        offset += size;
+    }
+    (out, offset.div_ceil(align).max(1) * align)
+}
+
+fn runtime_of(p: &ParamSet) -> Option<&'static RuntimeModel> {
+    match p.model() {
+        Model::Runtime(r) => Some(r),
+        _ => None,
+    }
+}
+
+fn runtime_isotropic(p: &ParamSet) -> bool {
+    runtime_of(p).is_none_or(|r| r.isotropic)
+}
+
+/// A model defined at run time has no white configuration of its own: it is measured as given.
+fn as_given(_: &mut ParamSet) -> Result<bool, ParamError> {
+    Ok(false)
+}
+
+fn no_edges(_: Model) -> Vec<&'static [&'static str]> {
+    Vec::new()
+}
+
+static REGISTERED: Mutex<Vec<&'static RuntimeModel>> = Mutex::new(Vec::new());
+
+impl RuntimeModel {
+    /// A model named `name` with the parameter table `params` (numbers and rgb triples; named
+    /// choices select pipelines and exist for built-in models only).
+    pub fn new(
+        name: &str,
+        description: &str,
+        params: Vec<ParamSpec>,
+        isotropic: bool,
+    ) -> Result<RuntimeModel, ParamError> {
+        let valid_name = !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+        if !valid_name {
+            return Err(ParamError::UnknownModel {
+                name: name.to_string(),
+                list: "a model name made of letters, digits, '_', '-' and '.'".into(),
+            });
+        }
+        let numbers: usize = params
+            .iter()
+            .map(|p| if p.kind == ParamKind::Rgb { 3 } else { 1 })
+            .sum();
+        if let Some(p) = params
+            .iter()
+            .find(|p| matches!(p.kind, ParamKind::Choice(_)))
+        {
+            return Err(ParamError::Malformed {
+                key: p.key.to_string(),
+                text: "a named choice".into(),
+                expected: "a number or an rgb triple (a model defined at run time has no choices)"
+                    .into(),
+            });
+        }
+        if numbers > MAX_VALUES {
+            return Err(ParamError::Malformed {
+                key: name.to_string(),
+                text: format!("{numbers} parameter numbers"),
+                expected: format!("at most {MAX_VALUES}"),
+            });
+        }
+        let params: &'static [ParamSpec] = Box::leak(params.into_boxed_slice());
+        let (layout, size) = std430_layout(params);
+        // The default LUT axis: the first scalar over its range, else the first rgb key grey.
+        let lut_axis = params
+            .iter()
+            .find(|p| p.kind == ParamKind::Scalar)
+            .or(params.first())
+            .map(|p| LutAxis {
+                keys: Box::leak(vec![p.key].into_boxed_slice()),
+                lo: p.min,
+                hi: p.max,
+                mapping: Mapping::Linear,
+            })
+            .unwrap_or(LutAxis {
+                keys: &[],
+                lo: 0.0,
+                hi: 1.0,
+                mapping: Mapping::Linear,
+            });
+        Ok(RuntimeModel {
+            info: ModelInfo {
+                name: leak(name),
+                description: leak(description),
+                params,
+                gpu_struct: "Params",
+                gpu_layout: Box::leak(layout.into_boxed_slice()),
+                gpu_size: size,
+                has_delta: false,
+                has_specular_fresnel: false,
+                pow_lobe: false,
+                lut_axis,
+                white: as_given,
+                stability_edges: no_edges,
+                exponent: no_exponent,
+                is_isotropic: runtime_isotropic,
+            },
+            isotropic,
+            kernels: BTreeMap::new(),
+            reference: None,
+        })
+    }
+
+    /// Adds the SPIR-V of one kernel (`table`, `pairs`, `albedo`, `preview`), compiled against
+    /// the parameter block of [`std430_layout`].
+    pub fn with_kernel(mut self, kernel: &str, spirv: &[u8]) -> RuntimeModel {
+        self.kernels.insert(
+            kernel.to_string(),
+            Box::leak(spirv.to_vec().into_boxed_slice()),
+        );
+        self
+    }
+
+    /// Adds the f64 reference.
+    pub fn with_reference(mut self, reference: ReferenceFn) -> RuntimeModel {
+        self.reference = Some(reference);
+        self
+    }
+
+    /// Makes the model known to [`Model::from_name`] for the rest of the process and returns it.
+    /// Refuses a name that a built-in or registered model already has.
+    pub fn register(self) -> Result<Model, ParamError> {
+        let mut registered = REGISTERED.lock().unwrap_or_else(|e| e.into_inner());
+        let name = self.info.name;
+        let taken = Model::ALL.iter().any(|m| m.name() == name)
+            || registered.iter().any(|r| r.info.name == name);
+        if taken {
+            return Err(ParamError::Malformed {
+                key: "name".into(),
+                text: name.to_string(),
+                expected: "a name no other model has".into(),
+            });
+        }
+        let model: &'static RuntimeModel = Box::leak(Box::new(self));
+        registered.push(model);
+        Ok(Model::Runtime(model))
+    }
+
+    /// The model's description.
+    pub fn info(&self) -> &ModelInfo {
+        &self.info
+    }
+
+    /// The SPIR-V of `kernel`, if the model was given one.
+    pub fn kernel(&self, kernel: &str) -> Option<&'static [u8]> {
+        self.kernels.get(kernel).copied()
+    }
+
+    /// The f64 reference, if any.
+    pub fn reference(&self) -> Option<&ReferenceFn> {
+        self.reference.as_ref()
+    }
+}
+
+/// The registered run-time models, in the order they were registered.
+pub fn registered() -> Vec<Model> {
+    REGISTERED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .iter()
+        .map(|&r| Model::Runtime(r))
+        .collect()
+}
+
+/// A run-time model with its parameter values, ready to evaluate (a `Copy` value, as the
+/// built-in models' structs are).
+#[derive(Clone, Copy, Debug)]
+pub struct RuntimeBrdf {
+    /// The model.
+    pub model: &'static RuntimeModel,
+    values: [f64; MAX_VALUES],
+    len: usize,
+}
+
+impl RuntimeBrdf {
+    /// The values of `p` in table order.
+    pub fn new(model: &'static RuntimeModel, p: &ParamSet) -> RuntimeBrdf {
+        let mut values = [0.0; MAX_VALUES];
+        let mut len = 0;
+        for spec in model.info.params {
+            let n = if spec.kind == ParamKind::Rgb { 3 } else { 1 };
+            values[len..len + n].copy_from_slice(&p.get(spec.key).rgb()[..n]);
+            len += n;
+        }
+        RuntimeBrdf { model, values, len }
+    }
+
+    /// f from the reference; NaN where there is none (jobs refuse such models before they get
+    /// here, so a NaN is never silent: every check counts it).
+    pub fn eval(&self, wi: DVec3, wo: DVec3) -> DVec3 {
+        match &self.model.reference {
+            Some(f) => f(&self.values[..self.len], wi, wo),
+            None => DVec3::NAN,
+        }
+    }
+
+    /// The std430 parameter block ([`std430_layout`]) as bytes.
+    pub fn gpu_block(&self) -> Vec<u8> {
+        let info = &self.model.info;
+        let mut out = vec![0u8; info.gpu_size];
+        let mut k = 0;
+        for (spec, &(_, offset)) in info.params.iter().zip(info.gpu_layout) {
+            let n = if spec.kind == ParamKind::Rgb { 3 } else { 1 };
+            for c in 0..n {
+                let bytes = (self.values[k + c] as f32).to_le_bytes();
+                out[offset + 4 * c..offset + 4 * c + 4].copy_from_slice(&bytes);
+            }
+            k += n;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The built-in models' blocks follow the same std430 rules: lambert (one vec3) is 16 bytes,
+    /// phong (vec3 diffuse, float shininess, vec3 specular) 32.
+    #[test]
+    fn std430_layout_matches_the_built_in_blocks() {
+        let (l, size) = std430_layout(super::super::lambert::PARAMS);
+        assert_eq!((l, size), (vec![("albedo", 0)], 16));
+        let phong = [
+            super::super::phong::PARAMS[0],
+            super::super::phong::PARAMS[2],
+            super::super::phong::PARAMS[1],
+        ];
+        let (l, size) = std430_layout(&phong);
+        assert_eq!(l, vec![("diffuse", 0), ("shininess", 12), ("specular", 16)]);
+        assert_eq!(size, 32);
+        assert_eq!(size, super::super::phong::INFO.gpu_size);
+    }
+}

@@ -1,0 +1,149 @@
+//! Models defined at run time join the built-in set: registered with a parameter table and
+//! SPIR-V kernels, they evaluate on the GPU through the same pipelines; without an f64
+//! reference every job that needs one refuses with a sentence; with one, the CPU backend and the
+//! integrators use it. The kernels here are the built-in `lambert` kernels, so the expected
+//! values are exact: f = albedo/π (a closed form) and E = albedo (Lambert's albedo).
+
+mod common;
+
+use glam::DVec3;
+use lobe::gpu::{shaders, Gpu};
+use lobe::model::runtime::RuntimeModel;
+use lobe::model::{Model, ParamSet, ParamSpec};
+use lobe::{AlbedoSettings, Error, Evaluator, Session};
+use std::f64::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+/// The f32 GPU result of ρ/π against f64: one rounding of ρ, one of 1/π, one product.
+const F32_REL: f64 = 4.0 * f32::EPSILON as f64;
+
+/// A copy of `lambert` under another name, with lambert's kernels and, optionally, a reference.
+fn lambert_twin(name: &str, with_reference: bool) -> Model {
+    let params = vec![ParamSpec::rgb("albedo", 0.5, "diffuse reflectance")];
+    let mut m = RuntimeModel::new(name, "Lambert, defined at run time", params, true)
+        .expect("a valid run-time model");
+    for kernel in ["pairs", "table", "albedo", "preview"] {
+        let spirv = shaders::spirv(kernel, "lambert").expect("lambert's kernel");
+        m = m.with_kernel(kernel, spirv);
+    }
+    if with_reference {
+        m = m.with_reference(Arc::new(|v: &[f64], _wi: DVec3, _wo: DVec3| {
+            DVec3::new(v[0], v[1], v[2]) * FRAC_1_PI
+        }));
+    }
+    m.register().expect("a new name")
+}
+
+fn pairs() -> Vec<(DVec3, DVec3)> {
+    let d = |t: f64, p: f64| DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    vec![
+        (d(0.3, 0.0), d(1.2, 2.0)),
+        (d(1.5, 1.0), d(0.1, 4.0)),
+        (DVec3::Z, DVec3::Z),
+    ]
+}
+
+fn set(model: Model, albedo: &str) -> ParamSet {
+    let mut p = ParamSet::defaults(model);
+    p.set_text(&format!("albedo={albedo}")).expect("albedo");
+    p
+}
+
+#[test]
+fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
+    let model = lambert_twin("lambert_gpu_only", false);
+    assert_eq!(Model::from_name("lambert_gpu_only").unwrap(), model);
+    assert!(!model.has_reference());
+    let p = set(model, "0.2,0.4,0.8");
+
+    let cpu = Session::cpu();
+    let e = cpu.eval_pairs(&p, false, &pairs()).unwrap_err();
+    assert!(matches!(e, Error::NoReference(_)), "{e}");
+    assert!(
+        e.to_string().contains("lambert_gpu_only") && e.to_string().contains("no f64"),
+        "{e}"
+    );
+    let e = cpu
+        .stability(vec![model], &mut |_| {})
+        .expect_err("the sweep needs the reference");
+    assert!(matches!(e, Error::NoReference(_)), "{e}");
+
+    let Some(dev) = common::gpu_device("run-time model on the GPU") else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    let f = Evaluator::gpu(&gpu)
+        .eval_pairs(&p, false, &pairs())
+        .expect("gpu");
+    for v in &f {
+        for (c, rho) in [0.2, 0.4, 0.8].into_iter().enumerate() {
+            let want = rho * FRAC_1_PI;
+            assert!((v[c] - want).abs() <= F32_REL * want, "{v:?} vs {want}");
+        }
+    }
+    // Its GPU albedo by a fixed rule works (no reference needed) and gives E = albedo.
+    let s = AlbedoSettings {
+        method: lobe::integrate::Method::Gauss,
+        samples: 4096,
+        white_furnace: false,
+    };
+    let e = lobe::integrate::directional(&Evaluator::gpu(&gpu), &p, &s, &[(0.5, 0.0)])
+        .expect("gpu albedo");
+    assert!((e[0].albedo.z - 0.8).abs() < 1e-5, "{:?}", e[0].albedo);
+    let e = lobe::integrate::directional(
+        &Evaluator::gpu(&gpu),
+        &p,
+        &AlbedoSettings {
+            method: lobe::integrate::Method::Reference,
+            ..s
+        },
+        &[(0.5, 0.0)],
+    )
+    .expect_err("the reference integrator needs the f64 reference");
+    assert!(format!("{e:#}").contains("no f64 CPU reference"), "{e:#}");
+    common::assert_validation_clean(&gpu, "run-time model on the GPU");
+}
+
+#[test]
+fn a_model_with_reference_runs_on_both_backends() {
+    let model = lambert_twin("lambert_with_reference", true);
+    let p = set(model, "0.6");
+    let cpu = Session::cpu();
+    let f = cpu.eval_pairs(&p, false, &pairs()).expect("cpu");
+    assert!(f.iter().all(|v| v[1] == 0.6 * FRAC_1_PI), "{f:?}");
+    // The adaptive reference integrates the run-time reference: E = albedo.
+    let s = AlbedoSettings {
+        method: lobe::integrate::Method::Reference,
+        samples: 0,
+        white_furnace: false,
+    };
+    let e = cpu
+        .directional_albedo(&p, &s, &[(0.3, 0.0)])
+        .expect("albedo");
+    assert!((e[0].albedo.x - 0.6).abs() < 1e-9, "{:?}", e[0].albedo);
+    // Tables from the built-in lambert and its run-time twin agree value for value.
+    let grid = lobe::grid::Grid::Isotropic {
+        n_theta_i: 3,
+        n_theta_o: 4,
+        n_dphi: 5,
+    };
+    let twin = cpu.table(&p, false, &grid, 1 << 10).expect("twin table");
+    let builtin = cpu
+        .table(&set(Model::Lambert, "0.6"), false, &grid, 1 << 10)
+        .expect("lambert table");
+    assert_eq!(twin, builtin);
+}
+
+#[test]
+fn bad_run_time_models_are_refused_with_a_sentence() {
+    let e = RuntimeModel::new("lambert", "a clash", vec![], true)
+        .unwrap()
+        .register()
+        .unwrap_err();
+    assert!(e.to_string().contains("a name no other model has"), "{e}");
+    let e = RuntimeModel::new("has space", "", vec![], true).unwrap_err();
+    assert!(e.to_string().contains("letters, digits"), "{e}");
+    let choice = ParamSpec::choice("kind", &["a", "b"], 0, "a choice");
+    let e = RuntimeModel::new("with_choice", "", vec![choice], true).unwrap_err();
+    assert!(e.to_string().contains("no choices"), "{e}");
+}
