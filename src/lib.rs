@@ -24,6 +24,7 @@ pub mod scene;
 pub mod session;
 pub mod stability;
 pub mod table;
+pub mod tolerance;
 pub mod tradeoff;
 
 pub use error::{Error, Result};

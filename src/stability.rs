@@ -14,7 +14,7 @@
 //! values widened to f64 (as the parity test does). The GPU-vs-CPU error is reported two ways: as
 //! a relative error with an absolute floor of [`REL_FLOOR`] (so that values far below anything a
 //! renderer resolves do not dominate), and as a fraction of the tolerance the parity test allows
-//! ([`parity_tolerance`]): a ratio above 1 is a value the parity test would reject.
+//! ([`crate::tolerance`]): a ratio above 1 is a value the parity test would reject.
 
 use crate::eval::Evaluator;
 use crate::gpu::GpuPair;
@@ -26,65 +26,15 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// f32 machine epsilon.
-pub const EPS32: f64 = f32::EPSILON as f64;
+pub use crate::tolerance::{conditioning, parity_tolerance, EPS32};
 
-/// The parity test's tolerance model (tests/parity.rs states the same constants with their
-/// reasons; they are repeated here so that the sweep can express its errors in the test's units):
-/// |g − c| ≤ ATOL + (RTOL_BASE + EXPONENT_FACTOR·ε·|x|)·|c| + spread, per channel, where x is the
-/// argument of the exponential the model evaluates and spread is the f64 reference's change over
-/// an 8-ε neighbourhood of the directions (input conditioning).
-pub mod tolerance {
-    use super::EPS32;
-    /// A smooth formula in f32: a few dozen roundings plus exp/pow's 3 + 2|x| ulp: 64 ε ≈ 7.6e-6.
-    pub const RTOL_BASE: f64 = 64.0 * EPS32;
-    /// exp(x) may be off by 3 + 2|x| ulp on a conforming device; a margin of 2 over that bound.
-    pub const EXPONENT_FACTOR: f64 = 4.0;
-    /// The directions the GPU sees are off by a few ε: the reference's spread over 8 ε.
-    pub const PERTURBATION: f64 = 8.0 * EPS32;
-    /// 1/sr: far below anything a renderer resolves; an f32 exp underflows to 0 long before f64.
-    pub const ATOL: f64 = 1e-6;
-}
-
-/// Denominator floor of the relative error, 1/sr: the parity test's absolute tolerance.
-pub const REL_FLOOR: f64 = tolerance::ATOL;
+/// Denominator floor of the relative error, 1/sr: the tolerance model's absolute tolerance.
+pub const REL_FLOOR: f64 = crate::tolerance::ATOL;
 
 /// |x| of the exponential exp(x) the model evaluates at (ωi, ωo) (see the tolerance model); the
 /// model states it ([`crate::model::ModelInfo::exponent`]).
 pub fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
     params.exponent_at(wi, wo)
-}
-
-/// The largest change of the f64 reference when ωi or ωo moves by [`tolerance::PERTURBATION`]
-/// along each axis: the input conditioning that no f32 implementation can beat.
-pub fn conditioning(r: &Reference, wi: DVec3, wo: DVec3, c: DVec3) -> DVec3 {
-    let mut worst = DVec3::ZERO;
-    for axis in [
-        DVec3::X,
-        DVec3::Y,
-        DVec3::Z,
-        -DVec3::X,
-        -DVec3::Y,
-        -DVec3::Z,
-    ] {
-        let d = axis * tolerance::PERTURBATION;
-        for (a, b) in [((wi + d).normalize(), wo), (wi, (wo + d).normalize())] {
-            let v = r.eval(a, b) - c;
-            // A non-finite neighbour says nothing about conditioning; the sweep counts it apart.
-            if v.is_finite() {
-                worst = worst.max(v.abs());
-            }
-        }
-    }
-    worst
-}
-
-/// The per-channel tolerance the parity test allows for a GPU value at (ωi, ωo), given the
-/// reference value `c` there. `params` must be the f32-rounded set the GPU received.
-pub fn parity_tolerance(params: &ParamSet, r: &Reference, wi: DVec3, wo: DVec3, c: DVec3) -> DVec3 {
-    use tolerance::*;
-    let rtol = RTOL_BASE + EXPONENT_FACTOR * EPS32 * exponent_at(params, wi, wo);
-    DVec3::splat(ATOL) + rtol * c.abs() + conditioning(r, wi, wo, c)
 }
 
 /// One parameter edge of a model: a label and the (valid) parameter set.

@@ -11,12 +11,9 @@ mod common;
 use glam::DVec3;
 use lobe::gpu::{Gpu, GpuPair};
 use lobe::grid::direction;
-use lobe::model::ashikhmin_shirley::ashikhmin_shirley_exponent;
 use lobe::model::microfacet::MicrofacetConfig;
-use lobe::model::terms::{log1m, one_minus_cos_theta};
-use lobe::model::{
-    blinn_phong::blinn_phong_exponent, Brdf, Model, ParamKind, ParamSet, Reference, Value,
-};
+use lobe::model::{Brdf, Model, ParamKind, ParamSet, Reference, Value};
+use lobe::tolerance::{self, ATOL, EPS32};
 use lobe::{material, resolve_params};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -27,75 +24,8 @@ const RANDOM_PAIRS: usize = 160;
 /// Random parameter sets per microfacet component combination (48 combinations).
 const MICROFACET_SETS: usize = 24;
 
-/// f32 machine epsilon.
-const EPS32: f64 = f32::EPSILON as f64;
-/// Relative tolerance for a smooth formula evaluated in f32: a few dozen roundings of ε = 1.2e-7
-/// each (normalize, dot products, Schlick's fifth power, divisions) plus `exp`/`pow` whose Vulkan
-/// bound is 3 + 2|x| ULP. 64 ε ≈ 7.6e-6.
-const RTOL_BASE: f64 = 64.0 * EPS32;
-/// Exponentials: the lobes are exp(x) with x = n·log(1 − s) (Phong, Blinn–Phong,
-/// Ashikhmin–Shirley, with s = 1 − cos taken from the geometry without cancellation) or
-/// x = −tan²θh/m² (Beckmann). The Vulkan spec allows exp an error of 3 + 2|x| ulp, so the tolerance
-/// grows by 2 ε per unit of |x|; this factor keeps a margin of 2 over that bound.
-const EXPONENT_FACTOR: f64 = 4.0;
-/// Input conditioning: the GPU computes dot products of f32 vectors, each off by a few ε in
-/// absolute terms, so where f depends steeply on the directions (a cosine that results from
-/// cancellation, such as r·ωo near 0 at grazing, raised to a small power n: x^n has an infinite
-/// slope at 0) no f32 implementation can do better than f varies over that neighbourhood. The
-/// tolerance therefore adds the spread of the f64 reference over directions perturbed by this angle
-/// (radians): 8 ε.
-const PERTURBATION: f64 = 8.0 * EPS32;
-/// Absolute tolerance in 1/sr: values this small are far below anything a renderer can resolve,
-/// and an f32 exp underflows to 0 where the f64 value is still ~1e-40.
-const ATOL: f64 = 1e-6;
-
-/// |x| of the exponential exp(x) a model evaluates at this configuration (see EXPONENT_FACTOR).
-fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
-    let h = (wi + wo).normalize();
-    let s_h = one_minus_cos_theta(h);
-    match params.model() {
-        Model::Phong => {
-            let r = DVec3::new(-wi.x, -wi.y, wi.z);
-            let s = (0.5 * (r - wo).length_squared()).min(0.999_999);
-            params.scalar("shininess") * log1m(s).abs()
-        }
-        Model::BlinnPhong => blinn_phong_exponent(params.scalar("smoothness")) * log1m(s_h).abs(),
-        Model::AshikhminShirley => {
-            ashikhmin_shirley_exponent(h, params.scalar("nu"), params.scalar("nv"))
-                * log1m(s_h).abs()
-        }
-        Model::CookTorrance => {
-            let m = params.scalar("roughness");
-            (h.x * h.x + h.y * h.y) / (h.z * h.z) / (m * m)
-        }
-        Model::Microfacet(c) if c.distribution == 0 => {
-            let m = lobe::model::microfacet::Microfacet::new(params);
-            (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
-                / (h.z * h.z)
-        }
-        _ => 0.0,
-    }
-}
-
-/// The largest change of the f64 reference when ωi or ωo moves by PERTURBATION along each axis.
-fn spread(r: &Reference, wi: DVec3, wo: DVec3, c: DVec3) -> DVec3 {
-    let mut worst = DVec3::ZERO;
-    for axis in [
-        DVec3::X,
-        DVec3::Y,
-        DVec3::Z,
-        -DVec3::X,
-        -DVec3::Y,
-        -DVec3::Z,
-    ] {
-        let d = axis * PERTURBATION;
-        for (a, b) in [((wi + d).normalize(), wo), (wi, (wo + d).normalize())] {
-            worst = worst.max((r.eval(a, b) - c).abs());
-        }
-    }
-    worst
-}
-
+// The tolerance model, with the reason for each term, is lobe::tolerance (docs/design.md §10):
+// the same one `lobe stability` and the demo report against.
 fn random_params(model: Model, rng: &mut common::Rng) -> ParamSet {
     let mut p = ParamSet::defaults(model);
     for spec in model.params() {
@@ -305,8 +235,8 @@ fn compare(
             let p32 = p.rounded_to_f32();
             let reference = Reference::new(&p32, white_furnace);
             let c = reference.eval(*wi, *wo);
-            let conditioning = spread(&reference, *wi, *wo, c);
-            let rtol = RTOL_BASE + EXPONENT_FACTOR * EPS32 * exponent_at(&p32, *wi, *wo);
+            let conditioning = tolerance::conditioning(&reference, *wi, *wo, c);
+            let rtol = tolerance::relative(&p32, *wi, *wo);
             for ch in 0..3 {
                 let (gv, cv) = (g[ch] as f64, c[ch]);
                 n += 1;

@@ -287,7 +287,7 @@ pub(super) fn page(
             let [a, b, c] = r.settings.parity_grid;
             let _ = writeln!(
                 h,
-                "<p>The GPU kernels (f32, on <b>{}</b>) against the CPU reference (f64), per model, at every material preset, on θi × θo × φo = {a} × {b} × {c} cell-centred directions (φi = 0). Both sides see the same f32-rounded inputs. <i>rel. error</i> is |g − c| / max(|c|, {REL_FLOOR:.0e} sr⁻¹); <i>error / tolerance</i> uses the parity test's model (tests/parity.rs): |g − c| ≤ 10⁻⁶ sr⁻¹ + (64ε + 8ε|x|)·|c| + the reference's spread over an 8ε change of direction, x the exponent of the lobe's exp and ε the f32 epsilon; a ratio above 1 fails.</p>",
+                "<p>The GPU kernels (f32, on <b>{}</b>) against the CPU reference (f64), per model, at every material preset, on θi × θo × φo = {a} × {b} × {c} cell-centred directions (φi = 0). Both sides see the same f32-rounded inputs. <i>rel. error</i> is |g − c| / max(|c|, {REL_FLOOR:.0e} sr⁻¹); <i>error / tolerance</i> uses the tolerance model of docs/design.md §10: |g − c| ≤ 10⁻⁶ sr⁻¹ + (64ε + 4ε|x|)·|c| + the reference's spread over an 8ε change of direction, x the exponent of the lobe's exp and ε the f32 epsilon; a ratio above 1 fails.</p>",
                 esc(&r.backend)
             );
             let _ = writeln!(h, "<table id=\"parity\"><tr><th>model</th><th>values</th><th>max rel. error</th><th>max error / tolerance</th><th>over tolerance</th><th>worst at</th></tr>");
