@@ -172,7 +172,7 @@ fn report(gpu: &Gpu, test: &str, summary: &[String], failures: &[String]) {
         gpu.device().name(),
         summary.join("\n")
     );
-    common::assert_validation_clean(&gpu, test);
+    common::assert_validation_clean(gpu, test);
     assert!(
         failures.is_empty(),
         "{} GPU values outside tolerance; first 20:\n{}",

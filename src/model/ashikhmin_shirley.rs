@@ -74,7 +74,7 @@ pub const INFO: ModelInfo = ModelInfo {
     white: white_specular_alone,
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: ashikhmin_shirley_exponent_at,
-    is_isotropic: is_isotropic,
+    is_isotropic,
 };
 
 /// The parameter edges `lobe stability` sweeps.

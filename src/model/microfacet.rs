@@ -225,9 +225,9 @@ pub const INFO: ModelInfo = ModelInfo {
     has_specular_fresnel: true,
     lut_axis: LutAxis { keys: &["alpha"], lo: 0.01, hi: 1.0, mapping: Mapping::Square },
     white: white_specular_alone,
-    stability_edges: stability_edges,
+    stability_edges,
     exponent: microfacet_exponent_at,
-    is_isotropic: is_isotropic,
+    is_isotropic,
 };
 
 /// |x| of Beckmann's exp(−(h_x²/α_x² + h_y²/α_y²)/h_z²) at (ωi, ωo); GGX has no exponential.

@@ -19,8 +19,9 @@ use std::sync::{Arc, Mutex};
 /// numbers, a scalar one).
 pub type ReferenceFn = Arc<dyn Fn(&[f64], DVec3, DVec3) -> DVec3 + Send + Sync>;
 
-/// Most parameter numbers a run-time model may have (an rgb key counts three).
-pub const MAX_VALUES: usize = 64;
+/// Most parameter numbers a run-time model may have (an rgb key counts three): a fixed array
+/// keeps a parameter set `Copy` and no larger than the largest built-in model's.
+pub const MAX_VALUES: usize = 20;
 
 /// What a job that needs the f64 reference says of a model that has none.
 #[derive(Debug, thiserror::Error)]
