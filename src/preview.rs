@@ -1,7 +1,7 @@
 //! `lobe preview`: a contact sheet of shaded objects, rows = materials, columns = models, under
-//! the lab's lights (DESIGN §3). The GPU renders it with `glsl/kernels/preview.comp`; this file is
-//! that kernel's f64 twin (the functions below mirror it line by line) plus the sheet, the EXR
-//! (linear radiance) and the labelled, tone-mapped PNG.
+//! the lab report's lights (docs/design.md §3). The GPU renders it with
+//! `glsl/kernels/preview.comp`; this file is that kernel's f64 twin (the functions below mirror
+//! it line by line) plus the sheet, the EXR (linear radiance) and the labelled, tone-mapped PNG.
 //!
 //! The scene, the same in every cell so that cells differ only in model and material:
 //! - Camera at the origin looking down −z, +y up, +x right (OpenGL's eye space), square pixels,
@@ -19,7 +19,7 @@
 //! - All lights have the same intensity, chosen so that a white Lambertian at the object's point
 //!   nearest to the camera (normal toward the camera) has radiance 1:
 //!   I = π / Σ_l cosθ_l / d_l². Exposure 0 then maps a white diffuse surface to just below clip.
-//! - Shading frame (DESIGN §2: n = +z, t = +x, b = +y): n the outward normal,
+//! - Shading frame (docs/design.md §2: n = +z, t = +x, b = +y): n the outward normal,
 //!   t = normalize(+y × n) — the sphere's lines of latitude, so the anisotropic presets are
 //!   "brushed" horizontally — and b = n × t. Where n = ±y (never on a visible sphere point: those
 //!   face away from the camera), t = +x.
@@ -47,7 +47,7 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
 
-/// The lab's light positions (DESIGN §3), in the camera's space (see the module's notes).
+/// The lab's light positions (docs/design.md §3), in the camera's space (see the module's notes).
 pub const LAB_LIGHTS: [[f64; 3]; 4] = [
     [0.0, 0.0, 1.0],
     [0.0, 1.0, 1.0],
@@ -69,15 +69,21 @@ const PHI: f64 = 1.618_033_988_749_895;
 /// Inradius / circumradius of a regular icosahedron: φ² / (√3 √(1 + φ²)).
 const ICOSAHEDRON_INRADIUS: f64 = 0.794_654_472_291_766_1;
 
+/// The object drawn in every cell of the sheet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shape {
+    /// A sphere of radius [`OBJECT_RADIUS`], shaded with its smooth normal.
     Sphere,
+    /// The lab report's regular icosahedron of circumradius [`OBJECT_RADIUS`], one normal per flat
+    /// face.
     Icosahedron,
 }
 
 impl Shape {
+    /// Every shape, in the order the error for an unknown name lists them.
     pub const ALL: [Shape; 2] = [Shape::Sphere, Shape::Icosahedron];
 
+    /// The shape's name on the command line and in scene files: `sphere` or `icosahedron`.
     pub fn name(self) -> &'static str {
         match self {
             Shape::Sphere => "sphere",
@@ -85,6 +91,7 @@ impl Shape {
         }
     }
 
+    /// The shape called `name`; an unknown name is an error that lists the shapes.
     pub fn from_name(name: &str) -> Result<Shape> {
         Shape::ALL
             .into_iter()
@@ -110,9 +117,13 @@ pub enum LightKind {
     Directional,
 }
 
+/// One light of a preview scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
+    /// A point light's position in the camera's space, or, for a directional light, the vector
+    /// toward it.
     pub position: DVec3,
+    /// How `position` is read.
     pub kind: LightKind,
     /// RGB: W/sr (point) or W/m² (directional).
     pub intensity: DVec3,
@@ -122,13 +133,19 @@ pub struct Light {
 /// representable in f32, so the GPU and the CPU twin start from identical inputs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
+    /// Width of every cell, in pixels.
     pub cell_width: u32,
+    /// Height of every cell, in pixels.
     pub cell_height: u32,
     /// tan(vertical field of view / 2).
     pub tan_half_fov: f64,
+    /// The object in every cell.
     pub shape: Shape,
+    /// The object's centre in the camera's space.
     pub centre: DVec3,
+    /// The sphere's radius, or the icosahedron's circumradius.
     pub radius: f64,
+    /// The lights whose contributions add up to the radiance.
     pub lights: Vec<Light>,
     /// RGB radiance of a uniform sky; 0 in the lab.
     pub ambient: DVec3,
@@ -143,7 +160,7 @@ fn f32_exact3(v: DVec3) -> DVec3 {
 }
 
 impl Scene {
-    /// The lab's set-up (DESIGN §3) in square cells of `cell` pixels.
+    /// The lab's set-up (docs/design.md §3) in square cells of `cell` pixels.
     pub fn lab(cell: u32, shape: Shape, kind: LightKind, ambient: DVec3) -> Scene {
         let centre = DVec3::from_array(OBJECT_CENTRE);
         let positions: Vec<DVec3> = LAB_LIGHTS.iter().map(|p| DVec3::from_array(*p)).collect();
@@ -403,8 +420,11 @@ pub fn render_cells_cpu(refs: &[Reference], scene: &Scene) -> Vec<[f32; 3]> {
 /// Which model and material each cell holds: `params[column][row]`.
 #[derive(Clone, Debug)]
 pub struct Sheet {
+    /// The rows' material names, top to bottom.
     pub materials: Vec<String>,
+    /// The columns' models, left to right.
     pub models: Vec<Model>,
+    /// The preset of each row's material for each column's model.
     pub params: Vec<Vec<ParamSet>>,
 }
 
@@ -459,22 +479,30 @@ impl Sheet {
 /// top left; cell (row, col) is the block of pixels [col·W, (col+1)·W) × [row·H, (row+1)·H).
 #[derive(Clone, Debug)]
 pub struct SheetImage {
+    /// Cells down the sheet: one per material.
     pub rows: usize,
+    /// Cells across the sheet: one per model.
     pub cols: usize,
+    /// Width of a cell, in pixels.
     pub cell_width: usize,
+    /// Height of a cell, in pixels.
     pub cell_height: usize,
+    /// width() × height() pixels of linear RGB radiance, row-major from the top left.
     pub rgb: Vec<[f32; 3]>,
 }
 
 impl SheetImage {
+    /// The sheet's width in pixels: `cols × cell_width`.
     pub fn width(&self) -> usize {
         self.cols * self.cell_width
     }
 
+    /// The sheet's height in pixels: `rows × cell_height`.
     pub fn height(&self) -> usize {
         self.rows * self.cell_height
     }
 
+    /// Radiance of pixel (x, y) of the whole sheet, row 0 on top.
     pub fn pixel(&self, x: usize, y: usize) -> [f32; 3] {
         self.rgb[y * self.width() + x]
     }

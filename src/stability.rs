@@ -2,7 +2,7 @@
 //!
 //! The sweep crosses two kinds of edge:
 //! - **parameter edges** ([`cases`]): roughness, σ and α down to 1e-4 and up to their maximum;
-//!   shininess 0, 8192 (the seed's maximum), 1e5 and 1e6; smoothness 0 and 1; IOR 1 and 5;
+//!   shininess 0, 8192 (the lab report's largest), 1e5 and 1e6; smoothness 0 and 1; IOR 1 and 5;
 //!   nu, nv at 0 and 1e5, alone and together (strong anisotropy); reflectances 0 and 1;
 //! - **direction regions** ([`regions`]): an interior reference set; θ → 90° with cos θ from 1e-7
 //!   to 1e-3 on either or both sides; ωi = ωo; ωi the mirror of ωo (h = n) and within 1e-6..1e-2
@@ -40,7 +40,9 @@ pub fn exponent_at(params: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
 /// One parameter edge of a model: a label and the (valid) parameter set.
 #[derive(Clone, Debug)]
 pub struct Case {
+    /// `defaults`, or the edge's `key=value` settings separated by spaces.
     pub label: String,
+    /// The model's parameters at the edge, every value within its range.
     pub params: ParamSet,
 }
 
@@ -71,7 +73,9 @@ pub fn cases(model: Model) -> Result<Vec<Case>> {
 /// One region of direction pairs.
 #[derive(Clone, Debug)]
 pub struct Region {
+    /// The region's name, as the report's rows show it.
     pub name: &'static str,
+    /// (ωi, ωo) pairs, both above the horizon, already rounded to f32 and widened back.
     pub pairs: Vec<(DVec3, DVec3)>,
 }
 
@@ -239,11 +243,17 @@ pub fn model_label(model: Model) -> String {
 pub struct Stats {
     /// Channel values evaluated per backend.
     pub values: usize,
+    /// Channel values that are NaN on the GPU.
     pub gpu_nan: usize,
+    /// Channel values that are infinite on the GPU.
     pub gpu_inf: usize,
+    /// Channel values below 0 on the GPU.
     pub gpu_negative: usize,
+    /// Channel values that are NaN in the f64 reference.
     pub cpu_nan: usize,
+    /// Channel values that are infinite in the f64 reference.
     pub cpu_inf: usize,
+    /// Channel values below 0 in the f64 reference.
     pub cpu_negative: usize,
     /// Largest |g − c| / max(|c|, REL_FLOOR) over values finite on both sides.
     pub max_rel_error: f64,
@@ -260,19 +270,30 @@ pub struct Stats {
 /// One evaluation, described well enough to reproduce it.
 #[derive(Clone, Debug, Serialize)]
 pub struct Sample {
+    /// The model's label, with its components ([`model_label`]).
     pub model: String,
+    /// The parameter edge's label ([`Case::label`]).
     pub case: String,
+    /// The direction region's name ([`Region::name`]).
     pub region: String,
+    /// Whether the Fresnel factors of specular lobes were set to 1.
     pub white_furnace: bool,
+    /// ωi toward the light, as both backends received it.
     pub wi: [f64; 3],
+    /// ωo toward the viewer, as both backends received it.
     pub wo: [f64; 3],
+    /// The RGB channel: 0 red, 1 green, 2 blue.
     pub channel: usize,
+    /// The GPU's value in 1/sr; `None` when the sweep ran on the CPU alone.
     pub gpu: Option<f64>,
+    /// The f64 reference's value in 1/sr.
     pub cpu: f64,
+    /// The parity tolerance at this value in 1/sr; `None` where no GPU value was compared.
     pub tolerance: Option<f64>,
 }
 
 impl Sample {
+    /// One line naming the model, edge, white-furnace switch, directions, channel and both values.
     pub fn text(&self) -> String {
         let g = self.gpu.map(|g| format!("gpu={g:e} ")).unwrap_or_default();
         format!(
@@ -283,6 +304,7 @@ impl Sample {
 }
 
 impl Stats {
+    /// Non-finite or negative channel values, the GPU's and the reference's counted together.
     pub fn bad(&self) -> usize {
         self.gpu_nan
             + self.gpu_inf
@@ -322,10 +344,14 @@ fn classify(v: f64) -> (bool, bool, bool) {
 /// One row of the report: a model with a parameter edge, or a model with a direction region.
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
+    /// The model's label, with its components ([`model_label`]).
     pub model: String,
     /// "params" (grouped by parameter edge, over all regions) or "directions".
     pub group: &'static str,
+    /// The parameter edge's label (group `params`) or the direction region's name (group
+    /// `directions`).
     pub region: String,
+    /// Counts and worst errors over the row's evaluations.
     #[serde(flatten)]
     pub stats: Stats,
 }
@@ -333,10 +359,16 @@ pub struct Row {
 /// The sweep's result.
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
+    /// What was compared: `gpu (device) vs cpu (f64 reference)`, or `cpu (f64 reference) only`.
     pub backend: String,
+    /// Whether GPU values were compared with the reference.
     pub gpu: bool,
+    /// The relative error's denominator floor, [`REL_FLOOR`], in 1/sr.
     pub rel_floor: f64,
+    /// Per model, the parameter edges in the order of [`cases`], then the direction regions in the
+    /// order of [`regions`].
     pub rows: Vec<Row>,
+    /// Every evaluation of the sweep, each counted once.
     pub total: Stats,
 }
 

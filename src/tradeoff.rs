@@ -28,13 +28,14 @@
 //! f32 error), not the model's.
 //!
 //! **Table resolution**: E(μ) from a tabulated isotropic lobe table (θi, θo, Δφ) of N × N × 2N
-//! cells (square cells at the equator; DESIGN §4's centring), as a user holding such a table would
-//! compute it: linear interpolation in θo between the two nearest cell centres (held constant
-//! beyond the first and last centre; E is even in θo at the pole, so that costs O(Δθ²) there
-//! too), and cell sums in (θi, Δφ) with weights cosθi sinθi ΔθΔφ, doubled for Δφ ∈ [π, 2π] (an
-//! isotropic lobe is even in Δφ). Cost: wall-clock ms to generate the table on the backend and
-//! integrate it at every view direction. Error as for integration. Delta lobes are not on a grid
-//! (DESIGN §3): both sections compare the non-delta part, whose reference excludes them too.
+//! cells (square cells at the equator; the centring of docs/design.md §4), as a user holding
+//! such a table would compute it: linear interpolation in θo between the two nearest cell
+//! centres (held constant beyond the first and last centre; E is even in θo at the pole, so that
+//! costs O(Δθ²) there too), and cell sums in (θi, Δφ) with weights cosθi sinθi ΔθΔφ, doubled for
+//! Δφ ∈ [π, 2π] (an isotropic lobe is even in Δφ). Cost: wall-clock ms to generate the table on
+//! the backend and integrate it at every view direction. Error as for integration. Delta lobes
+//! are not on a grid (docs/design.md §3): both sections compare the non-delta part, whose
+//! reference excludes them too.
 
 use crate::bench::{self, median};
 use crate::eval::Evaluator;
@@ -58,18 +59,25 @@ pub const REL_FLOOR: f64 = 1e-3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Section {
+    /// Variants of evaluating f itself: precision, Fresnel, G1, masking and pow (ns per
+    /// evaluation).
     Evaluation,
+    /// Albedo quadrature rules × node counts on each backend (ms per directional albedo).
     Integration,
+    /// E(μ) from lobe tables of growing resolution (ms per table).
     TableResolution,
 }
 
 impl Section {
+    /// Every section, in the order reports list them.
     pub const ALL: [Section; 3] = [
         Section::Evaluation,
         Section::Integration,
         Section::TableResolution,
     ];
 
+    /// The section's name on the command line and in the reports: `evaluation`, `integration` or
+    /// `table-resolution`.
     pub fn name(self) -> &'static str {
         match self {
             Section::Evaluation => "evaluation",
@@ -78,6 +86,7 @@ impl Section {
         }
     }
 
+    /// The section called `name`; an unknown name is an error that lists the sections.
     pub fn from_name(name: &str) -> Result<Section> {
         Section::ALL
             .into_iter()
@@ -90,6 +99,7 @@ impl Section {
             })
     }
 
+    /// The unit of [`Row::cost`] in this section: `ns/eval`, `ms/albedo` or `ms/table`.
     pub fn cost_unit(self) -> &'static str {
         match self {
             Section::Evaluation => "ns/eval",
@@ -107,16 +117,21 @@ impl Section {
     }
 }
 
+/// One measured variant of a section: its cost, its error and whether it is on the Pareto front.
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
+    /// The section the variant belongs to.
     pub section: Section,
+    /// What was measured, e.g. `f32 GPU, Schlick F` or `table 16x16x32, f64 CPU`.
     pub variant: String,
+    /// The evaluator that ran it: `gpu (device)` or `cpu (f64 reference)`.
     pub backend: String,
     /// Integration: quadrature nodes per albedo (mean over the view directions); table
     /// resolution: table cells; evaluation: none.
     pub samples: Option<u64>,
     /// Median over repeats, in `cost_unit` (see the module notes for what each section times).
     pub cost: f64,
+    /// [`Section::cost_unit`] of the row's section.
     pub cost_unit: String,
     /// Integration on the GPU: kernel time alone (timestamp queries), in `cost_unit`.
     pub kernel_cost: Option<f64>,
@@ -125,16 +140,22 @@ pub struct Row {
     pub max_error: f64,
     /// RMS of the same errors.
     pub rms_error: f64,
+    /// [`Section::error_kind`] of the row's section.
     pub error_kind: String,
+    /// On its section's Pareto front: no other row of the section beats it ([`mark_pareto`]).
     pub pareto: bool,
 }
 
 /// One evaluation variant: a parameter set, where it runs, and whether it uses the fast pow.
 #[derive(Clone, Debug)]
 pub struct EvalVariant {
+    /// The variant's label in the report, e.g. `f32 GPU, exact`.
     pub name: String,
+    /// The parameter set evaluated (for microfacet models, with the variant's component choices).
     pub params: ParamSet,
+    /// Run in f32 on the GPU; otherwise the f64 reference on the CPU.
     pub gpu: bool,
+    /// Evaluate cosⁿ lobes with GLSL's plain `pow` instead of the careful formulation (GPU only).
     pub fast_pow: bool,
 }
 
@@ -399,6 +420,8 @@ impl AlbedoSetup {
         }
     }
 
+    /// Checks every μ (in (0, 1]), node count (in [16, 4194304]), table resolution (in [2, 512])
+    /// and that `repeats` is at least 1.
     pub fn check(&self) -> Result<()> {
         if self.mus.is_empty() {
             bail!("--mu: give at least one view direction");
@@ -449,9 +472,11 @@ pub fn albedo_errors(got: &[DVec3], truth: &[DVec3]) -> (f64, f64) {
 /// One integration variant: a method and the rule it gives for a node count.
 #[derive(Clone, Debug)]
 pub struct IntegrationVariant {
+    /// The albedo rule.
     pub method: Method,
     /// The node count asked for.
     pub asked: usize,
+    /// The rule that node count gives: its nodes and weights.
     pub rule: Rule,
 }
 
@@ -704,6 +729,7 @@ pub fn error_grid_for(params: &ParamSet, grid: Grid) -> Grid {
 /// What `lobe tradeoff` measures.
 #[derive(Clone, Debug)]
 pub struct Options {
+    /// The sections to measure, in the order they are reported.
     pub sections: Vec<Section>,
     /// Evaluation errors are measured on this grid ([`error_grid_for`] applied).
     pub error_grid: Grid,
@@ -711,6 +737,8 @@ pub struct Options {
     pub timing_grid: Grid,
     /// Timed runs per evaluation variant.
     pub eval_repeats: usize,
+    /// The view directions, node counts and table resolutions of the integration and
+    /// table-resolution sections.
     pub albedo: AlbedoSetup,
 }
 
@@ -719,14 +747,17 @@ pub struct Options {
 pub struct Report {
     /// `gold cook_torrance` or the model's name.
     pub subject: String,
+    /// The parameter set measured, as given.
     pub params: ParamSet,
     /// The evaluation section's truth.
     pub truth: ParamSet,
     /// The Vulkan device, where the GPU was measured.
     pub device: Option<String>,
+    /// The options the report was measured with.
     pub options: Options,
     /// The reference E(μ) (delta excluded) at `options.albedo.mus`, if an albedo section ran.
     pub reference: Vec<Estimate>,
+    /// Every measured variant, section by section.
     pub rows: Vec<Row>,
     /// Sections left out and why.
     pub notes: Vec<String>,
@@ -836,6 +867,7 @@ fn csv_field(s: &str) -> String {
 }
 
 impl Report {
+    /// The rows of one section, in the order they were measured.
     pub fn rows_of(&self, section: Section) -> impl Iterator<Item = &Row> {
         self.rows.iter().filter(move |r| r.section == section)
     }
@@ -918,6 +950,8 @@ impl Report {
         ))
     }
 
+    /// The whole report as JSON: subject, parameters, truth, grids, albedo set-up and reference,
+    /// sections with their notes, Pareto fronts and rows.
     pub fn to_json(&self) -> serde_json::Value {
         let o = &self.options;
         let reference: Vec<_> = o
@@ -974,6 +1008,8 @@ impl Report {
         })
     }
 
+    /// The rows as CSV with a header line, one row per variant; empty fields where a value does not
+    /// apply.
     pub fn write_csv(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
@@ -999,6 +1035,7 @@ impl Report {
         Ok(())
     }
 
+    /// The report as aligned text tables, one per section, with its note and the front marked `*`.
     pub fn write_table(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
         writeln!(out, "{}: {}", self.subject, self.params.to_text())?;
         if let Some(d) = &self.device {

@@ -1,4 +1,4 @@
-//! Albedo integrators (DESIGN §5, issue 3): closed forms, the reference against itself in two
+//! Albedo integrators (docs/design.md §5): closed forms, the reference against itself in two
 //! coordinate systems, the fixed rules against the reference, their error estimates' honesty,
 //! their order of convergence, and GPU against CPU.
 
@@ -17,9 +17,9 @@ use lobe::{resolve_params, Evaluator, ParamSet, Reference};
 /// with a margin of 10 for the summation of ~1e6 terms in f64.
 const CLOSED_FORM_RTOL: f64 = 1e-9;
 
-/// The default `peak` rule against the reference, for every seed model at every preset: the
-/// issue's target (the models' kinks lie on its panel edges, Cook–Torrance's V-cavity curves
-/// included).
+/// The default `peak` rule against the reference, for every built-in model at every preset: the
+/// accuracy the rule is built for (the models' kinks lie on its panel edges, Cook–Torrance's
+/// V-cavity curves included).
 const PEAK_RTOL: f64 = 1e-6;
 
 /// GPU (f32) against CPU (f64) for the same rule. Per node, f32 evaluation of a lobe differs by
@@ -97,7 +97,7 @@ fn ashikhmin_shirley_diffuse_term_has_its_closed_form() {
     // f is linear in `diffuse`, so E(diffuse = d) − E(diffuse = 0) is the ρd term's albedo:
     // 28 d (1 − s)/(23π) (1 − (1 − μ/2)^5) ∫ (1 − (1 − c_i/2)^5) c_i dω, and
     // ∫ = 2π (1/2 − ∫₀¹ (1 − x/2)^5 x dx) = 2π (1/2 − 5/56) = 23π/28 (substitute u = 1 − x/2),
-    // so E_d = d (1 − s)(1 − (1 − μ/2)^5) (the issue's closed form).
+    // so E_d = d (1 − s)(1 − (1 − μ/2)^5) in closed form.
     let d = DVec3::new(0.7, 0.4, 0.2);
     let s = DVec3::new(0.05, 0.3, 0.6);
     for (nu, nv) in [(100.0, 100.0), (300.0, 50.0), (5.0, 5.0)] {
@@ -173,7 +173,7 @@ fn normalized_phong_keeps_its_specular_albedo_while_the_lobe_is_whole() {
     // stays above the horizon. At μ = 1 the lobe is centred on n and the hemisphere holds all of
     // it: E(1) = specular exactly for every n. At μ = 0.5 with n = 8192 the horizon is 0.52 rad
     // from the peak, exp(−n·0.52²/2) ≈ 0 away: also exact in f64. This resolves the sharpest peak
-    // of the seed (width 1/√8192 ≈ 0.011 rad).
+    // of the lab report (width 1/√8192 ≈ 0.011 rad).
     for n in [0.0, 5.0, 400.0, 8192.0] {
         let p = params(
             "phong",
@@ -295,8 +295,8 @@ fn lambert_hemispherical_albedo_is_rho_and_equals_e_avg() {
 #[test]
 fn the_reference_agrees_with_itself_in_the_mirror_frame() {
     // Two nested adaptive integrations in different coordinates (μ, Δφ about the normal; α, β
-    // about the mirror direction) on the sharpest seed lobes. The mirror frame's panels are not
-    // aligned with max(c_i, c_o) kinks, which it must find by bisection; the bound is the issue's
+    // about the mirror direction) on the lab report's sharpest lobes. The mirror frame's panels
+    // are not aligned with max(c_i, c_o) kinks, which it must find by bisection; the bound is
     // 1e-9.
     let cases = [
         (

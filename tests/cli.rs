@@ -547,7 +547,8 @@ fn models_lists_every_model() {
         .filter(|l| !l.starts_with(' ') && !l.is_empty())
         .filter_map(|l| l.split_whitespace().next())
         .collect();
-    // The eight models of DESIGN §3, by name, and whatever the library adds beyond them.
+    // The eight named models of docs/design.md §3 (all but `microfacet`), by name, and whatever the
+    // library adds beyond them.
     let seed = [
         "lambert",
         "phong",
@@ -718,7 +719,7 @@ fn eval_pairs_file_gives_one_row_per_pair_in_order() {
         [30.0, 0.0, 30.0, 180.0],
         [10.0, 45.0, 60.0, 200.0],
         [85.0, 0.0, 5.0, 90.0],
-        // Below the horizon: f = 0 (one-sided, DESIGN §2).
+        // Below the horizon: f = 0 (one-sided, docs/design.md §2).
         [95.0, 0.0, 30.0, 180.0],
     ];
     let mut csv = format!("{PAIRS_HEADER}\n");

@@ -16,7 +16,7 @@ use std::process::Command;
 /// last digit of the JSON's, plus room for the binary-to-decimal rounding of that half unit.
 const DISPLAY_ROUNDING: f64 = 0.5e-4 + 1e-12;
 
-/// Lambert's E is its albedo ρ exactly (DESIGN §5). The peak rule's weights sum to π within
+/// Lambert's E is its albedo ρ exactly (docs/design.md §5). The peak rule's weights sum to π within
 /// ~1e-13 (src/integrate.rs tests) and Ē integrates the constant 2μρ exactly (Gauss–Kronrod), so
 /// on the CPU (f64) the only error left is rounding: 1e-9 is generous and still catches any real
 /// mistake.
@@ -273,8 +273,8 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
             lambert_tol,
         );
     }
-    // Energy: the seed's smooth-layered model gains energy at grazing view (DESIGN §3: the tool
-    // must show it), most of all on glazed ceramic (E ≈ 1.6); a Lambertian never does, not even
+    // Energy: `smooth_layered` gains energy at grazing view (docs/design.md §3: the tool must
+    // show it), most of all on glazed ceramic (E ≈ 1.6); a Lambertian never does, not even
     // gold's ρ = 1 red channel.
     let gain_of = |key: &str| {
         let row = rows

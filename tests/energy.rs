@@ -1,4 +1,4 @@
-//! The energy report (issue 3) on facts known in closed form or from the literature.
+//! The energy report (`lobe energy`) on facts known in closed form or from the literature.
 
 use lobe::energy::{cases, evaluate, white_configuration, EnergyRow};
 use lobe::integrate::Method;
@@ -49,8 +49,8 @@ fn coupled_at_matte_one_reflects_exactly_everything() {
 #[test]
 fn smooth_layered_gains_near_grazing() {
     // White configuration: diffuse = 1 − R0, so E(μ) = F_s(μ) + 1 − R0 = 1 + (1 − R0)(1 − μ)^5:
-    // exactly 1 at normal incidence, largest at the most grazing μ looked at (DESIGN §3: the
-    // seed's model gains energy at grazing angles).
+    // exactly 1 at normal incidence, largest at the most grazing μ looked at (docs/design.md §3:
+    // the model gains energy at grazing angles).
     let r = row("smooth_layered", &["ior=1.5"]);
     let r0 = r0_from_ior(1.5);
     assert!(r.gain, "{r:?}");
@@ -79,7 +79,7 @@ fn cook_torrance_loses_more_energy_at_high_roughness() {
 #[test]
 fn blinn_phong_gains_through_its_approximate_normalization() {
     // (N + 8)/(8π) approximates the normalization of c_h^N c_i (Akenine-Möller et al., RTR):
-    // at normal incidence the broad lobes of the seed's mapping (s = 0.9: N ≈ 2.5) reflect
+    // at normal incidence the broad lobes of the lab report's mapping (s = 0.9: N ≈ 2.5) reflect
     // more than they receive.
     let r = row("blinn_phong", &["smoothness=0.9"]);
     assert!(r.gain && r.e_normal > 1.01, "{r:?}");

@@ -1,7 +1,7 @@
-//! Tables on the `halfdiff` grid (Rusinkiewicz's half/difference angles, DESIGN §4): the cells
-//! hold f at the pairs the grid names, on both backends, through the EXR and npy files; models
-//! that depend on θh alone are constant along (θd, φd); the three-axis grid is refused for an
-//! anisotropic parameter set.
+//! Tables on the `halfdiff` grid (Rusinkiewicz's half/difference angles, docs/design.md §4): the
+//! cells hold f at the pairs the grid names, on both backends, through the EXR and npy files;
+//! models that depend on θh alone are constant along (θd, φd); the three-axis grid is refused for
+//! an anisotropic parameter set.
 
 mod common;
 
@@ -117,7 +117,7 @@ fn halfdiff_cells_hold_f_at_their_pairs_on_both_backends() {
 }
 
 /// Blinn–Phong is diffuse/π + specular (n + 8)/(8π) cos^n θh: a function of θh alone wherever both
-/// directions are above the horizon, and 0 where either is below (DESIGN §2).
+/// directions are above the horizon, and 0 where either is below (docs/design.md §2).
 #[test]
 fn blinn_phong_depends_on_theta_h_alone() {
     let dir = tempfile::tempdir().unwrap();

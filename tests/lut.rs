@@ -1,6 +1,6 @@
-//! Albedo look-up tables (issue 3): the table's entries are `lobe albedo` at the same (μ, p),
-//! Lambert's table is its albedo, the files round-trip, bad input is refused before any file
-//! appears, and the GPU table agrees with the CPU one.
+//! Albedo look-up tables (docs/design.md §5.7): the table's entries are `lobe albedo` at the same
+//! (μ, p), Lambert's table is its albedo, the files round-trip, bad input is refused before any
+//! file appears, and the GPU table agrees with the CPU one.
 
 mod common;
 
@@ -96,8 +96,8 @@ fn parameter_axes_are_cell_centred_in_the_mapping() {
 
 #[test]
 fn lambert_lut_is_its_albedo_and_the_files_round_trip() {
-    // Lambert: E(μ) = albedo for every μ (DESIGN §5), and E_avg = albedo. The axis is the albedo
-    // itself (grey), so E(μ_j, p_k) = p_k.
+    // Lambert: E(μ) = albedo for every μ (docs/design.md §5), and E_avg = albedo. The axis is the
+    // albedo itself (grey), so E(μ_j, p_k) = p_k.
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("lambert.exr");
     let mut spec = small_spec(params("lambert", None, &[]));

@@ -17,7 +17,7 @@ use lobe::tolerance::{self, ATOL, EPS32};
 use lobe::{material, resolve_params};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Random parameter sets per model (the issue asks for at least 200).
+/// Random parameter sets per model.
 const RANDOM_SETS: usize = 200;
 /// Random direction pairs per parameter set, on top of the structured ones.
 const RANDOM_PAIRS: usize = 160;
@@ -38,8 +38,8 @@ fn random_params(model: Model, rng: &mut common::Rng) -> ParamSet {
             (ParamKind::Rgb, _) => {
                 Value::Three([0; 3].map(|_| rng.range(spec.min, spec.max.min(8.0))))
             }
-            // Exponents span decades: sample log-uniformly up to the seed's maximum, 8192, and
-            // include 0 now and then.
+            // Exponents span decades: sample log-uniformly up to the lab report's largest, 8192,
+            // and include 0 now and then.
             (_, "shininess" | "nu" | "nv") => Value::One(if rng.uniform() < 0.05 {
                 0.0
             } else {

@@ -31,7 +31,7 @@ const SURFACE_RING_TOLERANCE_DEG: f64 = 1.6;
 const SURFACE_MERIDIAN_TOLERANCE_DEG: f64 = 3.1;
 /// Lambert's f = albedo/π is one multiply on the GPU: a few f32 ulps.
 const LAMBERT_RTOL_F32: f64 = 8.0 * f32::EPSILON as f64;
-/// The peak albedo rule reaches 1e-6 relative on the smooth seed models (tests/albedo.rs);
+/// The peak albedo rule reaches 1e-6 relative on the smooth built-in models (tests/albedo.rs);
 /// Lambert is smooth, so 1e-5 is a margin of 10 (the GPU sums f32 values in f64).
 const LAMBERT_ALBEDO_RTOL: f64 = 1e-5;
 /// Schlick's F at normal incidence for η = 1.5 is R0 = (0.5/2.5)² = 0.04 exactly; the delta mark
@@ -413,7 +413,7 @@ fn albedo_curves_show_lambert_exactly_and_the_smooth_layered_gain() {
             "lambert albedo=0.5: E({mu}) = {e}"
         );
     }
-    // DESIGN §3: the seed's smooth-layered model gains energy at grazing angles; the plot must
+    // docs/design.md §3: `smooth_layered` gains energy at grazing angles; the plot must
     // show a curve above E = 1 there.
     let grazing = data.curves[1].albedo[0];
     assert!(

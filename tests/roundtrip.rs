@@ -1,8 +1,8 @@
-//! Table files round trip (DESIGN §4): `lobe table` writes an EXR mosaic, a `.npy` and a JSON
-//! sidecar; the crate's readers (`lobe::table::read_exr`, `read_npy`) bring back the same values,
-//! the EXR's pixels sit where its documented layout says, the headers and the sidecar describe the
-//! table, and every cell equals `lobe eval --pairs` at the same cell-centred angles, on the GPU
-//! (the table kernel against the pairs kernel) and on the CPU reference.
+//! Table files round trip (docs/design.md §4): `lobe table` writes an EXR mosaic, a `.npy` and a
+//! JSON sidecar; the crate's readers (`lobe::table::read_exr`, `read_npy`) bring back the same
+//! values, the EXR's pixels sit where its documented layout says, the headers and the sidecar
+//! describe the table, and every cell equals `lobe eval --pairs` at the same cell-centred angles,
+//! on the GPU (the table kernel against the pairs kernel) and on the CPU reference.
 
 use lobe::grid::Grid;
 use lobe::table::{read_exr, read_npy, TableData};

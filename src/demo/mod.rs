@@ -47,7 +47,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use steps::Demo;
 
-/// The lab's materials (DESIGN §3), the demo's rows; other presets are left to `lobe` commands.
+/// The lab report's materials (docs/design.md §3), the demo's rows; other presets are left to
+/// `lobe` commands.
 pub const MATERIALS: [&str; 4] = ["tin", "gold", "glazed_ceramic", "granite"];
 
 /// View directions μ = cosθo at which the page shows E (and the JSON files hold it).
@@ -64,13 +65,15 @@ pub const INDEX: &str = "index.html";
 pub struct Settings {
     /// Shown on the page: "full" or "quick".
     pub name: &'static str,
-    /// Gold Cook–Torrance tables.
+    /// The full-grid table of gold under Cook–Torrance (θi, φi, θo, φo).
     pub table_full: Grid,
+    /// The isotropic-grid table of gold under Cook–Torrance (θi, θo, Δφ).
     pub table_isotropic: Grid,
     /// Nodes per view direction of the albedo integrator (`peak`).
     pub albedo_samples: usize,
-    /// View directions per E(μ) curve, and nodes per direction.
+    /// View directions per E(μ) curve.
     pub curve_mu: usize,
+    /// Quadrature nodes per view direction of an E(μ) curve.
     pub curve_samples: usize,
     /// View angles per polar curve.
     pub polar_samples: usize,
@@ -80,8 +83,9 @@ pub struct Settings {
     pub preview_cell: u32,
     /// Parity grid: θi × θo × φo cells (φi = 0), cell-centred.
     pub parity_grid: [usize; 3],
-    /// Albedo LUT: μ cells × α cells, and nodes per direction.
+    /// Albedo LUT: μ cells × α cells.
     pub lut_res: (usize, usize),
+    /// Quadrature nodes per (μ, α) entry of the albedo LUT.
     pub lut_samples: usize,
 }
 
@@ -181,8 +185,11 @@ impl Settings {
 
 /// Receives the demo's progress: a step begins with its amount of work, advances, and ends.
 pub trait Progress {
+    /// A step called `step` begins; `total` is its amount of work, in the step's own units.
     fn begin(&mut self, step: &str, total: u64);
+    /// The running step has done `done` of its `total` units so far.
     fn advance(&mut self, done: u64);
+    /// A step has finished, with its time and what it produced.
     fn end(&mut self, step: &Step);
 }
 
@@ -198,7 +205,9 @@ impl Progress for Silent {
 /// One finished step.
 #[derive(Clone, Debug)]
 pub struct Step {
+    /// The step's name: `tables`, `albedo`, `lut`, `plots`, `preview`, `parity` or `page`.
     pub name: &'static str,
+    /// Wall-clock time the step took, in seconds.
     pub seconds: f64,
     /// What it produced, in a few words.
     pub detail: String,
@@ -207,7 +216,9 @@ pub struct Step {
 /// Albedo of one model at one material, as the page shows it.
 #[derive(Clone, Debug)]
 pub struct AlbedoRow {
+    /// The material's preset name.
     pub material: String,
+    /// The model's name.
     pub model: String,
     /// The JSON file, relative to the output folder.
     pub json: String,
@@ -241,12 +252,15 @@ impl AlbedoRow {
 /// GPU-vs-CPU parity of one model over the demo's grid and every material.
 #[derive(Clone, Debug)]
 pub struct ParityRow {
+    /// The model's name.
     pub model: String,
+    /// Channel values compared.
     pub values: usize,
     /// max |g − c| / max(|c|, REL_FLOOR) over channels, pairs and materials.
     pub max_rel: f64,
     /// max |g − c| / tolerance (the parity test's model): above 1 the test would fail.
     pub max_ratio: f64,
+    /// Channel values outside the tolerance (a NaN counts as outside).
     pub over: usize,
     /// Where max_rel occurred.
     pub worst: String,
@@ -259,11 +273,15 @@ pub struct LutInfo {
     pub what: String,
     /// The LUT's files (EXR, npy of E, npy of E_avg, JSON) and its picture, relative.
     pub files: Vec<String>,
+    /// The LUT's heat map picture, relative to the output folder.
     pub png: String,
+    /// The picture's size in pixels.
     pub png_size: (u32, u32),
-    /// α at each row and E_avg there (white furnace: grey, so one channel).
+    /// α at each row of the LUT.
     pub alpha: Vec<f64>,
+    /// E_avg(α) at each row of `alpha` (white furnace: grey, so one channel).
     pub e_avg: Vec<f64>,
+    /// The integrator's largest error estimate of any entry (E or E_avg), absolute.
     pub max_error: f64,
     /// The smallest E in the table and where: (E, μ, α).
     pub min_e: (f64, f64, f64),
@@ -272,16 +290,23 @@ pub struct LutInfo {
 /// What the demo did.
 #[derive(Clone, Debug)]
 pub struct Report {
+    /// The output folder.
     pub dir: PathBuf,
+    /// The evaluator's name: `gpu (device)` or `cpu (f64 reference)`.
     pub backend: String,
+    /// The sizes the demo ran with.
     pub settings: Settings,
+    /// The steps in the order they ran, `page` last.
     pub steps: Vec<Step>,
     /// Every file written, relative to `dir`.
     pub files: Vec<String>,
+    /// Material by material, one row per model.
     pub albedo: Vec<AlbedoRow>,
+    /// The albedo LUT of step 3.
     pub lut: LutInfo,
     /// None with the CPU backend.
     pub parity: Option<Vec<ParityRow>>,
+    /// Wall-clock time of the whole demo, in seconds.
     pub seconds: f64,
 }
 

@@ -10,12 +10,17 @@ use anyhow::Result;
 
 /// One plot the demo draws.
 pub struct PlannedPlot {
+    /// The picture's path, relative to the output folder.
     pub file: String,
+    /// The caption the page shows under the picture.
     pub caption: String,
     /// The material all subjects share, if any (albedo curves per material).
     pub material: Option<&'static str>,
+    /// The models drawn, with their parameters.
     pub subjects: Vec<Subject>,
+    /// Settings every kind shares: size, scale and channel.
     pub common: Common,
+    /// The kind of plot with its own options.
     pub request: Request,
 }
 

@@ -1,5 +1,5 @@
 //! Directional albedo curves E(μ), μ = cosθo, for several models or materials, with E = 1 drawn:
-//! a curve above it gains energy (the seed's smooth-layered model at grazing view), one below it
+//! a curve above it gains energy (`smooth_layered` at grazing view), one below it
 //! loses energy (single-scattering microfacet models at high roughness).
 //!
 //! E comes from [`crate::integrate::directional`] on the same backend as every other plot; delta
@@ -13,10 +13,12 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
+/// Options of the albedo plot: the view directions, the integrator and its node count.
 #[derive(Clone, Debug)]
 pub struct AlbedoOptions {
     /// View directions, cell-centred in μ over (0, 1].
     pub n_mu: usize,
+    /// The integrator that computes each E(μ).
     pub method: Method,
     /// Quadrature nodes per direction (None: the method's default).
     pub samples: Option<usize>,
@@ -35,9 +37,12 @@ impl Default for AlbedoOptions {
     }
 }
 
+/// One albedo curve.
 #[derive(Clone, Debug)]
 pub struct AlbedoCurve {
+    /// Index into the subjects of the curve's model.
     pub subject: usize,
+    /// The view cosines μ = cosθo, cell-centred over (0, 1], increasing.
     pub mu: Vec<f64>,
     /// E in the plotted channel, delta lobe included.
     pub albedo: Vec<f64>,
@@ -49,14 +54,20 @@ pub struct AlbedoCurve {
     pub error: Vec<[f64; 3]>,
 }
 
+/// What an albedo plot shows: one curve per model, with E = 1 drawn.
 #[derive(Clone, Debug)]
 pub struct AlbedoData {
+    /// The title drawn at the top of the picture.
     pub title: String,
+    /// The curves, one per subject in the subjects' order.
     pub curves: Vec<AlbedoCurve>,
+    /// The top of the vertical axis: a little above 1 and above the highest curve.
     pub y_max: f64,
+    /// Integrand (BRDF) evaluations spent over every curve.
     pub evaluations: u64,
 }
 
+/// Integrates the curves (with [`crate::integrate::directional`]), without drawing.
 pub fn albedo_data(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -126,6 +137,7 @@ pub fn albedo_data(
     })
 }
 
+/// Integrates and draws the curves into `path` (.png or .svg); returns what it drew.
 pub fn plot_albedo(
     eval: &Evaluator,
     subjects: &[Subject],

@@ -24,13 +24,19 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::f64::consts::SQRT_2;
 use std::path::Path;
 
+/// How a direction (θ, φ) of the hemisphere maps to the disc point r·(cosφ, sinφ); both put the
+/// horizon at r = 1.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Projection {
+    /// Lambert's azimuthal equal-area projection, r = √2·sin(θ/2): equal solid angles cover equal
+    /// areas.
     EqualArea,
+    /// The Nusselt (orthographic) projection, r = sinθ: areas are weighted by cosθ.
     Nusselt,
 }
 
 impl Projection {
+    /// The projection's name on the command line: `equal-area` or `nusselt`.
     pub fn name(self) -> &'static str {
         match self {
             Projection::EqualArea => "equal-area",
@@ -38,6 +44,7 @@ impl Projection {
         }
     }
 
+    /// The projection called `name`; an unknown name is an error that lists the projections.
     pub fn from_name(name: &str) -> Result<Projection> {
         match name {
             "equal-area" => Ok(Projection::EqualArea),
@@ -70,6 +77,8 @@ impl Projection {
     }
 }
 
+/// Options of the hemisphere heat map: the fixed directions (one panel each), which of ωi and ωo is
+/// fixed, the projection and the resolution.
 #[derive(Clone, Debug)]
 pub struct HemisphereOptions {
     /// θ of the fixed direction in degrees (ωi, or ωo with `reverse`): one panel each.
@@ -78,6 +87,7 @@ pub struct HemisphereOptions {
     pub phi_deg: f64,
     /// Map f over ωi for a fixed ωo instead.
     pub reverse: bool,
+    /// How directions map to the disc.
     pub projection: Projection,
     /// Cells across the disc's diameter.
     pub res: usize,
@@ -98,9 +108,11 @@ impl Default for HemisphereOptions {
 /// One heat map.
 #[derive(Clone, Debug)]
 pub struct HemispherePanel {
+    /// Index into the subjects of the panel's model.
     pub subject: usize,
-    /// The fixed direction, degrees.
+    /// θ of the fixed direction, in degrees.
     pub theta_deg: f64,
+    /// φ of the fixed direction, in degrees.
     pub phi_deg: f64,
     /// res × res cells, row-major from the top (+y) row, left (−x) first; NaN outside the disc.
     pub values: Vec<f64>,
@@ -110,14 +122,23 @@ pub struct HemispherePanel {
     pub mirror_deg: (f64, f64),
 }
 
+/// What a hemisphere heat map shows: one panel per (model, fixed direction), all on one colour
+/// scale.
 #[derive(Clone, Debug)]
 pub struct HemisphereData {
+    /// The title drawn at the top of the picture.
     pub title: String,
+    /// Cells across each panel's diameter.
     pub res: usize,
+    /// The projection the panels were computed in.
     pub projection: Projection,
+    /// Whether ωo was fixed and the map is over ωi.
     pub reverse: bool,
+    /// The heat maps, subject by subject and, within a subject, in the order of the θ given.
     pub panels: Vec<HemispherePanel>,
+    /// The colour scale every panel shares.
     pub scale: Scale,
+    /// BRDF evaluations spent: the cells inside the disc, times panels.
     pub evaluations: u64,
 }
 
@@ -136,6 +157,7 @@ pub fn cell_direction(projection: Projection, x: f64, y: f64) -> Option<DVec3> {
     Some(direction(projection.theta(r), y.atan2(x)))
 }
 
+/// Evaluates the heat maps (one `eval_pairs` call per subject), without drawing.
 pub fn hemisphere_data(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -261,6 +283,7 @@ pub fn angles_deg(d: DVec3) -> (f64, f64) {
     )
 }
 
+/// Evaluates and draws the heat maps into `path` (.png or .svg); returns what it drew.
 pub fn plot_hemisphere(
     eval: &Evaluator,
     subjects: &[Subject],

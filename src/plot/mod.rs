@@ -1,13 +1,14 @@
 //! `lobe plot`: pictures of a BRDF, written as PNG or SVG by the output's extension.
 //!
 //! Each kind is one library function that evaluates every point it draws through an
-//! [`Evaluator`] (one `eval_pairs` call per model), draws the picture, and returns the plotted
-//! data so that tests and other programs can check what the picture shows:
+//! [`Evaluator`](crate::eval::Evaluator) (one `eval_pairs` call per model), draws the picture,
+//! and returns the plotted data so that tests and other programs can check what the picture
+//! shows:
 //!
 //! - [`polar`]: f (or f·cosθi) in the plane of incidence for several θi, delta lobes marked;
 //! - [`hemisphere`]: a heat map of f over the hemisphere of ωo for one ωi (or the reverse), in an
 //!   equal-area or Nusselt projection;
-//! - [`slice`]: the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
+//! - [`slice`](mod@slice): the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
 //! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
 //! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn;
 //! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
@@ -53,14 +54,20 @@ pub fn register_fonts() -> Result<()> {
 /// The picture kinds of `lobe plot --kind`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
+    /// f in the plane of incidence, one curve per model and θi ([`polar`]).
     Polar,
+    /// A heat map of f over the hemisphere of ωo for one ωi ([`hemisphere`]).
     Hemisphere,
+    /// The θh × θd image at one φd ([`slice`](mod@slice)).
     Slice,
+    /// The lobe as a 3D wireframe for one ωi ([`surface3d`]); named `3d`.
     Surface3d,
+    /// Directional albedo curves E(μ) ([`albedo`]).
     Albedo,
 }
 
 impl Kind {
+    /// Every kind, in the order the error for an unknown name lists them.
     pub const ALL: [Kind; 5] = [
         Kind::Polar,
         Kind::Hemisphere,
@@ -69,6 +76,7 @@ impl Kind {
         Kind::Albedo,
     ];
 
+    /// The kind's name on the command line: `polar`, `hemisphere`, `slice`, `3d` or `albedo`.
     pub fn name(self) -> &'static str {
         match self {
             Kind::Polar => "polar",
@@ -79,6 +87,7 @@ impl Kind {
         }
     }
 
+    /// The kind called `name`; an unknown name is an error that lists the kinds.
     pub fn from_name(name: &str) -> Result<Kind> {
         Kind::ALL
             .into_iter()
@@ -95,11 +104,15 @@ impl Kind {
 /// The output file format, chosen by the extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// A raster image, `size` in pixels.
     Png,
+    /// A vector image, `size` in user units.
     Svg,
 }
 
 impl Format {
+    /// The format of `path` by its extension (`.png` or `.svg`, in any case); any other extension
+    /// is an error.
     pub fn of(path: &Path) -> Result<Format> {
         match path
             .extension()
@@ -122,14 +135,18 @@ impl Format {
 pub enum Channel {
     /// Y = 0.2126 R + 0.7152 G + 0.0722 B (linear Rec. 709 primaries, as the RGB values are).
     Luminance,
+    /// The red channel.
     R,
+    /// The green channel.
     G,
+    /// The blue channel.
     B,
     /// max(R, G, B): the channel that gains energy first.
     Max,
 }
 
 impl Channel {
+    /// The channel's name on the command line: `luminance`, `r`, `g`, `b` or `max`.
     pub fn name(self) -> &'static str {
         match self {
             Channel::Luminance => "luminance",
@@ -140,6 +157,7 @@ impl Channel {
         }
     }
 
+    /// The channel called `name`; an unknown name is an error that lists the channels.
     pub fn from_name(name: &str) -> Result<Channel> {
         [
             Channel::Luminance,
@@ -155,6 +173,7 @@ impl Channel {
         })
     }
 
+    /// This channel's scalar of the linear RGB value `c`.
     pub fn of(self, c: [f64; 3]) -> f64 {
         match self {
             Channel::Luminance => 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2],
@@ -182,10 +201,12 @@ impl Channel {
 pub struct Subject {
     /// `gold cook_torrance`, or the model's name without a material.
     pub label: String,
+    /// The model and its checked parameter values.
     pub params: ParamSet,
 }
 
 impl Subject {
+    /// A subject labelled `material model`, or the model's name alone when `material` is `None`.
     pub fn new(params: ParamSet, material: Option<&str>) -> Subject {
         let label = match material {
             Some(m) => format!("{m} {}", params.model().name()),
@@ -203,6 +224,7 @@ impl Subject {
 /// Settings every kind shares.
 #[derive(Clone, Debug)]
 pub struct Common {
+    /// Evaluate with every Fresnel factor of a specular lobe set to 1 (docs/design.md §3.5).
     pub white_furnace: bool,
     /// Plot f·cosθi instead of f.
     pub cos: bool,
@@ -210,6 +232,7 @@ pub struct Common {
     pub log: bool,
     /// Decades a logarithmic scale spans below its maximum.
     pub decades: f64,
+    /// The scalar of the RGB value that is plotted.
     pub channel: Channel,
     /// Image size in pixels (SVG: user units).
     pub size: (u32, u32),
@@ -247,6 +270,7 @@ impl Common {
         s.join(", ")
     }
 
+    /// Checks `decades` (in (0, 30]) and `size` (width in [200, 8000], height in [150, 8000]).
     pub fn check(&self) -> Result<()> {
         if !(self.decades > 0.0 && self.decades <= 30.0) {
             bail!(
@@ -265,8 +289,11 @@ impl Common {
 /// A value-to-[0, 1] map, linear or logarithmic.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scale {
+    /// The value at position 0; positive when the scale is logarithmic.
     pub lo: f64,
+    /// The value at position 1 (larger values saturate).
     pub hi: f64,
+    /// Logarithmic between `lo` and `hi` instead of linear.
     pub log: bool,
 }
 
@@ -431,6 +458,7 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(240, 228, 66),
 ];
 
+/// The k-th line colour of [`PALETTE`], starting again after eight.
 pub fn palette(k: usize) -> RGBColor {
     PALETTE[k % PALETTE.len()]
 }
@@ -438,13 +466,18 @@ pub fn palette(k: usize) -> RGBColor {
 /// Line patterns for a second overlaid dimension (θi when several models share a colour).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dash {
+    /// An unbroken line.
     Solid,
+    /// Dashes of 10 pixels with gaps of 6.
     Dashed,
+    /// Dots of 3 pixels with gaps of 4.
     Dotted,
+    /// Long dashes of 22 pixels with gaps of 6.
     Long,
 }
 
 impl Dash {
+    /// The k-th pattern, starting again after four: solid, dashed, dotted, long.
     pub fn nth(k: usize) -> Dash {
         [Dash::Solid, Dash::Dashed, Dash::Dotted, Dash::Long][k % 4]
     }
@@ -509,13 +542,17 @@ pub fn dash_pieces(points: &[(i32, i32)], dash: Dash) -> Vec<Vec<(i32, i32)>> {
 /// One entry of a hand-drawn legend.
 #[derive(Clone, Debug)]
 pub struct LegendEntry {
+    /// The text drawn beside the line sample.
     pub label: String,
+    /// The line's colour.
     pub colour: RGBColor,
+    /// The line's pattern.
     pub dash: Dash,
 }
 
 /// Maps plotters' errors (whose types depend on the backend) to anyhow with what was drawn.
 pub(crate) trait Drawn<T> {
+    /// The result, its error turned into "drawing {what}: {error}".
     fn drawing(self, what: &str) -> Result<T>;
 }
 
@@ -525,6 +562,7 @@ impl<T, E: std::fmt::Display> Drawn<T> for std::result::Result<T, E> {
     }
 }
 
+/// DejaVu Sans of `size` pixels in `colour`, anchored at the text's top left.
 pub(crate) fn text_style(size: u32, colour: RGBColor) -> TextStyle<'static> {
     TextStyle {
         font: (FONT, size).into_font(),
@@ -533,6 +571,7 @@ pub(crate) fn text_style(size: u32, colour: RGBColor) -> TextStyle<'static> {
     }
 }
 
+/// Black DejaVu Sans of `size` pixels, anchored at (`h`, `v`) of the text.
 pub(crate) fn anchored(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
     text_style(size, BLACK).pos(Pos::new(h, v))
 }
@@ -713,24 +752,35 @@ pub(crate) fn render(
 /// What to plot: the kind with its own options.
 #[derive(Clone, Debug)]
 pub enum Request {
+    /// A polar plot ([`polar::plot_polar`]).
     Polar(polar::PolarOptions),
+    /// A hemisphere heat map ([`hemisphere::plot_hemisphere`]).
     Hemisphere(hemisphere::HemisphereOptions),
+    /// A θh × θd slice ([`slice::plot_slice`]).
     Slice(slice::SliceOptions),
+    /// A 3D wireframe of the lobe ([`surface3d::plot_surface3d`]).
     Surface3d(surface3d::Surface3dOptions),
+    /// Directional albedo curves ([`albedo::plot_albedo`]).
     Albedo(albedo::AlbedoOptions),
 }
 
 /// What a plot drew, by kind.
 #[derive(Clone, Debug)]
 pub enum Plotted {
+    /// What [`polar::plot_polar`] drew.
     Polar(polar::PolarData),
+    /// What [`hemisphere::plot_hemisphere`] drew.
     Hemisphere(hemisphere::HemisphereData),
+    /// What [`slice::plot_slice`] drew.
     Slice(slice::SliceData),
+    /// What [`surface3d::plot_surface3d`] drew.
     Surface3d(surface3d::Surface3dData),
+    /// What [`albedo::plot_albedo`] drew.
     Albedo(albedo::AlbedoData),
 }
 
 impl Plotted {
+    /// The title drawn at the top of the picture.
     pub fn title(&self) -> &str {
         match self {
             Plotted::Polar(d) => &d.title,

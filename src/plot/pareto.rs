@@ -29,11 +29,15 @@ pub const DEFAULT_SIZE: (u32, u32) = (1800, 720);
 /// One panel as drawn.
 #[derive(Clone, Debug)]
 pub struct Panel {
+    /// The report section the panel shows.
     pub section: Section,
+    /// The cost axis's caption, with its unit.
     pub x_label: String,
+    /// The error axis's caption.
     pub y_label: String,
-    /// Axis ranges (cost, then error), both logarithmic.
+    /// The cost axis's range (logarithmic).
     pub x_range: (f64, f64),
+    /// The error axis's range (logarithmic).
     pub y_range: (f64, f64),
     /// Every point: (cost, error as drawn, on the front).
     pub points: Vec<(f64, f64, bool)>,
@@ -44,7 +48,9 @@ pub struct Panel {
 /// What [`plot_pareto`] drew.
 #[derive(Clone, Debug)]
 pub struct ParetoPlot {
+    /// The title drawn at the top of the picture: the subject and the device.
     pub title: String,
+    /// One panel per section of the report that has rows, in the report's order.
     pub panels: Vec<Panel>,
 }
 

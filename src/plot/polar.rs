@@ -22,6 +22,7 @@ use std::path::Path;
 /// Phong lobe of exponent 8192 (half-width ≈ 1/√n rad ≈ 0.6°) is drawn with ~10 points.
 pub const DEFAULT_SAMPLES: usize = 1440;
 
+/// Options of the polar plot: which incidence angles, and how many view angles per curve.
 #[derive(Clone, Debug)]
 pub struct PolarOptions {
     /// Incidence angles θi in degrees, each in [0, 90).
@@ -44,6 +45,7 @@ impl Default for PolarOptions {
 pub struct PolarSeries {
     /// Index into the subjects.
     pub subject: usize,
+    /// The incidence angle θi of this curve, in degrees.
     pub theta_i_deg: f64,
     /// Signed view angle s in degrees (positive: the mirror side).
     pub theta_o_deg: Vec<f64>,
@@ -69,7 +71,9 @@ impl PolarSeries {
 /// A delta lobe drawn as an arrow at the mirror direction.
 #[derive(Clone, Debug)]
 pub struct DeltaMark {
+    /// Index into the subjects of the delta lobe's model.
     pub subject: usize,
+    /// The incidence angle θi, in degrees.
     pub theta_i_deg: f64,
     /// Signed angle of the mirror direction (= θi).
     pub mirror_deg: f64,
@@ -80,8 +84,11 @@ pub struct DeltaMark {
 /// What a polar plot shows.
 #[derive(Clone, Debug)]
 pub struct PolarData {
+    /// The title drawn at the top of the picture.
     pub title: String,
+    /// The curves, subject by subject and, within a subject, in the order of the θi given.
     pub series: Vec<PolarSeries>,
+    /// One arrow per delta lobe and θi, for models that have one.
     pub deltas: Vec<DeltaMark>,
     /// The radial scale the curves were drawn with.
     pub scale: Scale,

@@ -18,6 +18,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
+/// Options of the θh × θd slice: its resolution and its φd.
 #[derive(Clone, Debug)]
 pub struct SliceOptions {
     /// Cells along θh and along θd.
@@ -35,23 +36,32 @@ impl Default for SliceOptions {
     }
 }
 
+/// One slice image.
 #[derive(Clone, Debug)]
 pub struct SlicePanel {
+    /// Index into the subjects of the panel's model.
     pub subject: usize,
     /// res × res values, row k = θd cell k (θd growing), column l = θh cell l (θh growing);
     /// cell-centred angles (k + ½)·90°/res. Zero where a direction is below the horizon.
     pub values: Vec<f64>,
 }
 
+/// What a θh × θd slice plot shows: one panel per model, all on one logarithmic colour scale.
 #[derive(Clone, Debug)]
 pub struct SliceData {
+    /// The title drawn at the top of the picture.
     pub title: String,
     /// The largest value (the colour saturates at `scale.hi`, the COLOUR_QUANTILE of them).
     pub max: f64,
+    /// Cells along θh and along θd.
     pub res: usize,
+    /// φd of every panel, in degrees.
     pub phi_d_deg: f64,
+    /// The images, one per subject in the subjects' order.
     pub panels: Vec<SlicePanel>,
+    /// The logarithmic colour scale every panel shares.
     pub scale: Scale,
+    /// BRDF evaluations spent: res² per panel.
     pub evaluations: u64,
 }
 
@@ -64,6 +74,7 @@ impl SliceData {
 
 pub use crate::grid::half_diff_to_pair;
 
+/// Evaluates the slices (one `eval_pairs` call per subject, φh = 0), without drawing.
 pub fn slice_data(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -132,6 +143,7 @@ pub fn slice_data(
     })
 }
 
+/// Evaluates and draws the slices into `path` (.png or .svg); returns what it drew.
 pub fn plot_slice(
     eval: &Evaluator,
     subjects: &[Subject],

@@ -16,13 +16,17 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
+/// Options of the 3D wireframe: the incidence directions (one panel each) and the wireframe's rings
+/// and meridians.
 #[derive(Clone, Debug)]
 pub struct Surface3dOptions {
     /// θi in degrees: one panel each.
     pub theta_i_deg: Vec<f64>,
+    /// φi of every incidence direction, in degrees.
     pub phi_i_deg: f64,
-    /// Rings of constant θo (from the pole to 89.5°) and meridians of constant φo.
+    /// Rings of constant θo, from the pole to 89.5° (just above the horizon).
     pub n_theta: usize,
+    /// Meridians of constant φo, 360°/n_phi apart.
     pub n_phi: usize,
 }
 
@@ -40,10 +44,14 @@ impl Default for Surface3dOptions {
 /// The last ring's θo: just above the horizon, where a one-sided f is still nonzero.
 const LAST_RING_DEG: f64 = 89.5;
 
+/// One wireframe.
 #[derive(Clone, Debug)]
 pub struct Surface3dPanel {
+    /// Index into the subjects of the panel's model.
     pub subject: usize,
+    /// θi of the panel, in degrees.
     pub theta_i_deg: f64,
+    /// φi of the panel, in degrees.
     pub phi_i_deg: f64,
     /// n_theta × n_phi surface points (x, y, z) in chart units, row-major in (θo, φo).
     pub points: Vec<[f64; 3]>,
@@ -53,15 +61,22 @@ pub struct Surface3dPanel {
     pub peak_deg: (f64, f64),
 }
 
+/// What a 3D wireframe plot shows: one panel per (model, θi), all on one radial scale.
 #[derive(Clone, Debug)]
 pub struct Surface3dData {
+    /// The title drawn at the top of the picture.
     pub title: String,
+    /// Rings of constant θo in each panel.
     pub n_theta: usize,
+    /// Meridians of constant φo in each panel.
     pub n_phi: usize,
+    /// The wireframes, subject by subject and, within a subject, in the order of the θi given.
     pub panels: Vec<Surface3dPanel>,
+    /// The radial scale: linear radius f, or the position on a logarithmic scale.
     pub scale: Scale,
     /// Half the extent of the chart's axes, in chart units.
     pub extent: f64,
+    /// BRDF evaluations spent: n_theta × n_phi per panel.
     pub evaluations: u64,
 }
 
@@ -73,6 +88,7 @@ fn phi_o_deg(l: usize, n: usize) -> f64 {
     360.0 * l as f64 / n as f64
 }
 
+/// Evaluates the wireframes (one `eval_pairs` call per subject), without drawing.
 pub fn surface3d_data(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -187,6 +203,7 @@ pub fn surface3d_data(
     })
 }
 
+/// Evaluates and draws the wireframes into `path` (.png or .svg); returns what it drew.
 pub fn plot_surface3d(
     eval: &Evaluator,
     subjects: &[Subject],

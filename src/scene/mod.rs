@@ -94,9 +94,13 @@ pub const MAX_SCENE_BYTES: u64 = 1 << 20;
 /// A scene error located in its file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneError {
+    /// The scene file's name, as the error messages print it.
     pub file: String,
+    /// 1-based line of the offending text.
     pub line: usize,
+    /// 1-based column, in characters, of the offending text.
     pub column: usize,
+    /// What is wrong, as a sentence naming the key and its valid values.
     pub message: String,
 }
 
@@ -127,25 +131,36 @@ pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
 /// A named material: a validated parameter set (its model included).
 #[derive(Clone, Debug)]
 pub struct Material {
+    /// The name tables, albedos and previews refer to it by; unique in the scene.
     pub name: String,
+    /// The model and its parameters: the defaults or the preset, then the section's `params`.
     pub params: ParamSet,
     /// The built-in preset it started from, if any.
     pub preset: Option<String>,
 }
 
+/// A `[[lights]]` section, as the previews use it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneLight {
+    /// A point light's position in the camera's frame (the file's position minus the camera's), or,
+    /// for a directional light, the vector toward the light as given.
     pub position: DVec3,
+    /// Whether the light is a point at `position` or infinitely far along it.
     pub kind: LightKind,
     /// RGB; None: the preview's normalisation (a white Lambertian facing the camera reads 1).
     pub intensity: Option<DVec3>,
 }
 
+/// A `[[tables]]` section: one lobe table to write.
 #[derive(Clone, Debug)]
 pub struct TableJob {
+    /// Index of the tabulated material in [`Scene::materials`].
     pub material: usize,
+    /// The grid of direction pairs, with its cells per axis.
     pub grid: Grid,
+    /// Evaluate with every Fresnel factor of a specular lobe set to 1.
     pub white_furnace: bool,
+    /// Where the `.exr` goes, relative to the output folder (the `.npy` and `.json` go beside it).
     pub output: PathBuf,
     /// Why this grid, and how each axis's cells follow from the section's keys (for the log):
     /// the isotropic grids' azimuth covers [0, 180 deg], so its cells are not `n_phi`'s.
@@ -158,12 +173,19 @@ pub const DEFAULT_N_THETA: usize = 32;
 /// [0, 180 deg] on the isotropic grids.
 pub const DEFAULT_N_PHI: usize = 64;
 
+/// An `[[albedos]]` section: one albedo report to write.
 #[derive(Clone, Debug)]
 pub struct AlbedoJob {
+    /// Index of the integrated material in [`Scene::materials`].
     pub material: usize,
+    /// Integrate with every Fresnel factor of a specular lobe set to 1.
     pub white_furnace: bool,
+    /// The quadrature rule.
     pub method: crate::integrate::Method,
+    /// Quadrature nodes per view direction, in [16, [`MAX_ALBEDO_SAMPLES`]] (the rule's default
+    /// when the section gives none).
     pub samples: usize,
+    /// Where the JSON report goes, relative to the output folder.
     pub output: PathBuf,
 }
 
@@ -171,28 +193,45 @@ pub struct AlbedoJob {
 /// per direction; far beyond what any rule needs for 1e-6).
 pub const MAX_ALBEDO_SAMPLES: i64 = 1 << 20;
 
+/// A `[[previews]]` section: one contact sheet to render.
 #[derive(Clone, Debug)]
 pub struct PreviewJob {
+    /// The rows: indices in [`Scene::materials`].
     pub materials: Vec<usize>,
+    /// The columns, one per model name.
     pub models: Vec<Model>,
+    /// The object drawn in every cell.
     pub shape: Shape,
+    /// Cell size in pixels, in [1, [`MAX_PREVIEW_CELL`]].
     pub cell: u32,
+    /// Exposure of the PNG in stops; 0 puts a white Lambertian facing the camera just below clip.
     pub exposure: f64,
+    /// Where the PNG goes, relative to the output folder (the `.exr` goes beside it).
     pub output: PathBuf,
 }
 
 /// A parsed, validated scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The file's name, as messages print it.
     pub file: String,
+    /// The scene's name for the log (`scene` when the file gives none).
     pub name: String,
+    /// Where the camera is; the camera looks down −z with +y up.
     pub camera_position: DVec3,
+    /// Vertical field of view, in degrees, in (0, 180).
     pub fov_y_deg: f64,
+    /// RGB radiance of a uniform sky around the previewed objects.
     pub ambient: DVec3,
+    /// The lights, in file order.
     pub lights: Vec<SceneLight>,
+    /// The materials, in file order; jobs refer to them by index.
     pub materials: Vec<Material>,
+    /// The lobe tables to write, in file order.
     pub tables: Vec<TableJob>,
+    /// The albedo reports to write, in file order.
     pub albedos: Vec<AlbedoJob>,
+    /// The contact sheets to render, in file order.
     pub previews: Vec<PreviewJob>,
 }
 
@@ -228,27 +267,34 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Which outputs of a scene to produce.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Outputs {
+    /// Write the `[[tables]]`.
     pub tables: bool,
+    /// Write the `[[albedos]]`.
     pub albedos: bool,
+    /// Render the `[[previews]]`.
     pub previews: bool,
 }
 
 impl Outputs {
+    /// Everything the scene asks for (`lobe run`).
     pub const ALL: Outputs = Outputs {
         tables: true,
         albedos: true,
         previews: true,
     };
+    /// Only the tables (`lobe table --scene`).
     pub const TABLES: Outputs = Outputs {
         tables: true,
         albedos: false,
         previews: false,
     };
+    /// Only the albedos (`lobe albedo --scene`).
     pub const ALBEDOS: Outputs = Outputs {
         tables: false,
         albedos: true,
         previews: false,
     };
+    /// Only the previews (`lobe preview --scene`).
     pub const PREVIEWS: Outputs = Outputs {
         tables: false,
         albedos: false,
@@ -266,7 +312,7 @@ pub struct RunSummary {
     pub lines: Vec<String>,
 }
 
-/// View directions μ = cos θo at which a scene's [[albedos]] report E(μ) (φo = 0), beside the
+/// View directions μ = cos θo at which a scene's `[[albedos]]` report E(μ) (φo = 0), beside the
 /// hemispherical albedo: grazing, halfway and normal view, as `lobe albedo` by default, and two
 /// between.
 pub const ALBEDO_MU: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];

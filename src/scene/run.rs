@@ -18,9 +18,9 @@ fn create_parent(path: &Path) -> Result<()> {
 }
 
 impl Scene {
-    /// Produces the outputs `what` asks for under `out_dir` (made, with its parents, when
-    /// missing), evaluating on `e`. `log` receives a line per output as it is written. Stops with "interrupted" on Ctrl-C (between and inside
-    /// outputs), leaving no partial file.
+    /// Produces the outputs `what` asks for under `out_dir` (made, with its parents, when missing),
+    /// evaluating on `e`. `log` receives a line per output as it is written. Stops with
+    /// "interrupted" on Ctrl-C (between and inside outputs), leaving no partial file.
     pub fn run(
         &self,
         e: &Evaluator,
