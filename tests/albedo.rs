@@ -565,7 +565,7 @@ fn the_reference_runs_on_the_cpu_whatever_the_backend() {
 }
 
 #[test]
-fn cli_albedo_json_has_the_issue_fields() {
+fn cli_albedo_json_has_the_documented_fields() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
         .args([
             "albedo",

@@ -129,7 +129,7 @@ fn isotropic_materials_get_the_isotropic_grid() {
 }
 
 #[test]
-fn the_lab_is_the_seed_lab() {
+fn the_lab_scene_is_the_lab_reports() {
     let s = scene::parse(LAB, "lab.toml").unwrap();
     let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, ["tin", "gold", "glazed_ceramic", "granite"]);
