@@ -12,11 +12,14 @@ use std::time::Instant;
 /// One measurement: the median over repeats.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Throughput {
+    /// The model's name.
     pub model: String,
     /// What was timed: "table" (a lobe table, output discarded) or "albedo" (directional albedo
     /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU).
     pub task: &'static str,
+    /// The backend timed, as [`Evaluator::name`] says.
     pub backend: String,
+    /// Integrand evaluations in one run.
     pub evaluations: u64,
     /// Evaluations per second by wall clock, read-back included.
     pub wall_per_s: f64,

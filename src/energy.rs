@@ -1,4 +1,4 @@
-//! Energy report (`lobe energy`, issue 3): for every model at each material preset and over a
+//! Energy report (`lobe energy`): for every model at each material preset and over a
 //! sweep of its main parameter, the largest directional albedo E(μ) and where it occurs, whether
 //! the model gains energy, and how much it loses on average (1 − E_avg).
 //!
@@ -8,8 +8,8 @@
 //! authors intended, should reflect all light at normal incidence:
 //! - `lambert`, `oren_nayar`: albedo = 1;
 //! - `phong`, `blinn_phong`, `cook_torrance`, `ashikhmin_shirley`, `microfacet`: the specular
-//!   lobe alone (diffuse = 0, specular = 1) under the white furnace (Fresnel = 1, DESIGN §3):
-//!   the lobe's own normalization and masking (the diffuse part is Lambert, reported apart);
+//!   lobe alone (diffuse = 0, specular = 1) under the white furnace (Fresnel = 1,
+//!   docs/design.md §3): the lobe's own normalization and masking (the diffuse part is Lambert, reported apart);
 //! - `smooth_layered`: diffuse = 1 − R0, the largest base for which E(μ = 1) = 1, so that what
 //!   it gains towards grazing (F_s(μ) → 1 while the base stays) is the model's, not the colour's;
 //! - `coupled`: matte = 1 (its (1 − R0)·(1 − (1 − c)^5) factors are meant to make this lossless).
@@ -45,20 +45,25 @@ pub fn mu_grid() -> Vec<f64> {
 /// One line of the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct EnergyRow {
+    /// The model's name.
     pub model: String,
     /// `preset NAME` or `sweep KEY=VALUE`.
     pub case: String,
     /// The white configuration evaluated (all parameters).
     pub parameters: String,
+    /// Whether the white configuration runs under the white furnace.
     pub white_furnace: bool,
-    /// The largest E over [`mu_grid`] (largest channel) and the μ where it occurs.
+    /// The largest E over [`mu_grid`] (largest channel).
     pub e_max: f64,
+    /// The μ where `e_max` occurs.
     pub mu_at_max: f64,
     /// E at normal incidence.
     pub e_normal: f64,
+    /// E_avg = 2∫₀¹ E(μ) μ dμ (largest channel).
     pub e_avg: f64,
     /// 1 − E_avg.
     pub loss: f64,
+    /// Whether `e_max` exceeds 1 by more than [`GAIN_MARGIN`] plus its error estimate.
     pub gain: bool,
     /// The largest error estimate among the E values and E_avg.
     pub error: f64,

@@ -1,4 +1,4 @@
-//! Grids of (ωi, ωo) with cell-centred angles (DESIGN §4):
+//! Grids of (ωi, ωo) with cell-centred angles (docs/design.md §4):
 //! θ_k = (k + ½)(π/2)/Nθ, φ_k = (k + ½)2π/Nφ, Δφ_k = (k + ½)π/NΔφ.
 //! The `full` and `isotropic` grids are the outer product of a light-direction list and a
 //! view-direction list, cell = i·len(wo) + o, so that a table's row-major index is the cell
@@ -9,33 +9,48 @@ use glam::DVec3;
 use serde_json::json;
 use std::f64::consts::{FRAC_PI_2, PI};
 
+/// The angles a lobe table samples, and their resolutions (cells per axis, each at least 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Grid {
     /// (θi, φi, θo, φo): any model.
     Full {
+        /// Cells of θi over [0, π/2].
         n_theta_i: usize,
+        /// Cells of φi over [0, 2π).
         n_phi_i: usize,
+        /// Cells of θo over [0, π/2].
         n_theta_o: usize,
+        /// Cells of φo over [0, 2π).
         n_phi_o: usize,
     },
     /// (θi, θo, Δφ), φi = 0, Δφ = φo − φi ∈ [0, π]: isotropic models only.
     Isotropic {
+        /// Cells of θi over [0, π/2].
         n_theta_i: usize,
+        /// Cells of θo over [0, π/2].
         n_theta_o: usize,
+        /// Cells of Δφ over [0, π].
         n_dphi: usize,
     },
     /// (θh, θd, φd) with φh = 0 and φd ∈ [0, π]: isotropic models (an isotropic, reciprocal f
     /// has f(φd) = f(φd + π), so half the circle holds everything).
     HalfDiff {
+        /// Cells of θh over [0, π/2].
         n_theta_h: usize,
+        /// Cells of θd over [0, π/2].
         n_theta_d: usize,
+        /// Cells of φd over [0, π].
         n_phi_d: usize,
     },
     /// (θh, φh, θd, φd), φh and φd ∈ [0, 2π): any model.
     HalfDiffFull {
+        /// Cells of θh over [0, π/2].
         n_theta_h: usize,
+        /// Cells of φh over [0, 2π).
         n_phi_h: usize,
+        /// Cells of θd over [0, π/2].
         n_theta_d: usize,
+        /// Cells of φd over [0, 2π).
         n_phi_d: usize,
     },
 }
@@ -65,7 +80,8 @@ pub fn direction(theta: f64, phi: f64) -> DVec3 {
 }
 
 impl Grid {
-    /// Parses `--res` for the grid kind `full` or `isotropic`.
+    /// Parses `--res` (comma-separated cell counts) for the grid kind `full`, `isotropic` or
+    /// `halfdiff` (three numbers: the isotropic half; four: every angle).
     pub fn parse(kind: &str, res: &str) -> Result<Grid, String> {
         let nums: Result<Vec<usize>, _> =
             res.split(',').map(|s| s.trim().parse::<usize>()).collect();
@@ -115,6 +131,7 @@ impl Grid {
         }
     }
 
+    /// The grid kind as `--grid` names it: `full`, `isotropic` or `halfdiff`.
     pub fn name(&self) -> &'static str {
         match self {
             Grid::Full { .. } => "full",
@@ -364,7 +381,7 @@ impl Grid {
 
 /// (ωi, ωo) of Rusinkiewicz's half/difference angles (radians): the half vector
 /// h = (θh, φh), and ωi = Rz(φh) Ry(θh) d with d = (θd, φd) in h's frame; ωo is ωi's mirror
-/// about h. Cells whose ωi or ωo falls below the horizon hold f = 0 (DESIGN §2).
+/// about h. Cells whose ωi or ωo falls below the horizon hold f = 0 (docs/design.md §2).
 pub fn half_diff_to_pair(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> (DVec3, DVec3) {
     let h = direction(theta_h, phi_h);
     let d = direction(theta_d, phi_d);

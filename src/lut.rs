@@ -1,8 +1,9 @@
-//! Albedo look-up tables (issue 3, DESIGN §5): the directional albedo E(μ, p) over view cosines
-//! μ and one parameter axis p (roughness, shininess, smoothness, σ, …), and Kulla–Conty's
-//! E_avg(p) = 2∫₀¹ E(μ, p) μ dμ, the tables real-time engines load for energy compensation.
+//! Albedo look-up tables (`lobe albedo --lut`, docs/design.md §5): the directional albedo
+//! E(μ, p) over view cosines μ and one parameter axis p (roughness, shininess, smoothness, σ, …),
+//! and Kulla–Conty's E_avg(p) = 2∫₀¹ E(μ, p) μ dμ, the tables real-time engines load for energy
+//! compensation.
 //!
-//! Axes (both cell-centred, as DESIGN §4's angles are):
+//! Axes (both cell-centred, as docs/design.md §4's angles are):
 //! - μ_j = (j + ½)/Nμ, j = 0 … Nμ − 1: cells of equal width in μ = cosθo over (0, 1], so no
 //!   entry sits at grazing μ = 0 (where E is a limit) and a bilinear lookup at μ reads cell j at
 //!   u = μ.
@@ -45,8 +46,10 @@ pub enum Mapping {
 }
 
 impl Mapping {
+    /// Every mapping, in the order the CLI lists them.
     pub const ALL: [Mapping; 3] = [Mapping::Linear, Mapping::Log, Mapping::Square];
 
+    /// The name the CLI and the sidecar use.
     pub fn name(self) -> &'static str {
         match self {
             Mapping::Linear => "linear",
@@ -55,6 +58,7 @@ impl Mapping {
         }
     }
 
+    /// Looks a mapping up by [`Mapping::name`]; the error lists the names.
     pub fn from_name(name: &str) -> Result<Mapping> {
         Mapping::ALL
             .into_iter()
@@ -76,6 +80,7 @@ impl Mapping {
         }
     }
 
+    /// The parameter value at t ∈ [0, 1] of the axis from `lo` to `hi`.
     pub fn apply(self, lo: f64, hi: f64, t: f64) -> f64 {
         match self {
             Mapping::Linear => lo + (hi - lo) * t,
@@ -97,14 +102,21 @@ pub fn default_axis(model: Model) -> (Vec<&'static str>, f64, f64, Mapping) {
 pub struct LutSpec {
     /// Every parameter but the axis (whose keys are overwritten per row).
     pub params: ParamSet,
+    /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
     /// The parameter keys of the axis, all set to p.
     pub keys: Vec<String>,
+    /// Lower end of the parameter axis (the mapping's value at t = 0).
     pub lo: f64,
+    /// Upper end of the parameter axis (the mapping's value at t = 1).
     pub hi: f64,
+    /// How axis cells map to parameter values.
     pub mapping: Mapping,
+    /// Cells along μ (the table's width), at most [`MAX_RES`].
     pub n_mu: usize,
+    /// Cells along p (the table's height), at most [`MAX_RES`].
     pub n_p: usize,
+    /// The integrator of every entry.
     pub method: Method,
     /// Nodes per view direction (ignored by the reference).
     pub samples: usize,
@@ -232,7 +244,9 @@ fn numeric_keys(model: Model) -> Vec<&'static str> {
 /// A computed table.
 #[derive(Clone, Debug)]
 pub struct LutSummary {
+    /// μ at each column's cell centre.
     pub mus: Vec<f64>,
+    /// The parameter value of each row.
     pub ps: Vec<f64>,
     /// E(μ_j, p_k) at index k·Nμ + j, delta lobe included.
     pub e: Vec<DVec3>,
@@ -240,6 +254,7 @@ pub struct LutSummary {
     pub e_avg: Vec<DVec3>,
     /// The largest error estimate of any entry (E or E_avg), absolute.
     pub max_error: f64,
+    /// Wall-clock time of the computation, seconds.
     pub seconds: f64,
     /// The files written (empty for [`compute`]).
     pub files: Vec<PathBuf>,
@@ -468,9 +483,13 @@ fn write_exr(out: &std::fs::File, spec: &LutSpec, lut: &LutSummary) -> Result<()
 /// A LUT read back: E as (Np, Nμ) rows of RGB and E_avg per row, from either file kind.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LutData {
+    /// Cells along μ (the table's width).
     pub n_mu: usize,
+    /// Cells along p (the table's height).
     pub n_p: usize,
+    /// E(μ_j, p_k) at index k·Nμ + j.
     pub e: Vec<[f32; 3]>,
+    /// E_avg(p_k), one per row.
     pub e_avg: Vec<[f32; 3]>,
 }
 

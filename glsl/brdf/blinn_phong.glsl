@@ -1,5 +1,5 @@
 // Blinn-Phong with the (N+8)/(8 pi) normalization (Akenine-Moller et al., Real-Time Rendering)
-// and the seed's smoothness mapping N = 8192^(1-s). Twin of src/model/blinn_phong.rs.
+// and the lab report's smoothness mapping N = 8192^(1-s). Twin of src/model/blinn_phong.rs.
 #include "brdf/terms.glsl"
 
 struct BlinnPhongParams {

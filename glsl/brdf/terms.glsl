@@ -74,7 +74,7 @@ float pow5_complement(float x) {
     return x * (1.0 + y * (1.0 + y * (1.0 + y * (1.0 + y))));
 }
 
-// The Fresnel factor of a specular lobe, or 1 under the white furnace (DESIGN §3).
+// The Fresnel factor of a specular lobe, or 1 under the white furnace (docs/design.md §3).
 vec3 F_specular(float c, vec3 r0) {
     return WHITE_FURNACE ? vec3(1.0) : F_schlick(c, r0);
 }

@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Directional albedo as a reduction, E(wo) = sum_k w_k f(wi_k, wo), with the quadrature's nodes
-// (wi_k, w_k) given as a list; w_k already holds cos(theta_i) (src/integrate.rs derives each rule).
+// (wi_k, w_k) given as a list; w_k already holds cos(theta_i) (src/integrate/ derives each rule).
 // No table is written: each workgroup sums one span of one wo's nodes in f32 (strided per
 // invocation, then a tree in shared memory) and writes one partial sum; the host adds each wo's
 // partials in f64 (src/gpu/albedo.rs).
@@ -34,7 +34,7 @@ layout(push_constant) uniform AlbedoJob {
 
 shared vec3 sums[gl_WorkGroupSize.x];
 
-// DESIGN §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
+// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
 vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
     return MODEL_EVAL(p, wi, wo);

@@ -16,7 +16,7 @@ layout(std430, set = 0, binding = 3) writeonly buffer Output { float f_out[]; };
 // n_wo: length of the wo list (table kernel only).
 layout(push_constant) uniform Chunk { uint first; uint count; uint n_wo; uint pad; } chunk;
 
-// DESIGN §2: f = 0 whenever c_i <= 0 or c_o <= 0.
+// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0.
 vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
     return MODEL_EVAL(p, wi, wo);

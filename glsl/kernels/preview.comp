@@ -3,8 +3,8 @@
 // `lobe preview`: shades one object per cell of a contact sheet with the pipeline's model, one
 // pixel per evaluation. Twin of src/preview.rs (the f64 CPU render), which documents the scene:
 // camera at the origin looking down -z with +y up and +x right (OpenGL eye space), the lab's
-// lights as positions in that space, and the shading frame n = +z, t = +x, b = +y (DESIGN §2)
-// with t = normalize(cross(+y, n)), the sphere's lines of latitude.
+// lights as positions in that space, and the shading frame n = +z, t = +x, b = +y
+// (docs/design.md §2) with t = normalize(cross(+y, n)), the sphere's lines of latitude.
 //
 // Pixels are numbered cell by cell, then row by row from the top: index = (cell * H + y) * W + x.
 #include "kernels/eval.glsl"

@@ -1,6 +1,6 @@
 //! The GPU path of directional albedo (`glsl/kernels/albedo.comp`): E(ωo) = Σ_k w_k f(ωi_k, ωo)
 //! as a workgroup reduction. Nothing but one partial sum per workgroup comes back; the host adds
-//! each direction's partials in f64. The quadrature rules themselves live in `src/integrate.rs`.
+//! each direction's partials in f64. The quadrature rules themselves live in `src/integrate/`.
 
 use super::buffer::Buffer;
 use super::pipeline::{ChunkPush, Dispatcher, Kernel, LOCAL_SIZE};
@@ -17,9 +17,13 @@ pub const NODES_PER_INVOCATION: u32 = 16;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct AlbedoPush {
+    /// The span of nodes one workgroup sums.
     pub nodes_per_group: u32,
+    /// Workgroups times evaluations per workgroup; read by the host's dispatcher only.
     pub dispatch_count: u32,
+    /// Nodes per view direction.
     pub n_nodes: u32,
+    /// 0 when every view direction shares one node list, else `n_nodes`.
     pub node_stride: u32,
 }
 

@@ -7,6 +7,7 @@ use super::device::Device;
 use super::error::{Context, GpuError, Result};
 use ash::vk;
 
+/// One mapped storage buffer on a device, released when dropped.
 pub struct Buffer<'d> {
     dev: &'d Device,
     pub(crate) buffer: vk::Buffer,
@@ -16,6 +17,8 @@ pub struct Buffer<'d> {
 }
 
 impl<'d> Buffer<'d> {
+    /// Creates and maps a buffer of at least `size` bytes (16 at least); `what` names it in
+    /// error messages ("parameter", "albedo node").
     pub fn new(dev: &'d Device, size: u64, what: &str) -> Result<Buffer<'d>> {
         let size = size.max(16);
         let d = &dev.device;

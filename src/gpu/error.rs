@@ -6,33 +6,67 @@ use ash::vk;
 pub const INSTALL_HINT: &str = "install the Vulkan loader and Mesa's drivers (lavapipe runs Vulkan on the CPU): \
 `sudo apt-get install -y libvulkan1 mesa-vulkan-drivers`; or run the f64 CPU reference with `--backend cpu`";
 
+/// Why the GPU backend could not start or could not finish a job.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// `libvulkan.so.1` could not be loaded; the text is the loader's own reason.
     #[error("no Vulkan loader (libvulkan.so.1) could be loaded: {0}; {INSTALL_HINT}")]
     NoLoader(String),
+    /// The loader works but lists no device with a compute queue.
     #[error("the Vulkan loader found no device with a compute queue; {INSTALL_HINT}")]
     NoDevice,
+    /// No device name contains the text asked for.
     #[error("no Vulkan device name contains '{wanted}'; the devices are: {available}")]
-    NoMatchingDevice { wanted: String, available: String },
+    NoMatchingDevice {
+        /// The text asked for (`--device`), matched against device names.
+        wanted: String,
+        /// The names of the devices there are, comma-separated.
+        available: String,
+    },
+    /// `LOBE_VALIDATION=1` asked for the Khronos validation layer, which is not installed.
     #[error("Vulkan validation was requested (LOBE_VALIDATION=1) but VK_LAYER_KHRONOS_validation is not installed: \
 `sudo apt-get install -y vulkan-validationlayers`")]
     NoValidationLayer,
+    /// The device was lost (a driver or GPU reset); the text says what was running.
     #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device with --device, or use --backend cpu")]
     DeviceLost(String),
+    /// A submission did not finish within the per-chunk time limit.
     #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or --backend cpu")]
-    Timeout { what: String, seconds: u64 },
+    Timeout {
+        /// The label of the pipeline that was running.
+        what: String,
+        /// The time limit, seconds.
+        seconds: u64,
+    },
+    /// Any other failed Vulkan call.
     #[error("Vulkan call failed while {what}: {result}")]
-    Vk { what: String, result: vk::Result },
+    Vk {
+        /// What was being attempted.
+        what: String,
+        /// The code the call returned.
+        result: vk::Result,
+    },
+    /// The work does not fit a device limit or a kernel's index range, or a kernel's SPIR-V is
+    /// unreadable; the text is a sentence saying which.
     #[error("{0}")]
     Limit(String),
+    /// No SPIR-V for this (kernel, model) pair was built into the binary or given at run time.
     #[error("no SPIR-V kernel '{kernel}' for model '{model}' was built into this binary")]
-    MissingKernel { kernel: String, model: String },
+    MissingKernel {
+        /// The kernel's name (`table`, `pairs`, `albedo`, `preview`).
+        kernel: String,
+        /// The model's name.
+        model: String,
+    },
 }
 
+/// The result of a GPU operation.
 pub type Result<T> = std::result::Result<T, GpuError>;
 
 /// Attaches to a Vulkan result what was being attempted.
 pub trait Context<T> {
+    /// Turns a failed Vulkan call into a [`GpuError`] that says what was being attempted
+    /// (`what`, such as "running table/phong"); a lost device becomes [`GpuError::DeviceLost`].
     fn ctx(self, what: &str) -> Result<T>;
 }
 

@@ -38,9 +38,13 @@ pub const CHUNK_OUTPUT_BYTES: u64 = 48 << 20;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuPair {
+    /// ωi, the unit direction to the light, in the local frame.
     pub wi: [f32; 3],
+    /// Index of the parameter block that evaluates this pair.
     pub param_index: u32,
+    /// ωo, the unit direction to the viewer, in the local frame.
     pub wo: [f32; 3],
+    /// Padding to the std430 size of 32 bytes; always 0.
     pub pad: u32,
 }
 
@@ -183,7 +187,7 @@ impl Gpu {
         Ok(out)
     }
 
-    /// The outer product table f(wi[i], wo[o]), cell = i * wo.len() + o, handed to `sink` one
+    /// The outer product table f(`wi[i]`, `wo[o]`), cell = i * wo.len() + o, handed to `sink` one
     /// chunk at a time as (first cell, rgb values).
     pub fn eval_table<E: From<GpuError>>(
         &self,

@@ -27,6 +27,7 @@ pub enum Kernel {
 }
 
 impl Kernel {
+    /// The kernel's file name in `glsl/kernels/` without its extension, as SPIR-V is looked up.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Table => "table",
@@ -49,35 +50,47 @@ impl Kernel {
 /// Specialization constant id of FAST_POW (glsl/common.glsl).
 pub const FAST_POW_ID: u32 = 10;
 
-/// Workgroup size. 64 suits lavapipe (PLATFORM.md) and is a multiple of every GPU's wave width.
+/// Workgroup size. 64 suits lavapipe and is a multiple of every GPU's wave width.
 pub const LOCAL_SIZE: u32 = 64;
 
 /// Push constants: see `Chunk` in `glsl/kernels/eval.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ChunkPush {
+    /// Index of the chunk's first element in the whole job.
     pub first: u32,
+    /// Number of elements in this chunk.
     pub count: u32,
+    /// Length of the wo list (the table kernel only; 0 elsewhere).
     pub n_wo: u32,
+    /// Padding to 16 bytes; always 0.
     pub pad: u32,
 }
 
+/// One compute pipeline: a kernel specialised for one model, white furnace on or off, and
+/// fast-pow on or off, with its descriptor layout and its running GPU time.
 pub struct Pipeline {
     dev: Arc<Device>,
+    /// The kernel it runs.
     pub kernel: Kernel,
     module: vk::ShaderModule,
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
+    /// Evaluations one invocation makes (specialization constant 2): 4 on a CPU driver, 1 on a
+    /// GPU.
     pub evals_per_invocation: u32,
     /// How long creating the pipeline took (the driver compiles the shader here).
     pub build_time: Duration,
+    /// `kernel/model-label`, with " (white furnace)" where it applies; used in logs and errors.
     pub label: String,
     /// GPU time of every dispatch so far, from timestamp queries (nanoseconds).
     pub gpu_ns: AtomicU64,
 }
 
 impl Pipeline {
+    /// Builds the pipeline of `kernel` for `model_kind` from the model's SPIR-V, specialised for
+    /// `white_furnace` and `fast_pow`, and times the build.
     pub fn new(
         dev: &Arc<Device>,
         kernel: Kernel,
@@ -234,6 +247,8 @@ pub struct Dispatcher<'p> {
 }
 
 impl<'p> Dispatcher<'p> {
+    /// Binds `buffers` to the kernel's bindings, in their order (panics on a wrong count: the
+    /// callers are this crate's own runners).
     pub fn new(pipe: &'p Pipeline, buffers: &[&Buffer<'_>]) -> Result<Dispatcher<'p>> {
         let bindings = pipe.kernel.bindings();
         assert_eq!(
@@ -462,6 +477,7 @@ impl<'p> Dispatcher<'p> {
         Ok(())
     }
 
+    /// Dispatches every chunk in order, waiting for each; stops at the first failure.
     pub fn run(&self, chunks: &[ChunkPush]) -> Result<()> {
         chunks.iter().try_for_each(|c| self.run_one(c))
     }

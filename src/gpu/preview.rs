@@ -34,6 +34,7 @@ pub struct GpuLight {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuObject {
+    /// The object's centre in eye space (camera at the origin, looking down −z).
     pub centre: [f32; 3],
     /// The sphere's radius, the icosahedron's circumradius.
     pub radius: f32,
@@ -41,6 +42,7 @@ pub struct GpuObject {
     pub shape: u32,
     /// Index of the parameter block that shades it.
     pub param_index: u32,
+    /// Padding to the std430 size of 32 bytes; always 0.
     pub pad: [u32; 2],
 }
 

@@ -15,12 +15,16 @@ use std::f64::consts::TAU;
 /// E at one view direction, with the delta lobe reported apart.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointAlbedo {
+    /// μ = cosθo of the view direction, in (0, 1].
     pub mu: f64,
+    /// φo of the view direction, radians.
     pub phi: f64,
     /// The total albedo, delta lobe included.
     pub albedo: DVec3,
-    /// The delta lobe's part, exact: F_s(μ) for the seed's layered models.
+    /// The delta lobe's part, exact: F_s(μ) for the layered models (`smooth_layered`,
+    /// `coupled`), 0 for the others.
     pub delta: DVec3,
+    /// Estimated absolute error of `albedo`, per channel (see the module's notes on estimates).
     pub error: DVec3,
     /// Integrand evaluations (nodes) spent on this direction, the coarse check included.
     pub samples: u64,
@@ -81,9 +85,11 @@ pub struct HemiAlbedo {
     pub albedo: DVec3,
     /// The delta lobe's part of Ē.
     pub delta: DVec3,
+    /// Estimated absolute error of `albedo`, per channel.
     pub error: DVec3,
     /// E_avg = 2 ∫₀¹ E(μ, φo) μ dμ at the φo asked for (= Ē for an isotropic model).
     pub e_avg: DVec3,
+    /// Estimated absolute error of `e_avg`, per channel.
     pub e_avg_error: DVec3,
     /// View directions integrated.
     pub directions: usize,
@@ -112,7 +118,7 @@ fn mu_breaks() -> Vec<f64> {
 /// other one).
 const PHI_O_NODES: usize = 16;
 
-/// Ē and E_avg by Gauss–Kronrod 7/15 on the μ panels of [`mu_breaks`] (for `reference`: adaptive
+/// Ē and E_avg by Gauss–Kronrod 7/15 on the μ panels of `mu_breaks` (for `reference`: adaptive
 /// from those panels), the integrand 2μE(μ); anisotropic models add a trapezoid over φo
 /// (spectral for the smooth periodic E(μ, ·)), checked against its every-other-node half.
 /// Errors: the μ rule's |K − G| plus the directional errors carried through its weights, plus

@@ -85,8 +85,11 @@ const WG: [f64; 4] = [
 /// An integral with its error estimate (per channel) and the integrand evaluations it took.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate {
+    /// The integral, per channel.
     pub value: DVec3,
+    /// Estimated absolute error of `value`, per channel.
     pub error: DVec3,
+    /// Integrand evaluations spent.
     pub evals: u64,
 }
 

@@ -44,8 +44,8 @@ impl Mixture {
 
     /// The mixture tuned from the model's parameters: the model describes its peaked lobes as
     /// power cosines about r ([`ParamSet::sampling_lobes`]), and each width gets two lobes, n
-    /// (2/3 of its share) and n/8 (1/3; see [`BROAD_LOBE_DIVISOR`]). The cosine's share is
-    /// diffuse/(diffuse + specular) of the largest channels, clamped to [`COSINE_FRACTION`].
+    /// (2/3 of its share) and n/8 (1/3; see `BROAD_LOBE_DIVISOR`). The cosine's share is
+    /// diffuse/(diffuse + specular) of the largest channels, clamped to `COSINE_FRACTION`.
     /// Models without a peaked lobe draw from c_i/π alone.
     pub fn for_model(params: &ParamSet) -> Mixture {
         let Some(SamplingLobes {
@@ -141,7 +141,8 @@ pub(super) fn importance_nodes(n: usize, mix: &Mixture, replicate: u32, wo: DVec
     let mut out = Vec::with_capacity(counts.iter().sum());
     for (l, &count) in counts.iter().enumerate() {
         // Cranley–Patterson rotation: the replicate's own random shift of the R2 points, one per
-        // component, from a seeded generator (deterministic: a run reproduces exactly).
+        // component, from a generator started from the replicate and component indices
+        // (deterministic: a run reproduces exactly).
         let mut seed = SplitMix64(((replicate as u64) << 8) | l as u64);
         let (su, sv) = (seed.unit(), seed.unit());
         for k in 0..count {

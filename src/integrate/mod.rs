@@ -1,4 +1,5 @@
-//! Directional and hemispherical albedo (DESIGN §5), on either backend, with error estimates.
+//! Directional and hemispherical albedo (docs/design.md §5), on either backend, with error
+//! estimates.
 //!
 //! Directional albedo E(ωo) = ∫_H f(ωi, ωo) c_i dωi + the delta lobe's albedo (added exactly,
 //! [`Reference::delta_albedo`](crate::model::Reference::delta_albedo)). Hemispherical albedo
@@ -16,7 +17,7 @@
 //!   power-cosine lobes about the mirror direction, tuned from the model's parameters
 //!   ([`Mixture::for_model`]), weighted by the balance heuristic.
 //! - `peak` (default): composite Gauss–Legendre in polar coordinates (α, β) centred on the mirror
-//!   direction of ωo, where every seed lobe peaks, graded towards the peak in α and towards the
+//!   direction of ωo, where every built-in lobe peaks, graded towards the peak in α and towards the
 //!   horizon's fast turn in β: it resolves lobes of width 1e-3 rad with a few thousand nodes.
 //! - `reference` (CPU, f64): nested adaptive Gauss–Kronrod (7/15) in the same coordinates,
 //!   converged to [`REFERENCE_RTOL`]; the truth the others are tested against.
@@ -52,15 +53,22 @@ use glam::DVec3;
 /// The integrators `lobe albedo --method` offers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
+    /// Cell midpoints in (θi, φi), sinθ-weighted.
     Midpoint,
+    /// Gauss–Legendre in μi = cosθi × the trapezoid rule in φi.
     Gauss,
+    /// Cosine-weighted low-discrepancy points (Roberts' R2 sequence).
     Qmc,
+    /// Low-discrepancy points from a cosine and power-cosine mixture fitted to the model.
     Importance,
+    /// Composite Gauss–Legendre in polar coordinates about the mirror direction (the default).
     Peak,
+    /// The adaptive f64 Gauss–Kronrod integrator on the CPU, converged to [`REFERENCE_RTOL`].
     Reference,
 }
 
 impl Method {
+    /// Every method, in the order `lobe albedo --help` lists them.
     pub const ALL: [Method; 6] = [
         Method::Midpoint,
         Method::Gauss,
@@ -70,6 +78,7 @@ impl Method {
         Method::Reference,
     ];
 
+    /// The name `--method` takes.
     pub fn name(self) -> &'static str {
         match self {
             Method::Midpoint => "midpoint",
@@ -81,6 +90,7 @@ impl Method {
         }
     }
 
+    /// Looks a method up by [`Method::name`]; the error lists the names.
     pub fn from_name(name: &str) -> Result<Method> {
         Method::ALL
             .into_iter()
@@ -94,7 +104,7 @@ impl Method {
     }
 
     /// Nodes per direction when `--samples` is not given. For `peak` this reaches 1e-6 relative
-    /// at every preset of every seed model (tests/albedo.rs checks it against the reference):
+    /// at every preset of every built-in model (tests/albedo.rs checks it against the reference):
     /// Cook–Torrance's V-cavity kinks are put on panel edges ([`v_cavity_kinks`],
     /// [`v_cavity_turns`]), which took its presets from 3e-5–7e-5 to ≤ 1.7e-7. `importance` is a
     /// sampling method: ~1e-4 at 65536 points, with a statistical error estimate.
@@ -139,10 +149,14 @@ pub fn view_direction(mu: f64, phi: f64) -> DVec3 {
     DVec3::new(s * phi.cos(), s * phi.sin(), mu)
 }
 
-/// How to integrate: a method, its node count, and (reference only) its tolerance.
+/// How to integrate: a method, its node count, and whether under the white furnace.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings {
+    /// The integrator.
     pub method: Method,
+    /// Nodes per view direction for a fixed rule (at least 16 are used); the reference ignores
+    /// it.
     pub samples: usize,
+    /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
 }

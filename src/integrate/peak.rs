@@ -7,7 +7,7 @@ use super::vcavity::{v_cavity_kinks, v_cavity_turns};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-/// Polar coordinates (α, β) about the mirror direction r of ωo, where every seed lobe peaks
+/// Polar coordinates (α, β) about the mirror direction r of ωo, where every built-in lobe peaks
 /// (Phong's r·ωo = 1; D's maximum at h = n for the half-vector lobes):
 /// ωi = cosα r + sinα (cosβ u + sinβ v), u = ∂r/∂θ (in the plane of incidence, pointing
 /// down towards the horizon), v = n × r / |n × r|. Then dω = sinα dα dβ and
@@ -77,7 +77,7 @@ impl PeakFrame {
 }
 
 /// The `peak` rule: composite Gauss–Legendre of `order` points per panel in (μi, φi) (dω = dμ dφ,
-/// E = ∫∫ f μ dμ dφ), on panels aligned with where the seed models are not smooth and graded
+/// E = ∫∫ f μ dμ dφ), on panels aligned with where the built-in models are not smooth and graded
 /// towards where they peak:
 /// - μ splits at μo (the kink of max(c_i, c_o) in Oren–Nayar and Ashikhmin–Shirley; the mirror
 ///   direction's μ) and is graded towards it from both sides;
@@ -189,7 +189,7 @@ fn pole_levels(mu_o: f64) -> u32 {
 }
 
 /// Levels of grading of the `peak` rule's panels towards the mirror direction: the finest panel
-/// is 2^-9 of its side's extent, finer than the narrowest seed lobe (Phong n = 8192 has width
+/// is 2^-9 of its side's extent, finer than the narrowest built-in lobe (Phong n = 8192 has width
 /// 1/√n ≈ 1.1e-2 rad; Cook–Torrance m = 0.01 about 2e-2 rad in ωi).
 const PEAK_LEVELS: u32 = 9;
 

@@ -7,18 +7,18 @@ use crate::model::Reference;
 use glam::DVec3;
 use std::f64::consts::TAU;
 
-/// Relative tolerance the reference integrator converges to (DESIGN §5 asks for 1e-9; the
+/// Relative tolerance the reference integrator converges to (docs/design.md §5 asks for 1e-9; the
 /// nested tolerances are set tighter so that the sum of the inner errors stays under it).
 pub const REFERENCE_RTOL: f64 = 1e-10;
 
 /// Levels of geometric grading towards the peak in α: the innermost panel spans 2^-10 of the
-/// distance to the horizon (≥ 1.5e-3 rad at normal incidence), finer than the narrowest seed lobe
-/// (Phong n = 8192: width 1/√n ≈ 1.1e-2 rad).
+/// distance to the horizon (≥ 1.5e-3 rad at normal incidence), finer than the narrowest built-in
+/// lobe (Phong n = 8192: width 1/√n ≈ 1.1e-2 rad).
 const ALPHA_LEVELS: u32 = 10;
 
 /// Directional albedo (delta lobe excluded), the reference: nested adaptive Gauss–Kronrod in
 /// (μi, Δφ) from the `peak` rule's aligned, graded breakpoints: outer over μ ∈ [0, 1], inner
-/// over Δφ ∈ [0, 2π], E = ∫∫ f μ dΔφ dμ. The seed models' kinks lie on breakpoints (μ = μo,
+/// over Δφ ∈ [0, 2π], E = ∫∫ f μ dΔφ dμ. The built-in models' kinks lie on breakpoints (μ = μo,
 /// Δφ = ±π/2) or are found by bisection (the V-cavity's min); tolerances as in
 /// [`reference_albedo_mirror_frame`].
 pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {

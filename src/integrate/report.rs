@@ -10,11 +10,15 @@ use glam::DVec3;
 /// Everything `lobe albedo` prints: directional albedo at each point and the hemispherical one.
 #[derive(Clone, Debug)]
 pub struct AlbedoReport {
+    /// The integrator used.
     pub method: Method,
     /// Nodes per direction asked for (0 for the adaptive reference).
     pub samples: usize,
+    /// Directional albedo at each point asked for, in their order.
     pub points: Vec<PointAlbedo>,
+    /// Hemispherical albedo and E_avg.
     pub hemispherical: HemiAlbedo,
+    /// Wall-clock time of both jobs, seconds.
     pub seconds: f64,
 }
 
@@ -39,6 +43,8 @@ pub fn albedo_report(
 }
 
 impl AlbedoReport {
+    /// The report as `lobe albedo` prints it, with the parameters, the white-furnace switch and
+    /// the backend's name.
     pub fn to_json(
         &self,
         params: &ParamSet,

@@ -11,31 +11,45 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 /// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
+    /// ωi, the unit direction to the light, in the local frame.
     pub wi: DVec3,
+    /// The node's weight in sr, the cosine c_i included.
     pub weight: f64,
 }
 
 /// A fixed quadrature rule over the hemisphere of ωi.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Rule {
+    /// Cell midpoints: `n_theta` cells in θi over [0, π/2] × 4 `n_theta` in φi.
     Midpoint {
+        /// Cells in θi.
         n_theta: usize,
     },
+    /// Gauss–Legendre in μi = cosθi × the trapezoid rule in φi.
     Gauss {
+        /// Gauss points in μi; φi takes four times as many.
         n_mu: usize,
     },
+    /// Cosine-weighted low-discrepancy points, each of weight π/n.
     Qmc {
+        /// Points in all.
         n: usize,
     },
     /// `n` points in all, in [`REPLICATES`] independently shifted replicates; `replicate`
     /// selects one of them (its own estimator, `n / REPLICATES` points) or, with None, all (each
     /// weighted 1/REPLICATES: their mean).
     Importance {
+        /// Points in all, over every replicate.
         n: usize,
+        /// The sampling density: the cosine and the model's lobes.
         mix: Mixture,
+        /// One replicate (0 to `REPLICATES` − 1), or None for their mean.
         replicate: Option<u32>,
     },
+    /// Composite Gauss–Legendre in polar coordinates about the mirror direction of ωo, graded
+    /// towards the peak and the horizon.
     Peak {
+        /// Gauss points per panel and axis.
         order: usize,
         /// Split each μ line's Δφ panels at the V-cavity masking kinks
         /// ([`v_cavity_kinks`](super::v_cavity_kinks)).
@@ -88,6 +102,7 @@ impl Rule {
         }
     }
 
+    /// The nodes for the view direction `wo` (ignored by rules that do not depend on it).
     pub fn nodes(&self, wo: DVec3) -> Vec<Node> {
         match *self {
             Rule::Midpoint { n_theta } => midpoint_nodes(n_theta, 4 * n_theta),
@@ -112,8 +127,9 @@ impl Rule {
 }
 
 /// Midpoint rule in (θ, φ): dω = sinθ dθ dφ, so E ≈ Σ f c_i sinθ Δθ Δφ at the cell centres
-/// θ_k = (k + ½)Δθ, φ_l = (l + ½)Δφ (DESIGN §4's centring). Error O(Δθ²) (the φ sum of a smooth
-/// periodic integrand converges spectrally; kinks in f, e.g. max() terms, limit both to O(h²)).
+/// θ_k = (k + ½)Δθ, φ_l = (l + ½)Δφ (docs/design.md §4's centring). Error O(Δθ²) (the φ sum of a
+/// smooth periodic integrand converges spectrally; kinks in f, e.g. max() terms, limit both to
+/// O(h²)).
 pub(super) fn midpoint_nodes(n_theta: usize, n_phi: usize) -> Vec<Node> {
     let (dt, dp) = (FRAC_PI_2 / n_theta as f64, TAU / n_phi as f64);
     let mut out = Vec::with_capacity(n_theta * n_phi);

@@ -11,6 +11,8 @@ use glam::DVec3;
 use std::f64::consts::PI;
 use std::mem::offset_of;
 
+/// The parameter table: the substrate's reflectance, the coat's R0, and the exponents nu
+/// (along t = +x) and nv (along b = +y) in [0, 10⁶].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("diffuse", 0.5, "reflectance of the diffuse substrate"),
     ParamSpec::rgb("specular", 0.05, "R0 of the coat's Schlick Fresnel"),
@@ -30,23 +32,35 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// Ashikhmin–Shirley's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct AshikhminShirley {
+    /// Reflectance of the diffuse substrate, linear RGB.
     pub diffuse: DVec3,
+    /// R0 of the coat's Schlick Fresnel, linear RGB.
     pub specular: DVec3,
+    /// Exponent along the tangent t = +x.
     pub nu: f64,
+    /// Exponent along the bitangent b = +y.
     pub nv: f64,
 }
 
+/// std430 twin of the GLSL `AshikhminShirleyParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct AshikhminShirleyParams {
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `nu` rounded to f32.
     pub nu: f32,
+    /// `specular` rounded to f32.
     pub specular: [f32; 3],
+    /// `nv` rounded to f32.
     pub nv: f32,
 }
 
+/// Byte offset of every field of [`AshikhminShirleyParams`], checked against the compiled
+/// kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(AshikhminShirleyParams, diffuse)),
     ("nu", offset_of!(AshikhminShirleyParams, nu)),
@@ -101,6 +115,7 @@ fn is_isotropic(p: &ParamSet) -> bool {
 }
 
 impl AshikhminShirley {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         AshikhminShirley {
             diffuse: p.rgb("diffuse"),
@@ -110,6 +125,7 @@ impl AshikhminShirley {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> AshikhminShirleyParams {
         AshikhminShirleyParams {
             diffuse: f32x3(self.diffuse),
@@ -131,6 +147,8 @@ pub fn ashikhmin_shirley_exponent(h: DVec3, nu: f64, nv: f64) -> f64 {
     }
 }
 
+/// f = ρ_s + ρ_d in 1/sr (eqs. 4 and 5), without the cosine; `white_furnace` sets the coat's
+/// Fresnel to 1.
 pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);

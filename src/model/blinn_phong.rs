@@ -1,4 +1,4 @@
-//! Blinn–Phong with the (N+8)/(8π) normalization and the seed's mapping N = 8192^(1−s).
+//! Blinn–Phong with the (N+8)/(8π) normalization and the lab report's mapping N = 8192^(1−s).
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
 use super::params::ParamSpec;
@@ -11,6 +11,7 @@ use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
 use std::mem::offset_of;
 
+/// The parameter table: diffuse and specular reflectance, and the smoothness s in [0, 1].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("diffuse", 0.5, "Lambertian reflectance"),
     ParamSpec::rgb("specular", 0.5, "specular reflectance"),
@@ -23,22 +24,32 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// Blinn–Phong's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct BlinnPhong {
+    /// Lambertian reflectance, linear RGB.
     pub diffuse: DVec3,
+    /// Weight of the half-vector lobe, linear RGB.
     pub specular: DVec3,
+    /// s in [0, 1]; the exponent is N = 8192^(1−s), so 0 is the sharpest lobe and 1 is N = 1.
     pub smoothness: f64,
 }
 
+/// std430 twin of the GLSL `BlinnPhongParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct BlinnPhongParams {
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `smoothness` rounded to f32 (the kernel maps it to N itself).
     pub smoothness: f32,
+    /// `specular` rounded to f32.
     pub specular: [f32; 3],
+    /// Padding to the std430 size of 32 bytes; always 0.
     pub _pad: f32,
 }
 
+/// Byte offset of every field of [`BlinnPhongParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(BlinnPhongParams, diffuse)),
     ("smoothness", offset_of!(BlinnPhongParams, smoothness)),
@@ -84,6 +95,7 @@ fn blinn_phong_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
 }
 
 impl BlinnPhong {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         BlinnPhong {
             diffuse: p.rgb("diffuse"),
@@ -92,6 +104,7 @@ impl BlinnPhong {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> BlinnPhongParams {
         BlinnPhongParams {
             diffuse: f32x3(self.diffuse),
@@ -107,6 +120,7 @@ pub fn blinn_phong_exponent(smoothness: f64) -> f64 {
     (13.0 * (1.0 - smoothness)).exp2()
 }
 
+/// f in 1/sr for ωi (to the light) and ωo (to the viewer) above the horizon, without the cosine.
 pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
     let h = (wi + wo).normalize();
     let n = blinn_phong_exponent(p.smoothness);

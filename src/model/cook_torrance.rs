@@ -11,6 +11,8 @@ use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
+/// The parameter table: diffuse and specular weights, the IOR in [1, 5] and the Beckmann slope
+/// m in (0, 1].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("diffuse", 0.2, "kD x colour: Lambertian part"),
     ParamSpec::rgb(
@@ -28,23 +30,34 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::positive("roughness", 1.0, 0.3, "m: Beckmann RMS slope"),
 ];
 
+/// Cook–Torrance's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct CookTorrance {
+    /// Lambertian reflectance, linear RGB.
     pub diffuse: DVec3,
+    /// Weight of the microfacet lobe, linear RGB.
     pub specular: DVec3,
+    /// Relative index of refraction η, from which Schlick's R0 = ((η − 1)/(η + 1))² follows.
     pub ior: f64,
+    /// Beckmann RMS slope m.
     pub roughness: f64,
 }
 
+/// std430 twin of the GLSL `CookTorranceParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct CookTorranceParams {
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `ior` rounded to f32.
     pub ior: f32,
+    /// `specular` rounded to f32.
     pub specular: [f32; 3],
+    /// `roughness` rounded to f32.
     pub roughness: f32,
 }
 
+/// Byte offset of every field of [`CookTorranceParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(CookTorranceParams, diffuse)),
     ("ior", offset_of!(CookTorranceParams, ior)),
@@ -95,6 +108,7 @@ fn cook_torrance_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
 }
 
 impl CookTorrance {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         CookTorrance {
             diffuse: p.rgb("diffuse"),
@@ -104,6 +118,7 @@ impl CookTorrance {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> CookTorranceParams {
         CookTorranceParams {
             diffuse: f32x3(self.diffuse),
@@ -114,6 +129,8 @@ impl CookTorrance {
     }
 }
 
+/// f = diffuse/π + specular F D G/(4 c_i c_o) in 1/sr, without the cosine; `white_furnace`
+/// sets F = 1.
 pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);

@@ -11,6 +11,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 use std::mem::offset_of;
 
+/// The parameter table: the matte substrate's reflectance and the coat's IOR in [1, 5].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("matte", 0.5, "reflectance of the matte substrate"),
     ParamSpec::scalar(
@@ -22,19 +23,26 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// The coupled model's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct Coupled {
+    /// Reflectance of the matte substrate, linear RGB.
     pub matte: DVec3,
+    /// Relative index of refraction of the smooth coat, which sets the spike's Schlick R0.
     pub ior: f64,
 }
 
+/// std430 twin of the GLSL `CoupledParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct CoupledParams {
+    /// `matte` rounded to f32.
     pub matte: [f32; 3],
+    /// `ior` rounded to f32.
     pub ior: f32,
 }
 
+/// Byte offset of every field of [`CoupledParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("matte", offset_of!(CoupledParams, matte)),
     ("ior", offset_of!(CoupledParams, ior)),
@@ -78,6 +86,7 @@ fn white_configuration(p: &mut ParamSet) -> Result<bool, ParamError> {
 }
 
 impl Coupled {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         Coupled {
             matte: p.rgb("matte"),
@@ -85,6 +94,7 @@ impl Coupled {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> CoupledParams {
         CoupledParams {
             matte: f32x3(self.matte),
@@ -93,6 +103,8 @@ impl Coupled {
     }
 }
 
+/// The non-delta part in 1/sr, the energy-coupled matte term
+/// matte 21/(20π) (1 − R0) (1 − (1 − c_i)⁵)(1 − (1 − c_o)⁵); the spike is in [`coupled_delta`].
 pub fn coupled(p: &Coupled, wi: DVec3, wo: DVec3) -> DVec3 {
     let r0 = r0_from_ior(p.ior);
     let k = 21.0 / (20.0 * PI) * (1.0 - r0);

@@ -9,14 +9,17 @@ use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
+/// The parameter table: one RGB albedo in [0, 1].
 pub const PARAMS: &[ParamSpec] = &[ParamSpec::rgb(
     "albedo",
     0.8,
     "reflectance: the directional albedo at every angle",
 )];
 
+/// Lambert's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct Lambert {
+    /// Directional albedo, the same at every angle, linear RGB.
     pub albedo: DVec3,
 }
 
@@ -24,10 +27,13 @@ pub struct Lambert {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct LambertParams {
+    /// `albedo` rounded to f32.
     pub albedo: [f32; 3],
+    /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
     pub _pad: f32,
 }
 
+/// Byte offset of every field of [`LambertParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[("albedo", offset_of!(LambertParams, albedo))];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -57,12 +63,14 @@ pub const INFO: ModelInfo = ModelInfo {
 const STABILITY_EDGES: &[&[&str]] = &[&["albedo=0"], &["albedo=1"]];
 
 impl Lambert {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         Lambert {
             albedo: p.rgb("albedo"),
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> LambertParams {
         LambertParams {
             albedo: f32x3(self.albedo),
@@ -71,6 +79,7 @@ impl Lambert {
     }
 }
 
+/// f = albedo/π in 1/sr, whatever the directions (the horizon test is the caller's).
 pub fn lambert(p: &Lambert, _wi: DVec3, _wo: DVec3) -> DVec3 {
     p.albedo * FRAC_1_PI
 }

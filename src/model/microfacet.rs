@@ -19,14 +19,22 @@ use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
+/// Options of the `distribution` parameter, in the order of their index (specialization
+/// constant 3).
 pub const DISTRIBUTIONS: &[&str] = &["beckmann", "ggx"];
+/// Options of the `masking` parameter, in the order of their index (specialization constant 4).
 pub const MASKINGS: &[&str] = &["v_cavity", "smith_separable", "smith_correlated"];
+/// Options of the `beckmann_g1` parameter, in the order of their index (specialization
+/// constant 5); only Smith masking with Beckmann's D uses it.
 pub const BECKMANN_G1S: &[&str] = &["exact", "rational"];
+/// Options of the `fresnel` parameter, in the order of their index (specialization constant 6).
 pub const FRESNELS: &[&str] = &["none", "schlick", "dielectric", "conductor"];
 
 /// Keys whose absence means something: alpha_x and alpha_y fall back to alpha, f0 to the IOR.
 pub const OPTIONAL_KEYS: &[&str] = &["alpha_x", "alpha_y", "f0"];
 
+/// The parameter table: the four component choices, then the roughness, Fresnel inputs and the
+/// two weights.
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::choice("distribution", DISTRIBUTIONS, 1, "normal distribution D"),
     ParamSpec::choice("masking", MASKINGS, 2, "masking-shadowing G"),
@@ -89,9 +97,13 @@ pub const PARAMS: &[ParamSpec] = &[
 /// specialization constants 3, 4, 5 and 6.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct MicrofacetConfig {
+    /// Index into [`DISTRIBUTIONS`].
     pub distribution: u8,
+    /// Index into [`MASKINGS`].
     pub masking: u8,
+    /// Index into [`BECKMANN_G1S`].
     pub beckmann_g1: u8,
+    /// Index into [`FRESNELS`].
     pub fresnel: u8,
 }
 
@@ -104,6 +116,8 @@ impl MicrofacetConfig {
         fresnel: 1,
     };
 
+    /// The configuration a parameter set's choice values name (`get` reads a value by key); an
+    /// option it does not know counts as the first.
     pub fn from_values(get: impl Fn(&'static str) -> Value) -> MicrofacetConfig {
         let index = |key: &'static str, options: &[&str]| match get(key) {
             Value::Choice(name) => options.iter().position(|o| *o == name).unwrap_or(0) as u8,
@@ -127,6 +141,7 @@ impl MicrofacetConfig {
         ]
     }
 
+    /// The four indices in the order of specialization constants 3 to 6.
     pub fn spec_constants(&self) -> [u32; 4] {
         [
             self.distribution as u32,
@@ -171,17 +186,28 @@ impl MicrofacetConfig {
     }
 }
 
+/// The microfacet model's parameters, resolved for the f64 formula: the optional keys have
+/// fallen back to what their absence means.
 #[derive(Clone, Copy, Debug)]
 pub struct Microfacet {
+    /// The component choices.
     pub config: MicrofacetConfig,
+    /// Roughness along t = +x: `alpha_x` if set, else `alpha`.
     pub alpha_x: f64,
+    /// Roughness along b = +y: `alpha_y` if set, else `alpha`.
     pub alpha_y: f64,
+    /// Relative index of refraction, for the exact dielectric Fresnel and for R0 when `f0` is
+    /// unset.
     pub ior: f64,
     /// Schlick's R0: `f0` if set, else from `ior`.
     pub f0: DVec3,
+    /// Real part of the conductor's complex IOR, per channel.
     pub eta: DVec3,
+    /// Imaginary part κ of the conductor's complex IOR, per channel.
     pub k: DVec3,
+    /// Multiplier of the microfacet lobe, linear RGB.
     pub specular: DVec3,
+    /// Reflectance of the Lambertian base, linear RGB.
     pub diffuse: DVec3,
 }
 
@@ -189,18 +215,29 @@ pub struct Microfacet {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MicrofacetParams {
+    /// `specular` rounded to f32.
     pub specular: [f32; 3],
+    /// `alpha_x` rounded to f32.
     pub alpha_x: f32,
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `alpha_y` rounded to f32.
     pub alpha_y: f32,
+    /// `f0` (Schlick's R0, from `ior` when unset) rounded to f32.
     pub f0: [f32; 3],
+    /// `ior` rounded to f32.
     pub ior: f32,
+    /// `eta` rounded to f32.
     pub eta: [f32; 3],
+    /// Padding after a vec3 in std430; always 0.
     pub _pad0: f32,
+    /// `k` rounded to f32.
     pub k: [f32; 3],
+    /// Padding to the std430 size of 80 bytes; always 0.
     pub _pad1: f32,
 }
 
+/// Byte offset of every field of [`MicrofacetParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("specular", offset_of!(MicrofacetParams, specular)),
     ("alpha_x", offset_of!(MicrofacetParams, alpha_x)),
@@ -276,6 +313,7 @@ fn stability_edges(model: Model) -> Vec<&'static [&'static str]> {
 }
 
 impl Microfacet {
+    /// Reads the parameters from a validated set of this model, resolving the optional keys.
     pub fn new(p: &ParamSet) -> Self {
         let alpha = p.scalar("alpha");
         let pick = |key: &str| if p.is_set(key) { p.scalar(key) } else { alpha };
@@ -297,10 +335,12 @@ impl Microfacet {
         }
     }
 
+    /// Whether the two roughnesses are equal, so that f depends on φi and φo only through φo − φi.
     pub fn is_isotropic(&self) -> bool {
         self.alpha_x == self.alpha_y
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> MicrofacetParams {
         MicrofacetParams {
             specular: f32x3(self.specular),
@@ -328,6 +368,8 @@ impl Microfacet {
     }
 }
 
+/// f = diffuse/π + specular F D G/(4 c_i c_o) in 1/sr, without the cosine, with the components
+/// of `p.config`; `white_furnace` sets F = 1.
 pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);

@@ -33,13 +33,21 @@ pub(crate) fn f32x3(v: DVec3) -> [f32; 3] {
 /// The closed set of models; the GPU selects the same set by pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Model {
+    /// Ideal diffuse, f = albedo/π.
     Lambert,
+    /// Normalized Phong (Lafortune & Willems 1994), a cosⁿ lobe about the mirror direction.
     Phong,
+    /// Normalized Blinn–Phong, a cosᴺ lobe of the half vector.
     BlinnPhong,
+    /// Oren & Nayar 1994, rough diffuse (the qualitative model).
     OrenNayar,
+    /// Cook & Torrance 1982: Beckmann D, V-cavity G, Schlick's Fresnel, plus diffuse.
     CookTorrance,
+    /// Shirley's smooth layered model: a Fresnel mirror spike over Lambert.
     SmoothLayered,
+    /// Shirley et al. 1997: a mirror spike plus an energy-coupled matte term.
     Coupled,
+    /// Ashikhmin & Shirley 2000, the anisotropic Phong model.
     AshikhminShirley,
     /// The general microfacet model; its components are part of the model because each choice
     /// is a different pipeline (specialization constants).
@@ -50,6 +58,7 @@ pub enum Model {
 }
 
 impl Model {
+    /// The built-in models, each once; the microfacet model with its default components.
     pub const ALL: [Model; 9] = [
         Model::Lambert,
         Model::Phong,
@@ -77,7 +86,6 @@ impl Model {
         self.info().name
     }
 
-    /// Looks a model up by [`Model::name`].
     /// Looks a model up by name: the built-in models, then those registered at run time.
     pub fn from_name(name: &str) -> Result<Model, ParamError> {
         let known = || Model::ALL.into_iter().chain(runtime::registered());
@@ -200,6 +208,7 @@ impl ParamSet {
         self.explicit.contains(key)
     }
 
+    /// The model the set belongs to, with its current component choices.
     pub fn model(&self) -> Model {
         self.model
     }
@@ -265,6 +274,7 @@ impl ParamSet {
         self.set(key, value)
     }
 
+    /// The value of `key` (panics on an unknown key: the key lists are static).
     pub fn get(&self, key: &str) -> Value {
         self.values[key]
     }
@@ -274,6 +284,7 @@ impl ParamSet {
         DVec3::from_array(self.values[key].rgb())
     }
 
+    /// A scalar parameter, or the first channel of an RGB one (panics on an unknown key).
     pub fn scalar(&self, key: &str) -> f64 {
         self.values[key].rgb()[0]
     }
@@ -317,6 +328,7 @@ impl ParamSet {
             .join(" ")
     }
 
+    /// The set as a JSON object `{key: value}`, in the keys of [`ParamSet::entries`].
     pub fn to_json(&self) -> serde_json::Value {
         let mut map = serde_json::Map::new();
         for (k, v) in self.entries() {
@@ -334,26 +346,39 @@ impl ParamSet {
 /// A model with its parameters resolved into the typed struct the formulas take.
 #[derive(Clone, Copy, Debug)]
 pub enum Brdf {
+    /// Parameters of [`Model::Lambert`].
     Lambert(lambert::Lambert),
+    /// Parameters of [`Model::Phong`].
     Phong(phong::Phong),
+    /// Parameters of [`Model::BlinnPhong`].
     BlinnPhong(blinn_phong::BlinnPhong),
+    /// Parameters of [`Model::OrenNayar`].
     OrenNayar(oren_nayar::OrenNayar),
+    /// Parameters of [`Model::CookTorrance`].
     CookTorrance(cook_torrance::CookTorrance),
+    /// Parameters of [`Model::SmoothLayered`].
     SmoothLayered(smooth_layered::SmoothLayered),
+    /// Parameters of [`Model::Coupled`].
     Coupled(coupled::Coupled),
+    /// Parameters of [`Model::AshikhminShirley`].
     AshikhminShirley(ashikhmin_shirley::AshikhminShirley),
+    /// Parameters of [`Model::Microfacet`], with its component choices.
     Microfacet(microfacet::Microfacet),
+    /// Parameters of a [`Model::Runtime`] model.
     Runtime(runtime::RuntimeBrdf),
 }
 
 /// A model ready to evaluate on the CPU: parameters plus the white-furnace switch.
 #[derive(Clone, Copy, Debug)]
 pub struct Reference {
+    /// The model and its parameters.
     pub brdf: Brdf,
+    /// Whether every Fresnel factor of a specular lobe is 1 (the white furnace, docs/design.md §3).
     pub white_furnace: bool,
 }
 
 impl Brdf {
+    /// Resolves a validated parameter set into its model's struct.
     pub fn new(p: &ParamSet) -> Brdf {
         match p.model() {
             Model::Lambert => Brdf::Lambert(lambert::Lambert::new(p)),
@@ -390,6 +415,7 @@ impl Brdf {
 }
 
 impl Reference {
+    /// The reference for `p`, with or without the white furnace.
     pub fn new(p: &ParamSet, white_furnace: bool) -> Reference {
         Reference {
             brdf: Brdf::new(p),
@@ -397,7 +423,8 @@ impl Reference {
         }
     }
 
-    /// f(ωi, ωo) in 1/sr, without the cosine; 0 below the horizon (DESIGN §2). Delta lobes excluded.
+    /// f(ωi, ωo) in 1/sr, without the cosine; 0 below the horizon (docs/design.md §2). Delta
+    /// lobes excluded.
     pub fn eval(&self, wi: DVec3, wo: DVec3) -> DVec3 {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return DVec3::ZERO;

@@ -10,6 +10,7 @@ use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2};
 use std::mem::offset_of;
 
+/// The parameter table: the facets' albedo and the slope deviation σ in [0, π/2] radians.
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("albedo", 0.8, "reflectance of the facets"),
     ParamSpec::scalar(
@@ -21,19 +22,26 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// Oren–Nayar's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct OrenNayar {
+    /// Reflectance of the Lambertian facets, linear RGB.
     pub albedo: DVec3,
+    /// Standard deviation of the facet slope angle, radians; 0 is Lambert.
     pub sigma: f64,
 }
 
+/// std430 twin of the GLSL `OrenNayarParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct OrenNayarParams {
+    /// `albedo` rounded to f32.
     pub albedo: [f32; 3],
+    /// `sigma` rounded to f32.
     pub sigma: f32,
 }
 
+/// Byte offset of every field of [`OrenNayarParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("albedo", offset_of!(OrenNayarParams, albedo)),
     ("sigma", offset_of!(OrenNayarParams, sigma)),
@@ -70,6 +78,7 @@ const STABILITY_EDGES: &[&[&str]] = &[
 ];
 
 impl OrenNayar {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         OrenNayar {
             albedo: p.rgb("albedo"),
@@ -77,6 +86,7 @@ impl OrenNayar {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> OrenNayarParams {
         OrenNayarParams {
             albedo: f32x3(self.albedo),
@@ -91,6 +101,8 @@ impl OrenNayar {
     }
 }
 
+/// f = albedo/π (A + B max(0, cos(φi − φo)) sinα tanβ) in 1/sr, written with dot products:
+/// sinα tanβ cos(φi − φo) = (ωi·ωo − c_i c_o)/max(c_i, c_o).
 pub fn oren_nayar(p: &OrenNayar, wi: DVec3, wo: DVec3) -> DVec3 {
     let (a, b) = p.a_b();
     let s = (wi.dot(wo) - wi.z * wo.z).max(0.0);

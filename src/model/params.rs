@@ -1,5 +1,5 @@
 //! Parameters as data with a contract: each model lists its keys with kind, range and default;
-//! every value reaches a model only through [`ParamSet`], which validates it once, on the host.
+//! every value reaches a model only through [`ParamSet`](super::ParamSet), which validates it once, on the host.
 
 use std::fmt;
 
@@ -7,25 +7,36 @@ use std::fmt;
 /// of a list of named options (a model component such as `distribution = ggx`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamKind {
+    /// Three channels, linear RGB, each in the parameter's range.
     Rgb,
+    /// One real number.
     Scalar,
+    /// One of the listed option names (a model component).
     Choice(&'static [&'static str]),
 }
 
 /// One row of a model's parameter table.
 #[derive(Clone, Copy, Debug)]
 pub struct ParamSpec {
+    /// The name used in `key=value` assignments, material presets and scene files.
     pub key: &'static str,
+    /// What kind of value the parameter takes.
     pub kind: ParamKind,
+    /// Lower bound of the valid range (for every channel of an RGB parameter).
     pub min: f64,
     /// The lower bound itself is not allowed (for example a roughness must be > 0).
     pub min_exclusive: bool,
+    /// Upper bound of the valid range, inclusive.
     pub max: f64,
+    /// The value a model starts from before presets and assignments; for a choice, the option's
+    /// index.
     pub default: f64,
+    /// One line on what the parameter means, shown by `lobe models`.
     pub doc: &'static str,
 }
 
 impl ParamSpec {
+    /// An RGB parameter in [0, 1], such as an albedo or a reflectance at normal incidence.
     pub const fn rgb(key: &'static str, default: f64, doc: &'static str) -> Self {
         ParamSpec {
             key,
@@ -83,6 +94,7 @@ impl ParamSpec {
         }
     }
 
+    /// A scalar parameter in the closed range [`min`, `max`].
     pub const fn scalar(
         key: &'static str,
         min: f64,
@@ -101,6 +113,7 @@ impl ParamSpec {
         }
     }
 
+    /// A scalar parameter in (0, `max`]: zero itself is not allowed (a roughness, an exponent).
     pub const fn positive(key: &'static str, max: f64, default: f64, doc: &'static str) -> Self {
         ParamSpec {
             key,
@@ -154,45 +167,84 @@ fn fmt_num(x: f64) -> String {
     }
 }
 
+/// Why a model name, a parameter assignment or a material preset was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
+    /// The model name is not one of the known models (built-in or registered at run time), or
+    /// a model registered at run time has a name that cannot be used.
     #[error("unknown model '{name}'; the models are: {list}")]
-    UnknownModel { name: String, list: String },
+    UnknownModel {
+        /// The name as given.
+        name: String,
+        /// The known model names, comma-separated (for a refused run-time name, what a name may
+        /// be made of).
+        list: String,
+    },
+    /// The key is not in the model's parameter table.
     #[error("unknown parameter '{key}' for model {model}; its parameters are: {list}")]
     UnknownKey {
+        /// The key as given.
         key: String,
+        /// The model's name.
         model: String,
+        /// The model's parameter keys, comma-separated.
         list: String,
     },
+    /// A number (or one channel of an RGB value) lies outside the parameter's range, or is not
+    /// finite.
     #[error("parameter '{key}' = {value} is out of range; valid range is {range}")]
     OutOfRange {
+        /// The parameter's key.
         key: String,
+        /// The refused number.
         value: f64,
+        /// The valid range as written by [`ParamSpec::range_text`].
         range: String,
     },
+    /// The text is not a number, not an RGB triple, or not one of a choice's options.
     #[error("parameter '{key}': cannot read '{text}' as {expected}")]
     Malformed {
+        /// The parameter's key.
         key: String,
+        /// The value text as given.
         text: String,
+        /// What the parameter accepts, in words.
         expected: String,
     },
+    /// An assignment has no `=`.
     #[error("'{text}' is not of the form key=value (for example --set roughness=0.3)")]
-    NotKeyValue { text: String },
+    NotKeyValue {
+        /// The assignment as given.
+        text: String,
+    },
+    /// The material exists but has no preset for this model.
     #[error("material '{material}' has no parameters for model {model}; it defines: {list}")]
     NoPreset {
+        /// The material's name.
         material: String,
+        /// The model's name.
         model: String,
+        /// The models the material has presets for, comma-separated.
         list: String,
     },
+    /// The material name is not one of the built-in materials.
     #[error("unknown material '{name}'; the materials are: {list}")]
-    UnknownMaterial { name: String, list: String },
+    UnknownMaterial {
+        /// The name as given.
+        name: String,
+        /// The material names, comma-separated.
+        list: String,
+    },
 }
 
 /// A value as given: one number, three for an RGB parameter, or a named option.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Value {
+    /// One number; for an RGB parameter, grey (the same number in every channel).
     One(f64),
+    /// Three numbers, r, g, b.
     Three([f64; 3]),
+    /// A named option of a choice parameter.
     Choice(&'static str),
 }
 
@@ -239,7 +291,8 @@ impl Value {
         }
     }
 
-    /// The numbers of the value: a grey value repeated, or the three channels; none for a choice.
+    /// The numbers of the value: one for a grey or scalar value, three for an RGB triple, none
+    /// for a choice.
     pub fn numbers(&self) -> Vec<f64> {
         match *self {
             Value::One(v) => vec![v],
@@ -248,6 +301,7 @@ impl Value {
         }
     }
 
+    /// The value as three channels: a grey value repeated; NaN for a choice, which has no numbers.
     pub fn rgb(&self) -> [f64; 3] {
         match *self {
             Value::One(v) => [v, v, v],

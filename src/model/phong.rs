@@ -11,6 +11,7 @@ use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
 use std::mem::offset_of;
 
+/// The parameter table: diffuse and specular reflectance, and the exponent n in [0, 10⁶].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("diffuse", 0.5, "Lambertian reflectance"),
     ParamSpec::rgb("specular", 0.5, "specular reflectance at normal incidence"),
@@ -23,22 +24,32 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// Phong's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct Phong {
+    /// Lambertian reflectance, linear RGB.
     pub diffuse: DVec3,
+    /// Weight of the specular lobe, linear RGB; the lobe integrates to this at normal incidence.
     pub specular: DVec3,
+    /// The exponent n of cos^n of the angle between the mirror direction of ωi and ωo.
     pub shininess: f64,
 }
 
+/// std430 twin of the GLSL `PhongParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct PhongParams {
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `shininess` rounded to f32.
     pub shininess: f32,
+    /// `specular` rounded to f32.
     pub specular: [f32; 3],
+    /// Padding to the std430 size of 32 bytes; always 0.
     pub _pad: f32,
 }
 
+/// Byte offset of every field of [`PhongParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(PhongParams, diffuse)),
     ("shininess", offset_of!(PhongParams, shininess)),
@@ -90,6 +101,7 @@ fn phong_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
 }
 
 impl Phong {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         Phong {
             diffuse: p.rgb("diffuse"),
@@ -98,6 +110,7 @@ impl Phong {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> PhongParams {
         PhongParams {
             diffuse: f32x3(self.diffuse),
@@ -108,9 +121,11 @@ impl Phong {
     }
 }
 
+/// f in 1/sr for ωi (to the light) and ωo (to the viewer) above the horizon, without the cosine.
 pub fn phong(p: &Phong, wi: DVec3, wo: DVec3) -> DVec3 {
-    let r = DVec3::new(-wi.x, -wi.y, wi.z); // mirror of wi about n = +z: 2 c_i n − wi
-                                            // 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation near the mirror direction.
+    // The mirror of ωi about n = +z: 2 c_i n − ωi.
+    let r = DVec3::new(-wi.x, -wi.y, wi.z);
+    // 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation near the mirror direction.
     let s = 0.5 * (r - wo).length_squared();
     let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
     p.diffuse * FRAC_1_PI + p.specular * lobe

@@ -14,9 +14,9 @@ use glam::DVec3;
 pub struct LutAxis {
     /// The keys set together to each axis value.
     pub keys: &'static [&'static str],
-    /// The axis range.
+    /// Lower end of the axis range (the mapping's value at t = 0).
     pub lo: f64,
-    /// The axis range.
+    /// Upper end of the axis range (the mapping's value at t = 1).
     pub hi: f64,
     /// How cells map to values.
     pub mapping: Mapping,

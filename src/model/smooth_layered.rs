@@ -12,6 +12,7 @@ use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
+/// The parameter table: the Lambertian base and the coat's IOR in [1, 5].
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::rgb("diffuse", 0.5, "Lambertian base"),
     ParamSpec::scalar(
@@ -23,19 +24,26 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
+/// The smooth layered model's parameters, resolved for the f64 formula.
 #[derive(Clone, Copy, Debug)]
 pub struct SmoothLayered {
+    /// Reflectance of the Lambertian base, linear RGB.
     pub diffuse: DVec3,
+    /// Relative index of refraction of the smooth coat, which sets the spike's Schlick R0.
     pub ior: f64,
 }
 
+/// std430 twin of the GLSL `SmoothLayeredParams`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct SmoothLayeredParams {
+    /// `diffuse` rounded to f32.
     pub diffuse: [f32; 3],
+    /// `ior` rounded to f32.
     pub ior: f32,
 }
 
+/// Byte offset of every field of [`SmoothLayeredParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("diffuse", offset_of!(SmoothLayeredParams, diffuse)),
     ("ior", offset_of!(SmoothLayeredParams, ior)),
@@ -77,6 +85,7 @@ fn white_configuration(p: &mut ParamSet) -> Result<bool, ParamError> {
 }
 
 impl SmoothLayered {
+    /// Reads the parameters from a validated set of this model.
     pub fn new(p: &ParamSet) -> Self {
         SmoothLayered {
             diffuse: p.rgb("diffuse"),
@@ -84,6 +93,7 @@ impl SmoothLayered {
         }
     }
 
+    /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> SmoothLayeredParams {
         SmoothLayeredParams {
             diffuse: f32x3(self.diffuse),
@@ -92,6 +102,7 @@ impl SmoothLayered {
     }
 }
 
+/// The non-delta part, diffuse/π in 1/sr; the mirror spike is in [`smooth_layered_delta`].
 pub fn smooth_layered(p: &SmoothLayered, _wi: DVec3, _wo: DVec3) -> DVec3 {
     p.diffuse * FRAC_1_PI
 }

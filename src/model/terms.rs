@@ -3,6 +3,7 @@
 use glam::DVec3;
 use std::f64::consts::PI;
 
+/// x⁵ by two squarings.
 pub fn pow5(x: f64) -> f64 {
     let x2 = x * x;
     x2 * x2 * x
@@ -54,7 +55,7 @@ pub fn pow5_complement(x: f64) -> f64 {
     x * (1.0 + y * (1.0 + y * (1.0 + y * (1.0 + y))))
 }
 
-/// The Fresnel factor of a specular lobe, or 1 under the white furnace (DESIGN §3).
+/// The Fresnel factor of a specular lobe, or 1 under the white furnace (docs/design.md §3).
 #[allow(non_snake_case)]
 pub fn F_specular(c: f64, r0: DVec3, white_furnace: bool) -> DVec3 {
     if white_furnace {

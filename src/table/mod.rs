@@ -24,13 +24,17 @@ use std::path::{Path, PathBuf};
 
 /// What a table holds, for headers and sidecars.
 pub struct TableMeta<'a> {
+    /// The model and its parameters.
     pub params: &'a ParamSet,
+    /// Whether every specular Fresnel factor was 1 (docs/design.md §3).
     pub white_furnace: bool,
+    /// The grid the table samples.
     pub grid: Grid,
+    /// The backend that evaluated it, as [`Evaluator::name`] says.
     pub backend: String,
 }
 
-/// Paths of the three files of a table written at `exr_path`.
+/// The npy and JSON siblings of a table written at `exr_path` (the three files share a stem).
 pub fn sibling_paths(exr_path: &Path) -> (PathBuf, PathBuf) {
     (
         exr_path.with_extension("npy"),
@@ -235,7 +239,9 @@ fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) ->
 
 /// A table read back from disk, in npy order (cells × rgb).
 pub struct TableData {
+    /// The grid's axes, then 3 (RGB).
     pub shape: Vec<usize>,
+    /// f in 1/sr, row-major over `shape`.
     pub values: Vec<f32>,
     /// The EXR header's lobe.* attributes.
     pub attributes: Vec<(String, String)>,
