@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! lobe: evaluate BRDFs with Vulkan compute shaders (GLSL, f32) over dense (light, view) grids,
 //! checked against a CPU reference in f64, and write lobe tables.
 //!

@@ -20,7 +20,7 @@ pub const PARAMS: &[ParamSpec] = &[
         0.0,
         1e6,
         32.0,
-        "Phong exponent n (the seed's maximum is 8192)",
+        "Phong exponent n (the lab report's largest is 8192)",
     ),
 ];
 

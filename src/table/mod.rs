@@ -172,7 +172,7 @@ fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
         "grid": meta.grid.name(),
         "shape": meta.grid.shape().into_iter().chain([3]).collect::<Vec<_>>(),
         "axes": meta.grid.axes_json(),
-        "angles": "radians; cell-centred (DESIGN §4); theta from the normal +z, phi from +x counter-clockwise",
+        "angles": "radians; cell-centred (docs/design.md §4); theta from the normal +z, phi from +x counter-clockwise",
         "values": "f(wi, wo) in 1/sr, linear RGB, without the cosine; delta lobes are not included",
         "units": "1/sr",
         "dtype": "float32",
