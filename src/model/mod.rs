@@ -3,6 +3,7 @@
 
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
+pub mod catalogue;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod lambert;
