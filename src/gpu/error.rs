@@ -4,7 +4,7 @@ use ash::vk;
 
 /// The packages that give a Debian/Ubuntu machine a Vulkan loader and a CPU driver (lavapipe).
 pub const INSTALL_HINT: &str = "install the Vulkan loader and Mesa's drivers (lavapipe runs Vulkan on the CPU): \
-`sudo apt-get install -y libvulkan1 mesa-vulkan-drivers`; or run the f64 CPU reference with `--backend cpu`";
+`sudo apt-get install -y libvulkan1 mesa-vulkan-drivers`; or evaluate on the CPU backend (the f64 reference, no Vulkan needed)";
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -17,9 +17,9 @@ pub enum GpuError {
     #[error("Vulkan validation was requested (LOBE_VALIDATION=1) but VK_LAYER_KHRONOS_validation is not installed: \
 `sudo apt-get install -y vulkan-validationlayers`")]
     NoValidationLayer,
-    #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device with --device, or use --backend cpu")]
+    #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device, or use the CPU backend")]
     DeviceLost(String),
-    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or --backend cpu")]
+    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or the CPU backend")]
     Timeout { what: String, seconds: u64 },
     #[error("Vulkan call failed while {what}: {result}")]
     Vk { what: String, result: vk::Result },
@@ -63,6 +63,6 @@ mod tests {
             text.contains("device was lost while running table/phong"),
             "{text}"
         );
-        assert!(text.contains("--backend cpu"), "{text}");
+        assert!(text.contains("the CPU backend"), "{text}");
     }
 }

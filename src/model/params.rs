@@ -176,7 +176,7 @@ pub enum ParamError {
         text: String,
         expected: String,
     },
-    #[error("'{text}' is not of the form key=value (for example --set roughness=0.3)")]
+    #[error("'{text}' is not of the form key=value (for example roughness=0.3)")]
     NotKeyValue { text: String },
     #[error("material '{material}' has no parameters for model {model}; it defines: {list}")]
     NoPreset {
