@@ -80,16 +80,17 @@ pub fn direction(theta: f64, phi: f64) -> DVec3 {
 }
 
 impl Grid {
-    /// Parses `--res` (comma-separated cell counts) for the grid kind `full`, `isotropic` or
+    /// Parses a resolution, comma-separated cell counts, for the grid kind `full`, `isotropic` or
     /// `halfdiff` (three numbers: the isotropic half; four: every angle).
     pub fn parse(kind: &str, res: &str) -> Result<Grid, String> {
         let nums: Result<Vec<usize>, _> =
             res.split(',').map(|s| s.trim().parse::<usize>()).collect();
-        let nums =
-            nums.map_err(|_| format!("--res '{res}': expected comma-separated positive integers"))?;
+        let nums = nums.map_err(|_| {
+            format!("resolution '{res}': expected comma-separated positive integers")
+        })?;
         if nums.contains(&0) {
             return Err(format!(
-                "--res '{res}': every resolution must be at least 1"
+                "resolution '{res}': every cell count must be at least 1"
             ));
         }
         match (kind, nums.as_slice()) {
@@ -100,7 +101,7 @@ impl Grid {
                 n_phi_o: *d,
             }),
             ("full", _) => Err(format!(
-                "--res '{res}': the full grid takes four numbers NTHETA_I,NPHI_I,NTHETA_O,NPHI_O"
+                "resolution '{res}': the full grid takes four numbers NTHETA_I,NPHI_I,NTHETA_O,NPHI_O"
             )),
             ("isotropic", [a, b, c]) => Ok(Grid::Isotropic {
                 n_theta_i: *a,
@@ -108,7 +109,7 @@ impl Grid {
                 n_dphi: *c,
             }),
             ("isotropic", _) => Err(format!(
-                "--res '{res}': the isotropic grid takes three numbers NTHETA_I,NTHETA_O,NDPHI"
+                "resolution '{res}': the isotropic grid takes three numbers NTHETA_I,NTHETA_O,NDPHI"
             )),
             ("halfdiff", [a, b, c]) => Ok(Grid::HalfDiff {
                 n_theta_h: *a,
@@ -122,7 +123,7 @@ impl Grid {
                 n_phi_d: *d,
             }),
             ("halfdiff", _) => Err(format!(
-                "--res '{res}': the halfdiff grid takes three numbers NTHETA_H,NTHETA_D,NPHI_D \
+                "resolution '{res}': the halfdiff grid takes three numbers NTHETA_H,NTHETA_D,NPHI_D \
                  (isotropic models, phi_d over [0, 180 deg]) or four NTHETA_H,NPHI_H,NTHETA_D,NPHI_D"
             )),
             _ => Err(format!(

@@ -23,6 +23,7 @@
 //!   method, samples, the axes' values and the largest error estimate.
 
 use crate::eval::Evaluator;
+use crate::input::BadInput;
 use crate::integrate::{directional, hemispherical, Method, Settings};
 use crate::model::{Model, ParamKind, ParamSet, Value};
 use crate::output::FileSet;
@@ -169,64 +170,89 @@ impl LutSpec {
         let mut set = self.params.clone();
         for key in &self.keys {
             set.set(key, Value::One(p))
-                .with_context(|| format!("the LUT axis --lut-param {key} at {p}"))?;
+                .with_context(|| format!("the LUT axis {key} = {p}"))?;
         }
         Ok(set)
     }
 
-    /// Checks the axis and the sizes, with errors that name the input and its valid range.
+    /// Checks the axis and the sizes, with errors that name the input and its valid range:
+    /// [`BadInput`]s tagged `keys`, `range`, `mapping`, `res` or `phi`.
     pub fn validate(&self) -> Result<()> {
         let model = self.params.model();
+        let (lo, hi) = (self.lo, self.hi);
         if self.keys.is_empty() {
-            bail!("--lut-param: give at least one parameter key");
+            return Err(
+                BadInput::new("keys", "the LUT axis needs at least one parameter key").into(),
+            );
         }
         for key in &self.keys {
             let Some(spec) = model.params().iter().find(|s| s.key == key) else {
-                bail!(
-                    "--lut-param {key}: {} has no such parameter; its numeric parameters are: {}",
-                    model.name(),
-                    numeric_keys(model).join(", ")
-                );
+                return Err(BadInput::new(
+                    "keys",
+                    format!(
+                        "LUT axis key '{key}': {} has no such parameter; its numeric parameters are: {}",
+                        model.name(),
+                        numeric_keys(model).join(", ")
+                    ),
+                )
+                .into());
             };
             if let ParamKind::Choice(_) = spec.kind {
-                bail!(
-                    "--lut-param {key}: a choice, not a number; the numeric parameters of {} are: {}",
-                    model.name(),
-                    numeric_keys(model).join(", ")
-                );
+                return Err(BadInput::new(
+                    "keys",
+                    format!(
+                        "LUT axis key '{key}' is a choice, not a number; the numeric parameters of {} are: {}",
+                        model.name(),
+                        numeric_keys(model).join(", ")
+                    ),
+                )
+                .into());
             }
-            for v in [self.lo, self.hi] {
+            for v in [lo, hi] {
                 if spec.check(v).is_err() {
-                    bail!(
-                        "--lut-range {},{}: {key} must lie in {}",
-                        self.lo,
-                        self.hi,
-                        spec.range_text()
-                    );
+                    return Err(BadInput::new(
+                        "range",
+                        format!(
+                            "the LUT range LO,HI = {lo},{hi}: {key} must lie in {}",
+                            spec.range_text()
+                        ),
+                    )
+                    .into());
                 }
             }
         }
-        if !(self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi) {
-            bail!(
-                "--lut-range {},{}: expected LO,HI with LO < HI",
-                self.lo,
-                self.hi
-            );
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(BadInput::new(
+                "range",
+                format!("the LUT range LO,HI = {lo},{hi}: expected LO < HI"),
+            )
+            .into());
         }
-        if self.mapping == Mapping::Log && self.lo <= 0.0 {
-            bail!(
-                "--lut-range {},{} with --lut-map log: LO must be > 0",
-                self.lo,
-                self.hi
-            );
+        if self.mapping == Mapping::Log && lo <= 0.0 {
+            return Err(BadInput::new(
+                "mapping",
+                format!("the LUT range LO,HI = {lo},{hi} with the log mapping: LO must be > 0"),
+            )
+            .into());
         }
         for (name, n) in [("NMU", self.n_mu), ("NP", self.n_p)] {
             if n == 0 || n > MAX_RES {
-                bail!("--lut-res: {name} = {n} must lie in [1, {MAX_RES}]");
+                return Err(BadInput::new(
+                    "res",
+                    format!("the LUT size {name} = {n} must lie in [1, {MAX_RES}]"),
+                )
+                .into());
             }
         }
         if !self.phi.is_finite() {
-            bail!("--phi-deg: expected a finite angle");
+            return Err(BadInput::new(
+                "phi",
+                format!(
+                    "the view azimuth phi = {} rad: expected a finite angle",
+                    self.phi
+                ),
+            )
+            .into());
         }
         Ok(())
     }
@@ -258,6 +284,70 @@ pub struct LutSummary {
     pub seconds: f64,
     /// The files written (empty for [`compute`]).
     pub files: Vec<PathBuf>,
+}
+
+impl LutSummary {
+    /// (smallest, largest) channel of E over the table.
+    pub fn e_range(&self) -> (f64, f64) {
+        channel_range(&self.e)
+    }
+
+    /// (smallest, largest) channel of E_avg over the table.
+    pub fn e_avg_range(&self) -> (f64, f64) {
+        channel_range(&self.e_avg)
+    }
+
+    /// What `lobe albedo --lut --format json` prints: the files, the axis, the sizes, the
+    /// method, the ranges of E and E_avg, the largest error estimate and the time.
+    pub fn to_json(&self, spec: &LutSpec) -> serde_json::Value {
+        let files: Vec<String> = self.files.iter().map(|p| p.display().to_string()).collect();
+        let ((e_lo, e_hi), (a_lo, a_hi)) = (self.e_range(), self.e_avg_range());
+        json!({
+            "files": files,
+            "model": spec.params.model().name(),
+            "keys": spec.keys,
+            "range": [spec.lo, spec.hi],
+            "mapping": spec.mapping.name(),
+            "res": [spec.n_mu, spec.n_p],
+            "method": spec.method.name(),
+            "samples": spec.samples,
+            "e_range": [e_lo, e_hi],
+            "e_avg_range": [a_lo, a_hi],
+            "max_error_estimate": self.max_error,
+            "seconds": self.seconds,
+        })
+    }
+
+    /// The same for people: one line on the table, then `wrote PATH` per file.
+    pub fn write_text(&self, spec: &LutSpec, out: &mut dyn Write) -> std::io::Result<()> {
+        let ((e_lo, e_hi), (a_lo, a_hi)) = (self.e_range(), self.e_avg_range());
+        writeln!(
+            out,
+            "{} LUT over mu ({} cells) x {} in [{}, {}] ({} cells, {}): E in [{e_lo:.6}, {e_hi:.6}], E_avg in [{a_lo:.6}, {a_hi:.6}], largest error estimate {:.2e}; {} {} nodes per direction; {:.2} s",
+            spec.params.model().name(),
+            spec.n_mu,
+            spec.keys.join(","),
+            spec.lo,
+            spec.hi,
+            spec.n_p,
+            spec.mapping.name(),
+            self.max_error,
+            spec.method.name(),
+            spec.samples,
+            self.seconds
+        )?;
+        for f in &self.files {
+            writeln!(out, "wrote {}", f.display())?;
+        }
+        Ok(())
+    }
+}
+
+fn channel_range(v: &[DVec3]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+            (lo.min(c.min_element()), hi.max(c.max_element()))
+        })
 }
 
 /// E(μ, p) and E_avg(p) on `eval`; `progress` receives (rows done, rows).
@@ -304,10 +394,14 @@ pub fn compute(
 /// The three files beside `exr_path` (which must end in `.exr`): (npy of E, npy of E_avg, json).
 pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
     if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
-        bail!(
-            "--lut {}: the path must end in .exr (the .npy and .json files go beside it)",
-            exr_path.display()
-        );
+        return Err(BadInput::new(
+            "path",
+            format!(
+                "the LUT path {} must end in .exr (the .npy and .json files go beside it)",
+                exr_path.display()
+            ),
+        )
+        .into());
     }
     let stem = exr_path
         .file_stem()

@@ -41,12 +41,13 @@ use crate::bench::{self, median};
 use crate::eval::Evaluator;
 use crate::gpu::Gpu;
 use crate::grid::{theta_cell, Grid};
+use crate::input::BadInput;
 use crate::integrate::{
-    reference_albedo, sum_rule, view_direction, Estimate, Method, Rule, REFERENCE_RTOL,
+    reference_albedo, sum_rule, view_direction, Estimate, Method, Rule, DEFAULT_MUS, REFERENCE_RTOL,
 };
 use crate::model::microfacet::MicrofacetConfig;
 use crate::model::{Model, ParamSet, Reference, Value};
-use anyhow::{bail, Result};
+use anyhow::Result;
 use glam::DVec3;
 use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -403,7 +404,7 @@ impl AlbedoSetup {
     /// nodes in steps of 4; tables of 8 … 128 cells per θ axis.
     pub fn standard() -> AlbedoSetup {
         AlbedoSetup {
-            mus: vec![0.1, 0.5, 1.0],
+            mus: DEFAULT_MUS.to_vec(),
             samples: vec![1 << 8, 1 << 10, 1 << 12, 1 << 14, 1 << 16],
             table_res: vec![8, 16, 32, 64, 128],
             repeats: 5,
@@ -413,7 +414,7 @@ impl AlbedoSetup {
     /// `--quick`: the same shape at a fraction of the time (tests, a first look).
     pub fn quick() -> AlbedoSetup {
         AlbedoSetup {
-            mus: vec![0.1, 0.5, 1.0],
+            mus: DEFAULT_MUS.to_vec(),
             samples: vec![1 << 8, 1 << 10, 1 << 12],
             table_res: vec![8, 16, 32],
             repeats: 2,
@@ -424,25 +425,39 @@ impl AlbedoSetup {
     /// and that `repeats` is at least 1.
     pub fn check(&self) -> Result<()> {
         if self.mus.is_empty() {
-            bail!("--mu: give at least one view direction");
+            return Err(BadInput::new("mus", "give at least one view direction mu").into());
         }
         for &mu in &self.mus {
             if !(mu > 0.0 && mu <= 1.0) {
-                bail!("--mu {mu}: a view direction needs mu = cos(theta_o) in (0, 1]");
+                return Err(BadInput::new(
+                    "mus",
+                    format!("view direction mu = {mu}: expected mu = cos(theta_o) in (0, 1]"),
+                )
+                .into());
             }
         }
         for &n in &self.samples {
             if !(16..=1 << 22).contains(&n) {
-                bail!("--samples {n}: node counts lie in [16, 4194304]");
+                return Err(BadInput::new(
+                    "samples",
+                    format!("{n} nodes per albedo: node counts lie in [16, 4194304]"),
+                )
+                .into());
             }
         }
         for &n in &self.table_res {
             if !(2..=512).contains(&n) {
-                bail!("--table-res {n}: table resolutions lie in [2, 512] cells per theta axis");
+                return Err(BadInput::new(
+                    "table_res",
+                    format!(
+                        "table resolution {n}: resolutions lie in [2, 512] cells per theta axis"
+                    ),
+                )
+                .into());
             }
         }
         if self.repeats == 0 {
-            bail!("--repeats 0: time at least one run");
+            return Err(BadInput::new("repeats", "0 timed runs: time at least one run").into());
         }
         Ok(())
     }
@@ -648,10 +663,12 @@ pub fn measure_tables(
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<Row>> {
     if !params.is_isotropic() {
-        bail!(
+        return Err(BadInput::new(
+            "sections",
             "the table-resolution section needs an isotropic parameter set (the isotropic table \
-             (theta_i, theta_o, dphi) cannot hold this one); leave it out with --sections"
-        );
+             (theta_i, theta_o, dphi) cannot hold this one); leave that section out",
+        )
+        .into());
     }
     let mut rows = Vec::new();
     for backend in backends {

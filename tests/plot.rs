@@ -449,7 +449,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
         &out,
     )
     .unwrap_err();
-    assert!(format!("{err:#}").contains("--theta-i-deg 95"), "{err:#}");
+    assert!(format!("{err:#}").contains("theta_i = 95"), "{err:#}");
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
         0,

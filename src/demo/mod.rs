@@ -52,7 +52,7 @@ use steps::Demo;
 pub const MATERIALS: [&str; 4] = ["tin", "gold", "glazed_ceramic", "granite"];
 
 /// View directions μ = cosθo at which the page shows E (and the JSON files hold it).
-pub const ALBEDO_MU: [f64; 3] = [0.1, 0.5, 1.0];
+pub const ALBEDO_MU: [f64; 3] = crate::integrate::DEFAULT_MUS;
 
 /// Pixel size of every line plot (polar, albedo).
 pub const PLOT_SIZE: (u32, u32) = (1200, 800);
@@ -347,7 +347,7 @@ impl Report {
         }
         match &self.parity {
             None => {
-                let _ = writeln!(s, "parity: not measured (--backend cpu: no GPU run)");
+                let _ = writeln!(s, "parity: not measured (CPU backend: no GPU run)");
             }
             Some(rows) => {
                 let worst = rows.iter().map(|r| r.max_rel).fold(0.0, f64::max);

@@ -110,10 +110,7 @@ pub(super) fn page(
     }
     match &r.parity {
         None => {
-            let _ = writeln!(
-                h,
-                "<li><b>Parity</b>: not measured (<code>--backend cpu</code>).</li>"
-            );
+            let _ = writeln!(h, "<li><b>Parity</b>: not measured (CPU backend).</li>");
         }
         Some(rows) => {
             let worst = rows.iter().map(|x| x.max_rel).fold(0.0, f64::max);
@@ -280,7 +277,7 @@ pub(super) fn page(
         None => {
             let _ = writeln!(
                 h,
-                "<p id=\"parity-none\">Not measured: this run used <code>--backend cpu</code> (the f64 reference alone), so there is no GPU result to compare. Run the demo on the GPU backend, or <code>cargo test --release --test parity</code>.</p>"
+                "<p id=\"parity-none\">Not measured: this run used the CPU backend (the f64 reference alone), so there is no GPU result to compare. Run the demo on the GPU backend, or <code>cargo test --release --test parity</code>.</p>"
             );
         }
         Some(rows) => {

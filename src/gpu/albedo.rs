@@ -69,7 +69,7 @@ impl Gpu {
         let node_bytes = 16 * n;
         if node_bytes > range {
             return Err(GpuError::Limit(format!(
-                "albedo: {n_nodes} nodes per direction need {node_bytes} bytes, over this device's storage buffer range of {range}; use fewer --samples"
+                "albedo: {n_nodes} nodes per direction need {node_bytes} bytes, over this device's storage buffer range of {range}; use fewer nodes per direction"
             )));
         }
         // Directions per dispatch: bounded by the workgroup count, and with per-direction nodes

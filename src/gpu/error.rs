@@ -4,7 +4,7 @@ use ash::vk;
 
 /// The packages that give a Debian/Ubuntu machine a Vulkan loader and a CPU driver (lavapipe).
 pub const INSTALL_HINT: &str = "install the Vulkan loader and Mesa's drivers (lavapipe runs Vulkan on the CPU): \
-`sudo apt-get install -y libvulkan1 mesa-vulkan-drivers`; or run the f64 CPU reference with `--backend cpu`";
+`sudo apt-get install -y libvulkan1 mesa-vulkan-drivers`; or evaluate on the CPU backend (the f64 reference, no Vulkan needed)";
 
 /// Why the GPU backend could not start or could not finish a job.
 #[derive(Debug, thiserror::Error)]
@@ -23,15 +23,17 @@ pub enum GpuError {
         /// The names of the devices there are, comma-separated.
         available: String,
     },
-    /// `LOBE_VALIDATION=1` asked for the Khronos validation layer, which is not installed.
-    #[error("Vulkan validation was requested (LOBE_VALIDATION=1) but VK_LAYER_KHRONOS_validation is not installed: \
-`sudo apt-get install -y vulkan-validationlayers`")]
+    /// The Khronos validation layer was asked for ([`super::DeviceOptions::validation`]) but is not installed.
+    #[error(
+        "Vulkan validation was requested but VK_LAYER_KHRONOS_validation is not installed: \
+`sudo apt-get install -y vulkan-validationlayers`"
+    )]
     NoValidationLayer,
     /// The device was lost (a driver or GPU reset); the text says what was running.
-    #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device with --device, or use --backend cpu")]
+    #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device, or use the CPU backend")]
     DeviceLost(String),
     /// A submission did not finish within the per-chunk time limit.
-    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or --backend cpu")]
+    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or the CPU backend")]
     Timeout {
         /// The label of the pipeline that was running.
         what: String,
@@ -97,6 +99,6 @@ mod tests {
             text.contains("device was lost while running table/phong"),
             "{text}"
         );
-        assert!(text.contains("--backend cpu"), "{text}");
+        assert!(text.contains("the CPU backend"), "{text}");
     }
 }

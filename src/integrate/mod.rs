@@ -50,7 +50,11 @@ use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
 
-/// The integrators `lobe albedo --method` offers.
+/// The view directions μ = cosθo at which albedo is reported when none are asked for: grazing,
+/// oblique and normal view (`lobe albedo`, the demo's albedo table, `lobe tradeoff`).
+pub const DEFAULT_MUS: [f64; 3] = [0.1, 0.5, 1.0];
+
+/// The integrators an albedo job offers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     /// Cell midpoints in (θi, φi), sinθ-weighted.

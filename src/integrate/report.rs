@@ -1,4 +1,5 @@
-//! What `lobe albedo` prints: the directional and hemispherical results with timing, as JSON.
+//! What `lobe albedo` prints: the directional and hemispherical results with timing, as JSON,
+//! CSV or an aligned table.
 
 use super::albedo::{directional, hemispherical, HemiAlbedo, PointAlbedo};
 use super::{Method, Settings};
@@ -88,5 +89,89 @@ impl AlbedoReport {
             },
             "seconds": self.seconds,
         })
+    }
+}
+
+/// Three channels as `r,g,b` with nine decimals.
+fn rgb(v: DVec3) -> String {
+    format!("{:.9},{:.9},{:.9}", v.x, v.y, v.z)
+}
+
+impl AlbedoReport {
+    /// The report as CSV: a header, a `directional` row per point (μ, θ and φ in degrees, albedo,
+    /// delta part and error estimate per channel, nodes) and one `hemispherical` row.
+    pub fn write_csv(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+        writeln!(out, "kind,mu,theta_deg,phi_deg,albedo_r,albedo_g,albedo_b,delta_r,delta_g,delta_b,error_r,error_g,error_b,samples")?;
+        for p in &self.points {
+            writeln!(
+                out,
+                "directional,{},{},{},{},{},{},{}",
+                p.mu,
+                p.mu.acos().to_degrees(),
+                p.phi.to_degrees(),
+                rgb(p.albedo),
+                rgb(p.delta),
+                rgb(p.error),
+                p.samples
+            )?;
+        }
+        let h = &self.hemispherical;
+        writeln!(
+            out,
+            "hemispherical,,,,{},{},{},{}",
+            rgb(h.albedo),
+            rgb(h.delta),
+            rgb(h.error),
+            h.samples
+        )
+    }
+
+    /// The report as an aligned table for people: the parameter set, the method and backend, a
+    /// row per view direction, the hemispherical albedo with E_avg at `phi_deg`, and the time.
+    pub fn write_table(
+        &self,
+        out: &mut dyn std::io::Write,
+        params: &ParamSet,
+        white_furnace: bool,
+        backend: &str,
+        phi_deg: f64,
+    ) -> std::io::Result<()> {
+        writeln!(out, "{} {}", params.model().name(), params.to_text())?;
+        writeln!(
+            out,
+            "method {} ({} nodes per direction) on {}{}",
+            self.method.name(),
+            self.samples,
+            backend,
+            if white_furnace { ", white furnace" } else { "" }
+        )?;
+        writeln!(
+            out,
+            "{:>8} {:>8} {:>8}  {:<38} {:<38} {:>10}",
+            "mu", "theta", "phi", "albedo r,g,b (incl. delta)", "delta r,g,b", "error est"
+        )?;
+        for p in &self.points {
+            writeln!(
+                out,
+                "{:>8.4} {:>8.3} {:>8.3}  {:<38} {:<38} {:>10.2e}",
+                p.mu,
+                p.mu.acos().to_degrees(),
+                p.phi.to_degrees(),
+                rgb(p.albedo),
+                rgb(p.delta),
+                p.error.max_element()
+            )?;
+        }
+        let h = &self.hemispherical;
+        writeln!(
+            out,
+            "hemispherical albedo {} (delta {}) error est {:.2e}; E_avg at phi {} deg {}",
+            rgb(h.albedo),
+            rgb(h.delta),
+            h.error.max_element(),
+            phi_deg,
+            rgb(h.e_avg)
+        )?;
+        writeln!(out, "{:.3} s", self.seconds)
     }
 }

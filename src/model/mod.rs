@@ -4,6 +4,7 @@
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
 pub mod builder;
+pub mod catalogue;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod lambert;

@@ -212,7 +212,7 @@ pub enum ParamError {
         expected: String,
     },
     /// An assignment has no `=`.
-    #[error("'{text}' is not of the form key=value (for example --set roughness=0.3)")]
+    #[error("'{text}' is not of the form key=value (for example roughness=0.3)")]
     NotKeyValue {
         /// The assignment as given.
         text: String,

@@ -5,7 +5,10 @@
 //! E comes from [`crate::integrate::directional`] on the same backend as every other plot; delta
 //! lobes are included exactly and their part is reported apart.
 
-use super::{header, legend, palette, render, Common, Dash, Drawn, LegendEntry, Subject};
+use super::{
+    bad, check_finite_deg, header, legend, palette, render, Common, Dash, Drawn, LegendEntry,
+    Subject,
+};
 use crate::eval::Evaluator;
 use crate::integrate::{directional, Method, Settings};
 use anyhow::{bail, Result};
@@ -79,17 +82,15 @@ pub fn albedo_data(
         bail!("an albedo plot needs at least one model");
     }
     if !(2..=4096).contains(&opts.n_mu) {
-        bail!(
-            "--res {}: an albedo plot takes 2 to 4096 view directions",
-            opts.n_mu
-        );
+        return Err(bad(
+            "n_mu",
+            format!(
+                "{} view directions: an albedo plot takes 2 to 4096",
+                opts.n_mu
+            ),
+        ));
     }
-    if !opts.phi_deg.is_finite() {
-        bail!(
-            "--phi-i-deg {}: expected a finite number of degrees",
-            opts.phi_deg
-        );
-    }
+    check_finite_deg("phi_deg", "phi_o", opts.phi_deg)?;
     let settings = Settings {
         method: opts.method,
         samples: opts.samples.unwrap_or(opts.method.default_samples()),

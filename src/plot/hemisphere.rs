@@ -11,8 +11,8 @@
 //! Every panel is one (model, fixed direction); all panels share one colour scale.
 
 use super::{
-    check_deg, colour_bar, colour_map, fmt_value, header, rad, render, text_style, Common, Drawn,
-    Scale, Subject,
+    bad, check_deg, check_finite_deg, colour_bar, colour_map, fmt_value, header, rad, render,
+    text_style, Common, Drawn, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -169,22 +169,23 @@ pub fn hemisphere_data(
         bail!("a hemisphere plot needs at least one model");
     }
     if opts.theta_deg.is_empty() {
-        bail!("--theta-i-deg: give at least one angle for the fixed direction");
+        return Err(bad(
+            "theta_deg",
+            "give at least one angle theta for the fixed direction".into(),
+        ));
     }
     for &t in &opts.theta_deg {
-        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+        check_deg("theta_deg", "theta of the fixed direction", t, 0.0, 90.0)?;
     }
-    if !opts.phi_deg.is_finite() {
-        bail!(
-            "--phi-i-deg {}: expected a finite number of degrees",
-            opts.phi_deg
-        );
-    }
+    check_finite_deg("phi_deg", "phi of the fixed direction", opts.phi_deg)?;
     if !(8..=2048).contains(&opts.res) {
-        bail!(
-            "--res {}: a hemisphere map takes 8 to 2048 cells across",
-            opts.res
-        );
+        return Err(bad(
+            "res",
+            format!(
+                "{} cells across: a hemisphere map takes 8 to 2048",
+                opts.res
+            ),
+        ));
     }
     let n = opts.res;
     let cells: Vec<Option<DVec3>> = (0..n * n)

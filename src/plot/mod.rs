@@ -25,6 +25,7 @@ pub mod polar;
 pub mod slice;
 pub mod surface3d;
 
+use crate::input::BadInput;
 use crate::model::ParamSet;
 use crate::output::Pending;
 use anyhow::{anyhow, bail, Context, Result};
@@ -273,14 +274,20 @@ impl Common {
     /// Checks `decades` (in (0, 30]) and `size` (width in [200, 8000], height in [150, 8000]).
     pub fn check(&self) -> Result<()> {
         if !(self.decades > 0.0 && self.decades <= 30.0) {
-            bail!(
-                "--decades {}: a logarithmic scale spans between 0 and 30 decades",
-                self.decades
-            );
+            return Err(bad(
+                "decades",
+                format!(
+                    "{} decades: a logarithmic scale spans between 0 and 30 decades",
+                    self.decades
+                ),
+            ));
         }
         let (w, h) = self.size;
         if !(200..=8000).contains(&w) || !(150..=8000).contains(&h) {
-            bail!("--size {w}x{h}: width must lie in [200, 8000] and height in [150, 8000] pixels");
+            return Err(bad(
+                "size",
+                format!("image size {w}x{h}: width must lie in [200, 8000] and height in [150, 8000] pixels"),
+            ));
         }
         Ok(())
     }
@@ -831,12 +838,34 @@ pub(crate) fn rad(deg: f64) -> f64 {
     deg.to_radians()
 }
 
-/// Checks angles given in degrees against [lo, hi).
-pub(crate) fn check_deg(flag: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+/// Checks an angle given in degrees against [lo, hi); `option` tags the refusal, `name` is the
+/// angle's name in the message.
+pub(crate) fn check_deg(option: &'static str, name: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
     if !(v >= lo && v < hi) {
-        bail!("{flag} {v}: must lie in [{lo}, {hi}) degrees");
+        return Err(BadInput::new(
+            option,
+            format!("{name} = {v} deg is outside [{lo}, {hi}) degrees"),
+        )
+        .into());
     }
     Ok(())
+}
+
+/// Refuses a non-finite angle in degrees; `option` tags the refusal.
+pub(crate) fn check_finite_deg(option: &'static str, name: &str, v: f64) -> Result<()> {
+    if !v.is_finite() {
+        return Err(BadInput::new(
+            option,
+            format!("{name} = {v} deg: expected a finite number of degrees"),
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A [`BadInput`] tagged `option`, as an error.
+pub(crate) fn bad(option: &'static str, message: String) -> anyhow::Error {
+    BadInput::new(option, message).into()
 }
 
 #[cfg(test)]

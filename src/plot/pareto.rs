@@ -165,7 +165,13 @@ pub fn plot_pareto(report: &Report, size: (u32, u32), path: &Path) -> Result<Par
     super::Format::of(path)?;
     let (w, h) = size;
     if !(400..=8000).contains(&w) || !(300..=8000).contains(&h) {
-        bail!("--size {w}x{h}: width must lie in [400, 8000] and height in [300, 8000] pixels");
+        return Err(crate::input::BadInput::new(
+            "size",
+            format!(
+                "plot size {w}x{h}: width must lie in [400, 8000] and height in [300, 8000] pixels"
+            ),
+        )
+        .into());
     }
     let sections = report.sections();
     if sections.is_empty() {

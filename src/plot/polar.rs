@@ -6,8 +6,8 @@
 //! the mirror direction of ωi is s = +θi. A curve is the point at radius ρ(value) along ωo.
 
 use super::{
-    check_deg, dash_pieces, fmt_value, header, legend, palette, rad, render, text_style, Common,
-    Dash, Drawn, LegendEntry, Scale, Subject,
+    bad, check_deg, dash_pieces, fmt_value, header, legend, palette, rad, render, text_style,
+    Common, Dash, Drawn, LegendEntry, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::model::Reference;
@@ -116,16 +116,22 @@ pub fn polar_data(
         bail!("a polar plot needs at least one model");
     }
     if opts.theta_i_deg.is_empty() {
-        bail!("--theta-i-deg: give at least one incidence angle");
+        return Err(bad(
+            "theta_i_deg",
+            "give at least one incidence angle theta_i".into(),
+        ));
     }
     for &t in &opts.theta_i_deg {
-        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
     }
     if !(16..=1 << 20).contains(&opts.samples) {
-        bail!(
-            "--samples {}: a polar curve takes between 16 and 1048576 view angles",
-            opts.samples
-        );
+        return Err(bad(
+            "samples",
+            format!(
+                "{} view angles: a polar curve takes between 16 and 1048576",
+                opts.samples
+            ),
+        ));
     }
     let n = opts.samples;
     let s_deg: Vec<f64> = (0..n)

@@ -9,7 +9,8 @@
 //! drawn grey. The colour is always logarithmic: a specular peak spans decades.
 
 use super::{
-    colour_bar, colour_map, fmt_value, header, rad, render, Common, Drawn, Scale, Subject,
+    bad, check_finite_deg, colour_bar, colour_map, fmt_value, header, rad, render, Common, Drawn,
+    Scale, Subject,
 };
 use crate::eval::Evaluator;
 use anyhow::{bail, Result};
@@ -86,14 +87,12 @@ pub fn slice_data(
         bail!("a slice plot needs at least one model");
     }
     if !(4..=2048).contains(&opts.res) {
-        bail!("--res {}: a slice takes 4 to 2048 cells per axis", opts.res);
+        return Err(bad(
+            "res",
+            format!("{} cells per axis: a slice takes 4 to 2048", opts.res),
+        ));
     }
-    if !opts.phi_d_deg.is_finite() {
-        bail!(
-            "--phi-d-deg {}: expected a finite number of degrees",
-            opts.phi_d_deg
-        );
-    }
+    check_finite_deg("phi_d_deg", "phi_d", opts.phi_d_deg)?;
     let n = opts.res;
     let cell = |k: usize| rad((k as f64 + 0.5) * 90.0 / n as f64);
     let pairs: Vec<(DVec3, DVec3)> = (0..n * n)

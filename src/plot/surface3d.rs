@@ -5,8 +5,8 @@
 //! The chart's vertical axis is the surface normal z; its other two axes are x and y.
 
 use super::{
-    check_deg, fmt_value, header, legend, palette, rad, render, text_style, Common, Dash, Drawn,
-    LegendEntry, Scale, Subject,
+    bad, check_deg, check_finite_deg, fmt_value, header, legend, palette, rad, render, text_style,
+    Common, Dash, Drawn, LegendEntry, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -100,22 +100,23 @@ pub fn surface3d_data(
         bail!("a 3d plot needs at least one model");
     }
     if opts.theta_i_deg.is_empty() {
-        bail!("--theta-i-deg: give at least one incidence angle");
+        return Err(bad(
+            "theta_i_deg",
+            "give at least one incidence angle theta_i".into(),
+        ));
     }
     for &t in &opts.theta_i_deg {
-        check_deg("--theta-i-deg", t, 0.0, 90.0)?;
+        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
     }
-    if !opts.phi_i_deg.is_finite() {
-        bail!(
-            "--phi-i-deg {}: expected a finite number of degrees",
-            opts.phi_i_deg
-        );
-    }
+    check_finite_deg("phi_i_deg", "phi_i", opts.phi_i_deg)?;
     if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
-        bail!(
-            "--res {}: a 3d wireframe takes 4 to 1024 rings (and twice as many meridians, up to 2048)",
-            opts.n_theta
-        );
+        return Err(bad(
+            "n_theta",
+            format!(
+                "{} rings and {} meridians: a 3d wireframe takes 4 to 1024 rings and 4 to 2048 meridians",
+                opts.n_theta, opts.n_phi
+            ),
+        ));
     }
     let (nt, np) = (opts.n_theta, opts.n_phi);
     let wo: Vec<DVec3> = (0..nt * np)

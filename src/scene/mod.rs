@@ -85,7 +85,7 @@ use std::path::{Path, PathBuf};
 
 /// Cells above which a table is refused before any work starts: the GPU kernel's 32-bit cell
 /// index (48 GiB of float32 RGB), as `lobe table` refuses it.
-pub const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
+pub use crate::table::MAX_TABLE_CELLS;
 /// Largest preview cell, pixels (as `lobe preview --cell`).
 pub const MAX_PREVIEW_CELL: u32 = 4096;
 /// Largest scene file read, bytes: a scene is a few hundred lines; anything far larger is not one.

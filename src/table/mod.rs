@@ -14,6 +14,7 @@ pub mod npy;
 
 use crate::eval::Evaluator;
 use crate::grid::Grid;
+use crate::input::BadInput;
 use crate::model::ParamSet;
 use crate::output::FileSet;
 use anyhow::{bail, Context, Result};
@@ -21,6 +22,54 @@ use exr::prelude::*;
 use serde_json::json;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+
+/// Cells above which a table is refused before any work starts: 2^32 − 1, the GPU kernel's 32-bit
+/// cell index (48 GiB of float32 RGB).
+pub const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
+
+/// Checks a table request before any work starts and returns its cell count: a grid that holds
+/// only the isotropic half of the angles needs an isotropic parameter set, the table has at most
+/// [`MAX_TABLE_CELLS`] cells, and the path ends in `.exr` (the `.npy` and `.json` go beside it).
+/// Refusals are [`BadInput`]s tagged `grid`, `cells` or `path`.
+pub fn check_request(params: &ParamSet, grid: &Grid, exr_path: &Path) -> Result<u64> {
+    if grid.needs_isotropy() && !params.is_isotropic() {
+        let instead = match grid {
+            Grid::Isotropic { .. } => "the full grid",
+            _ => "the halfdiff grid with four numbers NTHETA_H,NPHI_H,NTHETA_D,NPHI_D",
+        };
+        return Err(BadInput::new(
+            "grid",
+            format!(
+                "the {} grid {:?} holds only the isotropic half of the angles, but {} with {} is anisotropic; use {instead}",
+                grid.name(),
+                grid.shape(),
+                params.model().name(),
+                params.to_text()
+            ),
+        )
+        .into());
+    }
+    let cells = grid.cells().filter(|&c| c <= MAX_TABLE_CELLS).ok_or_else(|| {
+        BadInput::new(
+            "cells",
+            format!(
+                "a table of shape {:?} would have more than {MAX_TABLE_CELLS} cells; lower the resolution",
+                grid.shape()
+            ),
+        )
+    })?;
+    if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(BadInput::new(
+            "path",
+            format!(
+                "the table path {} must end in .exr (the .npy and .json are written beside it)",
+                exr_path.display()
+            ),
+        )
+        .into());
+    }
+    Ok(cells)
+}
 
 /// What a table holds, for headers and sidecars.
 pub struct TableMeta<'a> {
@@ -326,4 +375,34 @@ pub fn read_exr(exr_path: &Path) -> Result<TableData> {
         values,
         attributes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn option(r: Result<u64>) -> Option<&'static str> {
+        crate::input::option_of(&r.unwrap_err())
+    }
+
+    #[test]
+    fn a_request_is_refused_by_grid_size_and_path_before_any_work() {
+        let iso = crate::resolve_params("lambert", None, &[]).unwrap();
+        let aniso = crate::resolve_params(
+            "ashikhmin_shirley",
+            None,
+            &["nu=10".into(), "nv=100".into()],
+        )
+        .unwrap();
+        let grid = Grid::parse("isotropic", "4,5,6").unwrap();
+        let path = Path::new("t.exr");
+        assert_eq!(check_request(&iso, &grid, path).unwrap(), 120);
+        assert_eq!(option(check_request(&aniso, &grid, path)), Some("grid"));
+        let full = Grid::parse("full", "4,5,6,7").unwrap();
+        assert_eq!(check_request(&aniso, &full, path).unwrap(), 840);
+        let huge = Grid::parse("isotropic", "100000,100000,100000").unwrap();
+        assert_eq!(option(check_request(&iso, &huge, path)), Some("cells"));
+        let png = Path::new("t.png");
+        assert_eq!(option(check_request(&iso, &grid, png)), Some("path"));
+    }
 }

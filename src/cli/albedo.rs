@@ -1,0 +1,276 @@
+//! `lobe albedo`: directional and hemispherical albedo, an albedo look-up table, or every albedo
+//! of a scene.
+
+use super::run::run_scene;
+use super::{
+    install_ctrl_c, open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat,
+};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use lobe::integrate::{Method, Settings};
+use lobe::lut::{self, LutSpec, Mapping};
+use lobe::{ParamSet, Session};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// How cell t_k = (k + 0.5)/NP of the LUT's parameter axis maps to a value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum MappingArg {
+    /// lo + (hi - lo) t.
+    Linear,
+    /// lo (hi/lo)^t; needs lo > 0.
+    Log,
+    /// lo + (hi - lo) t^2: denser at lo.
+    Square,
+}
+
+impl From<MappingArg> for Mapping {
+    fn from(m: MappingArg) -> Mapping {
+        match m {
+            MappingArg::Linear => Mapping::Linear,
+            MappingArg::Log => Mapping::Log,
+            MappingArg::Square => Mapping::Square,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct AlbedoArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    #[command(flatten)]
+    backend: BackendArgs,
+    /// Write every albedo a scene file asks for instead (JSON, the default method; see
+    /// `lobe run --help`); only --backend and --device apply then.
+    #[arg(long, value_name = "SCENE.toml", conflicts_with_all = ["sets", "material", "lut"])]
+    scene: Option<PathBuf>,
+    /// With --scene: the folder the scene's output paths are relative to.
+    #[arg(long, value_name = "DIR", requires = "scene")]
+    output_dir: Option<PathBuf>,
+    /// View directions as mu = cos(theta_o), comma-separated, each in (0, 1].
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "theta_deg",
+        default_value = super::default_mus()
+    )]
+    mu: Vec<f64>,
+    /// View directions as theta_o in degrees, comma-separated, each in [0, 90).
+    #[arg(
+        long = "theta-o-deg",
+        visible_alias = "theta-deg",
+        value_name = "THETA_O",
+        value_delimiter = ','
+    )]
+    theta_deg: Vec<f64>,
+    /// View azimuth phi_o in degrees (matters for anisotropic models; E_avg is taken at it).
+    #[arg(
+        long = "phi-o-deg",
+        visible_alias = "phi-deg",
+        value_name = "PHI_O",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    phi_deg: f64,
+    /// Integrator (`--help` describes each).
+    #[arg(long, value_enum, default_value_t = MethodArg::Peak)]
+    method: MethodArg,
+    /// Quadrature nodes per view direction (default depends on the method; ignored by reference).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = TableFormat::Table)]
+    format: TableFormat,
+    /// Write an albedo look-up table E(mu, p) and E_avg(p) to PATH.exr (layers E, E_avg), with
+    /// PATH.npy (Np x Nmu x 3), PATH_avg.npy (Np x 3) and PATH.json (axes, centring, mapping)
+    /// beside it. mu cells are centred: mu_j = (j + 0.5)/Nmu.
+    #[arg(long, value_name = "PATH.exr", conflicts_with_all = ["mu", "theta_deg"])]
+    lut: Option<PathBuf>,
+    /// LUT parameter axis: KEY, or several keys set to the same value (nu,nv). Default per model:
+    /// albedo, shininess, smoothness, sigma, roughness, ior, nu,nv, alpha.
+    #[arg(
+        long = "lut-param",
+        value_name = "KEY",
+        value_delimiter = ',',
+        requires = "lut"
+    )]
+    lut_param: Vec<String>,
+    /// LUT parameter range LO,HI (default per model, e.g. shininess 1,8192; roughness 0.01,1).
+    #[arg(long = "lut-range", value_name = "LO,HI", requires = "lut")]
+    lut_range: Option<String>,
+    /// LUT size NMU,NP (default 32,32).
+    #[arg(long = "lut-res", value_name = "NMU,NP", requires = "lut")]
+    lut_res: Option<String>,
+    /// LUT parameter mapping of cell t_k = (k + 0.5)/NP. Default per model (log for exponents,
+    /// square for roughness, else linear).
+    #[arg(long = "lut-map", value_enum, requires = "lut")]
+    lut_map: Option<MappingArg>,
+}
+
+pub fn run(a: AlbedoArgs) -> Result<()> {
+    if let Some(scene) = &a.scene {
+        install_ctrl_c()?;
+        return run_scene(
+            scene,
+            a.output_dir.as_deref().unwrap_or(Path::new(".")),
+            &a.backend,
+            lobe::scene::Outputs::ALBEDOS,
+        );
+    }
+    let params = a.model.params()?;
+    let method = Method::from(a.method);
+    if !a.phi_deg.is_finite() {
+        bail!(
+            "--phi-o-deg {}: expected a finite number of degrees",
+            a.phi_deg
+        );
+    }
+    let mus: Vec<f64> = if !a.theta_deg.is_empty() {
+        a.theta_deg
+            .iter()
+            .map(|&t| {
+                if (0.0..90.0).contains(&t) {
+                    Ok(t.to_radians().cos())
+                } else {
+                    bail!("--theta-o-deg {t}: expected theta_o in [0, 90) degrees")
+                }
+            })
+            .collect::<Result<_>>()?
+    } else {
+        for &m in &a.mu {
+            if !(m > 0.0 && m <= 1.0) {
+                bail!("--mu {m}: expected mu = cos(theta_o) in (0, 1]");
+            }
+        }
+        a.mu.clone()
+    };
+    if let Some(0) = a.samples {
+        bail!("--samples 0: expected a positive number of nodes per direction");
+    }
+    let settings = Settings {
+        method,
+        samples: a.samples.unwrap_or(method.default_samples()),
+        white_furnace: a.model.white_furnace,
+    };
+    let phi = a.phi_deg.to_radians();
+    if let Some(path) = &a.lut {
+        let spec = lut_spec(&a, params, settings, phi)?;
+        let session = open_albedo_session(&a.backend, method)?;
+        return write_lut(&a, &session, &spec, path);
+    }
+    let session = open_albedo_session(&a.backend, method)?;
+    let backend = session.backend_name();
+    let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, phi)).collect();
+    // A spinner: the hemispherical albedo of an anisotropic model integrates thousands of view
+    // directions (seconds to tens of seconds on lavapipe).
+    let spinner = indicatif::ProgressBar::new_spinner();
+    spinner.set_message(format!(
+        "integrating {} with {} on {backend}",
+        params.model().name(),
+        method.name(),
+    ));
+    spinner.enable_steady_tick(std::time::Duration::from_millis(120));
+    let report = session.albedo_report(&params, &settings, &points, phi);
+    spinner.finish_and_clear();
+    let report = report?;
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        TableFormat::Json => writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(&report.to_json(
+                &params,
+                a.model.white_furnace,
+                &backend
+            ))?
+        )?,
+        TableFormat::Csv => report.write_csv(&mut out)?,
+        TableFormat::Table => report.write_table(
+            &mut out,
+            &params,
+            a.model.white_furnace,
+            &backend,
+            a.phi_deg,
+        )?,
+    }
+    Ok(())
+}
+
+/// Parses `A,B` for `flag` into two values.
+fn parse_pair<T: std::str::FromStr>(flag: &str, text: &str, what: &str) -> Result<(T, T)> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if let [a, b] = parts[..] {
+        if let (Ok(a), Ok(b)) = (a.parse(), b.parse()) {
+            return Ok((a, b));
+        }
+    }
+    bail!("{flag} {text}: expected {what}")
+}
+
+/// The look-up table the flags ask for: the model's own axis unless --lut-param names another
+/// (then its full valid range, linear, unless given).
+fn lut_spec(a: &AlbedoArgs, params: ParamSet, settings: Settings, phi: f64) -> Result<LutSpec> {
+    let mut spec = LutSpec::new(params, a.model.white_furnace);
+    spec.method = settings.method;
+    spec.samples = settings.samples;
+    spec.phi = phi;
+    if !a.lut_param.is_empty() {
+        spec.keys = a.lut_param.clone();
+        let model = spec.params.model();
+        let (default_keys, ..) = lut::default_axis(model);
+        if a.lut_param != default_keys {
+            if let Some(s) = model.params().iter().find(|s| s.key == a.lut_param[0]) {
+                spec.lo = s.min;
+                spec.hi = s.max;
+                spec.mapping = Mapping::Linear;
+            }
+        }
+    }
+    if let Some(r) = &a.lut_range {
+        (spec.lo, spec.hi) = parse_pair("--lut-range", r, "LO,HI (two numbers)")?;
+    }
+    if let Some(r) = &a.lut_res {
+        (spec.n_mu, spec.n_p) = parse_pair("--lut-res", r, "NMU,NP (two positive integers)")?;
+    }
+    if let Some(m) = a.lut_map {
+        spec.mapping = m.into();
+    }
+    with_flag(spec.validate(), |o| lut_flag(&spec, o))?;
+    Ok(spec)
+}
+
+/// The flag, with its value, behind a refused part of a LUT request.
+fn lut_flag(spec: &LutSpec, option: &str) -> Option<String> {
+    let range = format!("--lut-range {},{}", spec.lo, spec.hi);
+    Some(match option {
+        "keys" => format!("--lut-param {}", spec.keys.join(",")),
+        "range" => range,
+        "mapping" => format!("--lut-map {} with {range}", spec.mapping.name()),
+        "res" => format!("--lut-res {},{}", spec.n_mu, spec.n_p),
+        "phi" => "--phi-o-deg".to_string(),
+        "path" => "--lut".to_string(),
+        _ => return None,
+    })
+}
+
+/// `lobe albedo --lut`: computes the table, writes its files and prints what it holds.
+fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> Result<()> {
+    let progress = indicatif::ProgressBar::new(spec.n_p as u64);
+    let summary = with_flag(
+        lut::write(&session.evaluator(), spec, path, &mut |done, _| {
+            progress.set_position(done)
+        }),
+        |o| lut_flag(spec, o),
+    )?;
+    progress.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        TableFormat::Json => writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(&summary.to_json(spec))?
+        )?,
+        _ => summary.write_text(spec, &mut out)?,
+    }
+    Ok(())
+}

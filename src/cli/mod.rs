@@ -1,0 +1,251 @@
+//! What the commands share: the backend flags and the session they open, the model flags, the
+//! closed choices as clap value enums, Ctrl-C, and the flag named in front of a library refusal.
+//! Each command lives in its own file and exposes its clap arguments and a `run`.
+
+pub mod albedo;
+pub mod bench;
+pub mod demo;
+pub mod energy;
+pub mod eval;
+pub mod models;
+pub mod plot;
+pub mod preview;
+pub mod run;
+pub mod stability;
+pub mod table;
+pub mod tradeoff;
+
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use lobe::gpu::GpuError;
+use lobe::integrate::{Method, DEFAULT_MUS};
+use lobe::model::ParamError;
+use lobe::{BackendKind, CancelToken, ParamSet, Session, SessionOptions};
+
+/// Where to evaluate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BackendArg {
+    /// Vulkan compute shaders in f32 (a real GPU if there is one, else lavapipe).
+    Gpu,
+    /// The CPU reference in f64; needs no Vulkan.
+    Cpu,
+}
+
+impl From<BackendArg> for BackendKind {
+    fn from(b: BackendArg) -> BackendKind {
+        match b {
+            BackendArg::Gpu => BackendKind::Gpu,
+            BackendArg::Cpu => BackendKind::Cpu,
+        }
+    }
+}
+
+/// The backend flags of every command that evaluates f.
+#[derive(Args, Clone, Debug)]
+pub struct BackendArgs {
+    /// Where to evaluate.
+    #[arg(long, value_enum, default_value_t = BackendArg::Gpu)]
+    pub backend: BackendArg,
+    /// Use the first Vulkan device whose name contains this text (default: a real GPU, else
+    /// lavapipe).
+    #[arg(long, value_name = "SUBSTRING")]
+    pub device: Option<String>,
+}
+
+/// The flags that choose a parameter set.
+#[derive(Args, Clone, Debug)]
+pub struct ModelArgs {
+    /// BRDF model (see `lobe models`).
+    #[arg(long, default_value = "cook_torrance")]
+    pub model: String,
+    /// Set a parameter, KEY=VALUE; rgb values as r,g,b or one number. Repeatable; applied after
+    /// --material.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Start from a material preset: tin, gold, glazed_ceramic, granite.
+    #[arg(long)]
+    pub material: Option<String>,
+    /// Replace every Fresnel factor of a specular lobe by 1 (shows the lobe's own energy).
+    #[arg(long)]
+    pub white_furnace: bool,
+}
+
+impl ModelArgs {
+    /// The parameter set these flags name.
+    pub fn params(&self) -> Result<ParamSet> {
+        resolve(&self.model, self.material.as_deref(), &self.sets)
+    }
+}
+
+/// The model's defaults, then the preset, then each `--set`; a `--set` that is not KEY=VALUE is
+/// named as such.
+pub fn resolve(model: &str, material: Option<&str>, sets: &[String]) -> Result<ParamSet> {
+    lobe::resolve_params(model, material, sets).map_err(|e| match e {
+        ParamError::NotKeyValue { .. } => anyhow::Error::new(e).context("--set"),
+        e => e.into(),
+    })
+}
+
+/// Output format of the commands that print a table for people, CSV or JSON.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TableFormat {
+    Table,
+    Csv,
+    Json,
+}
+
+/// The albedo integrators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Graded Gauss-Legendre in polar coordinates aligned with the mirror direction (the
+    /// default).
+    Peak,
+    /// Gauss-Legendre in mu x uniform phi.
+    Gauss,
+    /// Midpoint cells in (theta, phi).
+    Midpoint,
+    /// Cosine-weighted low-discrepancy points.
+    Qmc,
+    /// Randomised low-discrepancy points from a cosine + mirror-lobe mixture tuned to the model;
+    /// error = 3.5 standard errors of 8 replicates.
+    Importance,
+    /// Adaptive f64 Gauss-Kronrod; always runs on the CPU (no Vulkan needed).
+    Reference,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Method {
+        match m {
+            MethodArg::Peak => Method::Peak,
+            MethodArg::Gauss => Method::Gauss,
+            MethodArg::Midpoint => Method::Midpoint,
+            MethodArg::Qmc => Method::Qmc,
+            MethodArg::Importance => Method::Importance,
+            MethodArg::Reference => Method::Reference,
+        }
+    }
+}
+
+/// [`DEFAULT_MUS`] as the command line writes a list, `0.1,0.5,1`: the default of the `--mu`
+/// flags.
+pub fn default_mus() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| DEFAULT_MUS.map(|m| m.to_string()).join(","))
+}
+
+/// The process-wide cancellation token: Ctrl-C (SIGINT, SIGTERM) sets it; a second Ctrl-C
+/// while a job is still unwinding exits at once with status 130.
+pub fn cancel_token() -> &'static CancelToken {
+    static TOKEN: std::sync::OnceLock<CancelToken> = std::sync::OnceLock::new();
+    TOKEN.get_or_init(CancelToken::new)
+}
+
+/// Installs the Ctrl-C handler that sets [`cancel_token`] (a second call is harmless).
+pub fn install_ctrl_c() -> Result<()> {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    let mut result = Ok(());
+    INSTALLED.call_once(|| {
+        result = ctrlc::set_handler(|| {
+            let token = cancel_token();
+            if token.is_cancelled() {
+                std::process::exit(130);
+            }
+            token.cancel();
+        })
+        .map_err(|e| anyhow::anyhow!("installing the Ctrl-C handler: {e}"));
+    });
+    result
+}
+
+/// Opens the session the backend flags ask for. The environment switches of the command line
+/// become session options here: `LOBE_VALIDATION=1` (the Khronos validation layer),
+/// `LOBE_INJECT_DEVICE_LOST=1` (every dispatch fails as a lost device would), `LOBE_LOG=1`
+/// (each pipeline built, on stderr).
+pub fn open_session(b: &BackendArgs) -> Result<Session> {
+    let env_on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
+    let log: Option<lobe::gpu::LogSink> = std::env::var("LOBE_LOG")
+        .is_ok_and(|v| v != "0")
+        .then(|| std::sync::Arc::new(|line: &str| eprintln!("lobe: {line}")) as _);
+    let opts = SessionOptions {
+        backend: b.backend.into(),
+        device: b.device.clone(),
+        validation: env_on("LOBE_VALIDATION"),
+        inject_device_lost: env_on("LOBE_INJECT_DEVICE_LOST"),
+        log,
+        cancel: cancel_token().clone(),
+    };
+    Ok(Session::open(opts)?)
+}
+
+/// The session for an albedo job: the adaptive reference runs on the CPU whatever the backend,
+/// so for it a CPU session is opened and no Vulkan device is needed.
+pub fn open_albedo_session(b: &BackendArgs, method: Method) -> Result<Session> {
+    if method == Method::Reference {
+        let cpu = BackendArgs {
+            backend: BackendArg::Cpu,
+            device: None,
+        };
+        return open_session(&cpu);
+    }
+    open_session(b)
+}
+
+/// Puts the flag a library refusal came from in front of its message: `flag_of` maps the
+/// refusal's option tag ([`lobe::input::BadInput`]) to this command's flag, with its value where
+/// that helps. Other errors pass unchanged.
+pub fn with_flag<T>(r: anyhow::Result<T>, flag_of: impl Fn(&str) -> Option<String>) -> Result<T> {
+    r.map_err(|e| match lobe::input::option_of(&e).and_then(flag_of) {
+        Some(flag) => e.context(flag),
+        None => e,
+    })
+}
+
+/// Parses `WIDTHxHEIGHT` for `flag`; `example` shows the form.
+pub fn parse_size(flag: &str, text: &str, example: &str) -> Result<(u32, u32)> {
+    let size = text
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
+    match size {
+        Some(s) => Ok(s),
+        None => bail!("{flag} '{text}': expected WIDTHxHEIGHT, e.g. {example}"),
+    }
+}
+
+/// A progress bar of `len` steps drawn with `template` (indicatif's syntax).
+pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// The flags that help with a GPU failure, when `e` is one: the library's message says what to
+/// do in words, this names the command line's spelling of it.
+pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
+    let gpu = e.chain().find_map(|c| {
+        c.downcast_ref::<GpuError>()
+            .or_else(|| match c.downcast_ref::<lobe::Error>() {
+                Some(lobe::Error::Gpu(g)) => Some(g),
+                _ => None,
+            })
+    })?;
+    Some(match gpu {
+        GpuError::NoLoader(_) | GpuError::NoDevice => {
+            "--backend cpu runs the f64 CPU reference without Vulkan"
+        }
+        GpuError::NoMatchingDevice { .. } => {
+            "--device SUBSTRING picks a device by name; leave it out for the best device"
+        }
+        GpuError::NoValidationLayer => return None,
+        GpuError::DeviceLost(_) => {
+            "rerun, pick another device with --device SUBSTRING, or use --backend cpu"
+        }
+        GpuError::Timeout { .. } => "ask for less work at once, or use --backend cpu",
+        GpuError::Limit(_) => {
+            "ask for less work at once (fewer --samples, a smaller --res or --cell), or use --backend cpu"
+        }
+        _ => "--backend cpu runs the f64 CPU reference instead",
+    })
+}

@@ -1,0 +1,258 @@
+//! `lobe plot`: pictures of one or more models (polar, hemisphere, slice, 3d, albedo curves).
+
+use super::{
+    open_albedo_session, open_session, parse_size, resolve, with_flag, BackendArgs, MethodArg,
+};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use lobe::plot::{self, hemisphere::Projection, Channel, Common, Request, Subject};
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, ValueEnum, PartialEq)]
+enum PlotKind {
+    /// f (or f*cos(theta_i) with --cos) in the plane of incidence, one curve per --theta-i-deg.
+    Polar,
+    /// Heat map of f over every wo for one wi (over every wi with --reverse), one panel per
+    /// --theta-i-deg.
+    Hemisphere,
+    /// The theta_h x theta_d image (Rusinkiewicz 1998) at --phi-d-deg, log colour.
+    Slice,
+    /// The lobe r(wo) = f * wo as a 3D wireframe, one panel per --theta-i-deg.
+    #[value(name = "3d")]
+    ThreeD,
+    /// Directional albedo E(mu) curves with E = 1 drawn.
+    Albedo,
+}
+
+/// The plotted channel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ChannelArg {
+    /// Y = 0.2126 R + 0.7152 G + 0.0722 B.
+    Luminance,
+    R,
+    G,
+    B,
+    /// max(R, G, B): the channel that gains energy first.
+    Max,
+}
+
+impl From<ChannelArg> for Channel {
+    fn from(c: ChannelArg) -> Channel {
+        match c {
+            ChannelArg::Luminance => Channel::Luminance,
+            ChannelArg::R => Channel::R,
+            ChannelArg::G => Channel::G,
+            ChannelArg::B => Channel::B,
+            ChannelArg::Max => Channel::Max,
+        }
+    }
+}
+
+/// How the hemisphere map flattens the hemisphere onto a disc.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ProjectionArg {
+    /// Lambert azimuthal equal-area: equal solid angles take equal areas.
+    EqualArea,
+    /// Nusselt's sin(theta): area is projected solid angle.
+    Nusselt,
+}
+
+impl From<ProjectionArg> for Projection {
+    fn from(p: ProjectionArg) -> Projection {
+        match p {
+            ProjectionArg::EqualArea => Projection::EqualArea,
+            ProjectionArg::Nusselt => Projection::Nusselt,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct PlotArgs {
+    /// What to draw.
+    #[arg(long, value_enum, default_value_t = PlotKind::Polar)]
+    kind: PlotKind,
+    /// Output file; .png or .svg chooses the format.
+    #[arg(short = 'o', long = "output", value_name = "PATH.png|PATH.svg")]
+    output: PathBuf,
+    /// BRDF model (see `lobe models`); repeatable or comma-separated to overlay several
+    /// (default cook_torrance). Every model is drawn with every --material.
+    #[arg(long = "model", value_delimiter = ',')]
+    models: Vec<String>,
+    /// Material preset (tin, gold, glazed_ceramic, granite); repeatable or comma-separated.
+    #[arg(long = "material", value_delimiter = ',')]
+    materials: Vec<String>,
+    /// Set a parameter of every model drawn, KEY=VALUE; repeatable; applied after --material.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Replace every Fresnel factor of a specular lobe by 1 (shows the lobe's own energy).
+    #[arg(long)]
+    white_furnace: bool,
+    #[command(flatten)]
+    backend: BackendArgs,
+    /// Incidence angles theta_i in degrees, comma-separated, each in [0, 90) (polar, hemisphere,
+    /// 3d; with --reverse the fixed theta_o). Default 0,30,60,80 (3d: 45).
+    #[arg(long = "theta-i-deg", value_delimiter = ',')]
+    theta_i_deg: Vec<f64>,
+    /// Azimuth of the fixed direction in degrees (hemisphere, 3d; albedo: phi_o).
+    #[arg(long = "phi-i-deg", default_value_t = 0.0, allow_hyphen_values = true)]
+    phi_i_deg: f64,
+    /// Plot f*cos(theta_i) instead of f.
+    #[arg(long)]
+    cos: bool,
+    /// Logarithmic radius (polar, 3d; default linear) or colour (hemisphere; the default there).
+    /// The slice is always logarithmic.
+    #[arg(long, conflicts_with = "linear")]
+    log: bool,
+    /// Linear colour scale for the hemisphere map.
+    #[arg(long)]
+    linear: bool,
+    /// Decades a logarithmic scale spans below its maximum.
+    #[arg(long, default_value_t = 4.0)]
+    decades: f64,
+    /// Plotted channel.
+    #[arg(long, value_enum, default_value_t = ChannelArg::Luminance)]
+    channel: ChannelArg,
+    /// Hemisphere: map f over wi for the fixed wo instead.
+    #[arg(long)]
+    reverse: bool,
+    /// Hemisphere projection.
+    #[arg(long, value_enum, default_value_t = ProjectionArg::EqualArea)]
+    projection: ProjectionArg,
+    /// Resolution: hemisphere cells across (128), slice cells per axis (90), 3d rings (60),
+    /// albedo view directions (48), polar view angles per curve (1440).
+    #[arg(long)]
+    res: Option<usize>,
+    /// Slice: phi_d in degrees.
+    #[arg(long = "phi-d-deg", default_value_t = 90.0, allow_hyphen_values = true)]
+    phi_d_deg: f64,
+    /// Albedo: integration method (see `lobe albedo --help`).
+    #[arg(long, value_enum, default_value_t = MethodArg::Peak)]
+    method: MethodArg,
+    /// Albedo: quadrature nodes per view direction (default: the method's).
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; hemisphere: height to fit its
+    /// panels).
+    #[arg(long)]
+    size: Option<String>,
+}
+
+/// The flag behind a refused plot option.
+fn plot_flag(option: &str) -> Option<String> {
+    let flag = match option {
+        "theta_i_deg" | "theta_deg" => "--theta-i-deg",
+        "phi_i_deg" | "phi_deg" => "--phi-i-deg",
+        "phi_d_deg" => "--phi-d-deg",
+        "res" | "n_mu" | "n_theta" | "samples" => "--res",
+        "decades" => "--decades",
+        "size" => "--size",
+        _ => return None,
+    };
+    Some(flag.to_string())
+}
+
+pub fn run(a: PlotArgs) -> Result<()> {
+    let models = if a.models.is_empty() {
+        vec!["cook_torrance".to_string()]
+    } else {
+        a.models.clone()
+    };
+    let materials: Vec<Option<&str>> = if a.materials.is_empty() {
+        vec![None]
+    } else {
+        a.materials.iter().map(|m| Some(m.as_str())).collect()
+    };
+    let mut subjects = Vec::new();
+    for material in &materials {
+        for model in &models {
+            let params = resolve(model, *material, &a.sets)?;
+            subjects.push(Subject::new(params, *material));
+        }
+    }
+    let size = match &a.size {
+        Some(text) => parse_size("--size", text, "1200x800")?,
+        None if a.kind == PlotKind::Hemisphere => {
+            let cols = if a.theta_i_deg.is_empty() {
+                4
+            } else {
+                a.theta_i_deg.len()
+            };
+            let rows = models.len() * materials.len();
+            let side = (1090 / cols as u32).min(520);
+            (1200, (150 + rows as u32 * (side + 30)).min(8000))
+        }
+        None => (1200, 800),
+    };
+    let common = Common {
+        white_furnace: a.white_furnace,
+        cos: a.cos,
+        log: a.log || (a.kind == PlotKind::Hemisphere && !a.linear),
+        decades: a.decades,
+        channel: a.channel.into(),
+        size,
+    };
+    let angles = |default: &[f64]| {
+        if a.theta_i_deg.is_empty() {
+            default.to_vec()
+        } else {
+            a.theta_i_deg.clone()
+        }
+    };
+    let request = match a.kind {
+        PlotKind::Polar => Request::Polar(plot::polar::PolarOptions {
+            theta_i_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
+            samples: a.res.unwrap_or(plot::polar::DEFAULT_SAMPLES),
+        }),
+        PlotKind::Hemisphere => Request::Hemisphere(plot::hemisphere::HemisphereOptions {
+            theta_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
+            phi_deg: a.phi_i_deg,
+            reverse: a.reverse,
+            projection: a.projection.into(),
+            res: a.res.unwrap_or(128),
+        }),
+        PlotKind::Slice => Request::Slice(plot::slice::SliceOptions {
+            res: a.res.unwrap_or(90),
+            phi_d_deg: a.phi_d_deg,
+        }),
+        PlotKind::ThreeD => {
+            let rings = a.res.unwrap_or(60);
+            Request::Surface3d(plot::surface3d::Surface3dOptions {
+                theta_i_deg: angles(&[45.0]),
+                phi_i_deg: a.phi_i_deg,
+                n_theta: rings,
+                n_phi: 2 * rings,
+            })
+        }
+        PlotKind::Albedo => Request::Albedo(plot::albedo::AlbedoOptions {
+            n_mu: a.res.unwrap_or(48),
+            method: a.method.into(),
+            samples: a.samples,
+            phi_deg: a.phi_i_deg,
+        }),
+    };
+    let session = match a.kind {
+        PlotKind::Albedo => open_albedo_session(&a.backend, a.method.into())?,
+        _ => open_session(&a.backend)?,
+    };
+    let start = std::time::Instant::now();
+    let plotted = with_flag(
+        plot::plot(
+            &session.evaluator(),
+            &subjects,
+            &common,
+            &request,
+            &a.output,
+        ),
+        plot_flag,
+    )?;
+    let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "lobe plot: wrote {} ({} bytes, {} evaluations, {:.2} s): {}",
+        a.output.display(),
+        bytes,
+        plotted.evaluations(),
+        start.elapsed().as_secs_f64(),
+        plotted.title()
+    );
+    Ok(())
+}

@@ -1,0 +1,120 @@
+//! `lobe table`: one lobe table (EXR mosaic, .npy and .json), or every table of a scene.
+
+use super::run::run_scene;
+use super::{bar, install_ctrl_c, open_session, BackendArgs, ModelArgs};
+use anyhow::{anyhow, bail, Result};
+use clap::{Args, ValueEnum};
+use lobe::grid::Grid;
+use lobe::input::option_of;
+use std::path::{Path, PathBuf};
+
+/// The table grids.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum GridArg {
+    /// (theta_i, phi_i, theta_o, phi_o): any model.
+    Full,
+    /// (theta_i, theta_o, delta_phi in [0, 180 deg]): isotropic parameter sets.
+    Isotropic,
+    /// Rusinkiewicz's half/difference angles: theta_h, theta_d, phi_d in [0, 180 deg] for
+    /// isotropic parameter sets, or theta_h, phi_h, theta_d, phi_d for any.
+    Halfdiff,
+}
+
+impl GridArg {
+    fn name(self) -> &'static str {
+        match self {
+            GridArg::Full => "full",
+            GridArg::Isotropic => "isotropic",
+            GridArg::Halfdiff => "halfdiff",
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct TableArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    #[command(flatten)]
+    backend: BackendArgs,
+    /// Grid of (wi, wo) cells.
+    #[arg(long, value_enum, default_value_t = GridArg::Full)]
+    grid: GridArg,
+    /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full), NTHETA_I,NTHETA_O,NDPHI (isotropic),
+    /// NTHETA_H,NTHETA_D,NPHI_D or NTHETA_H,NPHI_H,NTHETA_D,NPHI_D (halfdiff).
+    #[arg(long, required_unless_present = "scene")]
+    res: Option<String>,
+    /// Output EXR path; the .npy and .json are written beside it.
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH.exr",
+        required_unless_present = "scene"
+    )]
+    output: Option<PathBuf>,
+    /// Write every table a scene file asks for instead (see `lobe run --help`); --model, --set,
+    /// --material, --white-furnace, --grid, --res and -o do not apply then.
+    #[arg(long, value_name = "SCENE.toml", conflicts_with_all = ["res", "output", "sets", "material"])]
+    scene: Option<PathBuf>,
+    /// With --scene: the folder the scene's output paths are relative to.
+    #[arg(long, value_name = "DIR")]
+    output_dir: Option<PathBuf>,
+}
+
+pub fn run(a: TableArgs) -> Result<()> {
+    install_ctrl_c()?;
+    if let Some(scene) = &a.scene {
+        return run_scene(
+            scene,
+            a.output_dir.as_deref().unwrap_or(Path::new(".")),
+            &a.backend,
+            lobe::scene::Outputs::TABLES,
+        );
+    }
+    if a.output_dir.is_some() {
+        bail!("--output-dir applies only with --scene; for one table give -o PATH.exr");
+    }
+    let (Some(res), Some(output)) = (&a.res, &a.output) else {
+        bail!("give --res and -o PATH.exr, or --scene FILE");
+    };
+    let params = a.model.params()?;
+    let grid = Grid::parse(a.grid.name(), res).map_err(|e| anyhow!("--res: {e}"))?;
+    let cells =
+        lobe::table::check_request(&params, &grid, output).map_err(|e| match option_of(&e) {
+            Some("grid") => {
+                let instead = match grid {
+                    Grid::Isotropic { .. } => "--grid full",
+                    _ => "--grid halfdiff --res NTHETA_H,NPHI_H,NTHETA_D,NPHI_D",
+                };
+                anyhow!(
+                    "--grid {} with --res {res}: {e:#} ({instead})",
+                    a.grid.name()
+                )
+            }
+            Some("cells") => e.context(format!("--res {res}")),
+            Some("path") => e.context("-o"),
+            _ => e,
+        })?;
+    let session = open_session(&a.backend)?;
+    let progress = bar(cells, "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}");
+    progress.set_message(format!("{} table", params.model().name()));
+    let started = std::time::Instant::now();
+    session.write_table(
+        &params,
+        a.model.white_furnace,
+        grid,
+        output,
+        &mut |done, _| progress.set_position(done),
+    )?;
+    progress.finish_and_clear();
+    let (npy, json) = lobe::table::sibling_paths(output);
+    eprintln!(
+        "lobe: wrote {} ({} cells, {:.2} s on {}), {} and {}",
+        output.display(),
+        cells,
+        started.elapsed().as_secs_f64(),
+        session.backend_name(),
+        npy.display(),
+        json.display()
+    );
+    Ok(())
+}
