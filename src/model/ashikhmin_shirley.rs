@@ -2,7 +2,8 @@
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
 use super::params::ParamSpec;
-use super::registry::{white_specular_alone, LutAxis, ModelInfo};
+use super::quadrature::SamplingLobes;
+use super::registry::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use crate::lut::Mapping;
@@ -89,6 +90,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: ashikhmin_shirley_exponent_at,
     is_isotropic,
+    sampling_lobes: ashikhmin_shirley_lobes,
+    v_cavity: no_v_cavity,
 };
 
 /// The parameter edges `lobe stability` sweeps.
@@ -161,4 +164,16 @@ pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furna
         * (DVec3::ONE - p.specular)
         * (pow5_complement(0.5 * c_i) * pow5_complement(0.5 * c_o));
     rho_s + rho_d
+}
+
+/// c_h^e as for Blinn–Phong: n = nu/4 and nv/4 along the two axes. The coat's Fresnel rises to 1
+/// at grazing whatever R0 (`specular`) is: weigh the lobe as if it reflected everything, the base
+/// by what the coat lets through.
+fn ashikhmin_shirley_lobes(p: &ParamSet) -> Option<SamplingLobes> {
+    let m = AshikhminShirley::new(p);
+    Some(SamplingLobes {
+        diffuse: m.diffuse * (DVec3::ONE - m.specular),
+        specular: DVec3::ONE,
+        exponents: [m.nu / 4.0, m.nv / 4.0],
+    })
 }

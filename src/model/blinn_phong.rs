@@ -2,7 +2,8 @@
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
 use super::params::ParamSpec;
-use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
+use super::quadrature::SamplingLobes;
+use super::registry::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use crate::lut::Mapping;
@@ -77,6 +78,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: blinn_phong_exponent_at,
     is_isotropic: always_isotropic,
+    sampling_lobes: blinn_phong_lobes,
+    v_cavity: no_v_cavity,
 };
 
 /// The parameter edges `lobe stability` sweeps.
@@ -126,4 +129,15 @@ pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
     let n = blinn_phong_exponent(p.smoothness);
     let lobe = (n + 8.0) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), n);
     p.diffuse * FRAC_1_PI + p.specular * lobe
+}
+
+/// c_h^N with θh ≈ α/2 near the mirror direction: cos^N(α/2) ≈ e^{−Nα²/8} = cos^{N/4}α, n = N/4.
+fn blinn_phong_lobes(p: &ParamSet) -> Option<SamplingLobes> {
+    let m = BlinnPhong::new(p);
+    let n = blinn_phong_exponent(m.smoothness) / 4.0;
+    Some(SamplingLobes {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        exponents: [n; 2],
+    })
 }

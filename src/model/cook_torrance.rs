@@ -2,6 +2,7 @@
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
 use super::params::ParamSpec;
+use super::quadrature::{beckmann_exponent, SamplingLobes};
 use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
@@ -88,6 +89,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: cook_torrance_exponent_at,
     is_isotropic: always_isotropic,
+    sampling_lobes: cook_torrance_lobes,
+    v_cavity: |_| true,
 };
 
 /// The parameter edges `lobe stability` sweeps.
@@ -158,4 +161,14 @@ pub fn as_microfacet(p: &ParamSet) -> Option<ParamSet> {
     m.set("diffuse", p.get("diffuse")).ok()?;
     m.set("specular", p.get("specular")).ok()?;
     Some(m)
+}
+
+/// Beckmann's lobe as a power cosine of the mirror angle (n = 1/(2m²)).
+fn cook_torrance_lobes(p: &ParamSet) -> Option<SamplingLobes> {
+    let m = CookTorrance::new(p);
+    Some(SamplingLobes {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        exponents: [beckmann_exponent(m.roughness); 2],
+    })
 }

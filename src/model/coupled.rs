@@ -2,7 +2,8 @@
 //! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
 
 use super::params::{ParamError, ParamSpec, Value};
-use super::registry::{always_isotropic, no_exponent, LutAxis, ModelInfo};
+use super::quadrature::no_lobes;
+use super::registry::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::lut::Mapping;
@@ -70,6 +71,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,
     is_isotropic: always_isotropic,
+    sampling_lobes: no_lobes,
+    v_cavity: no_v_cavity,
 };
 
 /// The parameter edges `lobe stability` sweeps.

@@ -7,6 +7,7 @@
 //! so a pipeline holds only the components it uses.
 
 use super::params::ParamSpec;
+use super::quadrature::{beckmann_exponent, SamplingLobes};
 use super::registry::{white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{
     alpha_tan2, half_vector, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
@@ -265,6 +266,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges,
     exponent: microfacet_exponent_at,
     is_isotropic,
+    sampling_lobes: microfacet_lobes,
+    v_cavity: has_v_cavity,
 };
 
 /// |x| of Beckmann's exp(−(h_x²/α_x² + h_y²/α_y²)/h_z²) at (ωi, ωo); GGX has no exponential.
@@ -393,4 +396,19 @@ pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> 
         }
     };
     p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))
+}
+
+/// Beckmann's (or, matched at its peak, GGX's) lobe per tangent axis: n = 1/(2α²).
+fn microfacet_lobes(p: &ParamSet) -> Option<SamplingLobes> {
+    let m = Microfacet::new(p);
+    Some(SamplingLobes {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        exponents: [beckmann_exponent(m.alpha_x), beckmann_exponent(m.alpha_y)],
+    })
+}
+
+/// V-cavity masking is one of the component choices.
+fn has_v_cavity(model: Model) -> bool {
+    matches!(model, Model::Microfacet(c) if MASKINGS[c.masking as usize] == "v_cavity")
 }

@@ -75,11 +75,7 @@ impl Model {
     /// Whether f carries the V-cavity masking min(1, 2 c_h min(c_i, c_o)/c_d), whose kinks the
     /// albedo integrator puts on panel edges.
     pub fn has_v_cavity_masking(self) -> bool {
-        match self {
-            Model::CookTorrance => true,
-            Model::Microfacet(c) => microfacet::MASKINGS[c.masking as usize] == "v_cavity",
-            _ => false,
-        }
+        (self.info().v_cavity)(self)
     }
 
     /// The name used on the command line, in file names and in the GLSL function.

@@ -2,7 +2,10 @@
 //! Twin of `glsl/brdf/oren_nayar.glsl`.
 
 use super::params::ParamSpec;
-use super::registry::{always_isotropic, no_exponent, white_albedo, LutAxis, ModelInfo};
+use super::quadrature::no_lobes;
+use super::registry::{
+    always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo,
+};
 use super::{f32x3, Layout, ParamSet};
 use crate::lut::Mapping;
 use bytemuck::{Pod, Zeroable};
@@ -68,6 +71,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: no_exponent,
     is_isotropic: always_isotropic,
+    sampling_lobes: no_lobes,
+    v_cavity: no_v_cavity,
 };
 
 /// The parameter edges `lobe stability` sweeps.

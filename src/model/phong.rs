@@ -2,7 +2,8 @@
 //! r = 2 c_i n − ωi. Twin of `glsl/brdf/phong.glsl`.
 
 use super::params::ParamSpec;
-use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
+use super::quadrature::SamplingLobes;
+use super::registry::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use crate::lut::Mapping;
@@ -79,6 +80,8 @@ pub const INFO: ModelInfo = ModelInfo {
     stability_edges: |_| STABILITY_EDGES.to_vec(),
     exponent: phong_exponent_at,
     is_isotropic: always_isotropic,
+    sampling_lobes: phong_lobes,
+    v_cavity: no_v_cavity,
 };
 
 /// The parameter edges `lobe stability` sweeps.
@@ -129,4 +132,14 @@ pub fn phong(p: &Phong, wi: DVec3, wo: DVec3) -> DVec3 {
     let s = 0.5 * (r - wo).length_squared();
     let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
     p.diffuse * FRAC_1_PI + p.specular * lobe
+}
+
+/// The lobe is exactly a power cosine of the mirror angle: n = shininess.
+fn phong_lobes(p: &ParamSet) -> Option<SamplingLobes> {
+    let m = Phong::new(p);
+    Some(SamplingLobes {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        exponents: [m.shininess; 2],
+    })
 }

@@ -3,7 +3,7 @@
 //! name. (Whether f carries V-cavity masking, whose kinks the `peak` rule aligns with, is
 //! [`Model::has_v_cavity_masking`](super::Model::has_v_cavity_masking).)
 
-use super::{Brdf, ParamSet};
+use super::ParamSet;
 use glam::DVec3;
 
 /// A model seen as a diffuse part plus peaked lobes about the mirror direction r of ωo, each
@@ -29,37 +29,16 @@ impl ParamSet {
     /// - `cook_torrance` (and `microfacet`, per axis): Beckmann's e^{−tan²θh/m²} ≈ e^{−α²/(4m²)}
     ///   = cos^n α with n = 1/(2m²).
     pub fn sampling_lobes(&self) -> Option<SamplingLobes> {
-        let beckmann = |m: f64| 0.5 / (m * m);
-        let (diffuse, specular, exponents) = match Brdf::new(self) {
-            Brdf::Phong(p) => (p.diffuse, p.specular, [p.shininess; 2]),
-            Brdf::BlinnPhong(p) => {
-                let n = 8192f64.powf(1.0 - p.smoothness) / 4.0;
-                (p.diffuse, p.specular, [n; 2])
-            }
-            Brdf::CookTorrance(p) => (p.diffuse, p.specular, [beckmann(p.roughness); 2]),
-            // The coat's Fresnel rises to 1 at grazing whatever R0 (`specular`) is: weigh the
-            // lobe as if it reflected everything, the base by what the coat lets through.
-            Brdf::AshikhminShirley(p) => (
-                p.diffuse * (DVec3::ONE - p.specular),
-                DVec3::ONE,
-                [p.nu / 4.0, p.nv / 4.0],
-            ),
-            Brdf::Microfacet(p) => (
-                p.diffuse,
-                p.specular,
-                [beckmann(p.alpha_x), beckmann(p.alpha_y)],
-            ),
-            // A model defined at run time states no lobes: cosine sampling alone.
-            Brdf::Lambert(_)
-            | Brdf::OrenNayar(_)
-            | Brdf::SmoothLayered(_)
-            | Brdf::Coupled(_)
-            | Brdf::Runtime(_) => return None,
-        };
-        Some(SamplingLobes {
-            diffuse,
-            specular,
-            exponents,
-        })
+        (self.model().info().sampling_lobes)(self)
     }
+}
+
+/// Beckmann's e^{−tan²θh/m²} ≈ e^{−α²/(4m²)} = cos^n α near the peak: n = 1/(2m²).
+pub fn beckmann_exponent(m: f64) -> f64 {
+    0.5 / (m * m)
+}
+
+/// [`super::ModelInfo::sampling_lobes`] of a model without peaked lobes.
+pub fn no_lobes(_: &ParamSet) -> Option<SamplingLobes> {
+    None
 }

@@ -4,6 +4,7 @@
 //! (with its `INFO`) and one line in [`Model::info`].
 
 use super::params::{ParamError, ParamSpec, Value};
+use super::quadrature::SamplingLobes;
 use super::{Layout, Model, ParamSet};
 use crate::lut::Mapping;
 use glam::DVec3;
@@ -56,6 +57,11 @@ pub struct ModelInfo {
     pub exponent: fn(&ParamSet, DVec3, DVec3) -> f64,
     /// Whether f depends on φi and φo only through φo − φi for this parameter set.
     pub is_isotropic: fn(&ParamSet) -> bool,
+    /// The peaked lobes the `importance` rule samples (None: cosine sampling alone).
+    pub sampling_lobes: fn(&ParamSet) -> Option<SamplingLobes>,
+    /// Whether f carries the V-cavity masking min(1, 2 c_h min(c_i, c_o)/c_d), whose kinks the
+    /// `peak` rule puts on panel edges (a component choice for `microfacet`).
+    pub v_cavity: fn(Model) -> bool,
 }
 
 /// [`ModelInfo::exponent`] of a model without exponentials.
@@ -66,6 +72,11 @@ pub fn no_exponent(_: &ParamSet, _: DVec3, _: DVec3) -> f64 {
 /// [`ModelInfo::is_isotropic`] of a model that is isotropic for every parameter set.
 pub fn always_isotropic(_: &ParamSet) -> bool {
     true
+}
+
+/// [`ModelInfo::v_cavity`] of a model without V-cavity masking.
+pub fn no_v_cavity(_: Model) -> bool {
+    false
 }
 
 /// [`ModelInfo::white`] of a diffuse model: its albedo at 1.

@@ -8,7 +8,8 @@
 //! [`Model`] stays a small `Copy` value whatever defined it.
 
 use super::params::{ParamError, ParamKind, ParamSpec};
-use super::registry::{no_exponent, LutAxis, ModelInfo};
+use super::quadrature::no_lobes;
+use super::registry::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::{Model, ParamSet};
 use crate::lut::Mapping;
 use glam::DVec3;
@@ -202,6 +203,8 @@ impl RuntimeModel {
                 stability_edges: no_edges,
                 exponent: no_exponent,
                 is_isotropic: runtime_isotropic,
+                sampling_lobes: no_lobes,
+                v_cavity: no_v_cavity,
             },
             isotropic,
             kernels: BTreeMap::new(),
