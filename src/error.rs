@@ -2,6 +2,7 @@
 //! parameter, the value and the valid range (never a command-line flag; the CLI adds those).
 
 use crate::gpu::GpuError;
+use crate::input::BadInput;
 use crate::interrupt::Interrupted;
 use crate::model::runtime::NoReference;
 use crate::model::ParamError;
@@ -18,6 +19,15 @@ pub enum Error {
     /// The cancellation token was set; no partial output was kept.
     #[error(transparent)]
     Cancelled(#[from] Interrupted),
+    /// A request value the job refuses, tagged with the option it came from
+    /// ([`BadInput::option`]) so that a front end can name its own spelling of it.
+    #[error("{message}")]
+    Input {
+        /// The refused value and the option it came from.
+        input: BadInput,
+        /// The whole message, with the context the job added.
+        message: String,
+    },
     /// A request outside what the job accepts: the message names the input and its valid range.
     #[error("{0}")]
     Invalid(String),
@@ -56,6 +66,12 @@ impl Error {
             Ok(n) => return Error::NoReference(n),
             Err(e) => e,
         };
+        if let Some(input) = e.chain().find_map(|c| c.downcast_ref::<BadInput>()) {
+            return Error::Input {
+                input: input.clone(),
+                message: format!("{e:#}"),
+            };
+        }
         let io = e.chain().find_map(|c| c.downcast_ref::<std::io::Error>());
         match io {
             Some(io) => Error::Io {

@@ -78,18 +78,6 @@ pub struct Session {
 /// direction, white furnace).
 pub type AlbedoSettings = integrate::Settings;
 
-impl Default for integrate::Settings {
-    /// The peak rule at its default node count (1e-6 relative at every preset), no white furnace.
-    fn default() -> Self {
-        let method = integrate::Method::Peak;
-        integrate::Settings {
-            method,
-            samples: method.default_samples(),
-            white_furnace: false,
-        }
-    }
-}
-
 impl Session {
     /// Opens the backend `opts` asks for.
     pub fn open(opts: SessionOptions) -> Result<Session> {
@@ -205,6 +193,7 @@ impl Session {
         exr_path: &Path,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<()> {
+        crate::table::check_request(params, &grid, exr_path).lobe()?;
         let meta = TableMeta {
             params,
             white_furnace,
@@ -329,6 +318,33 @@ mod tests {
         let p = crate::resolve_params("lambert", None, &["albedo=0.5".into()]).unwrap();
         let f = s.eval_pairs(&p, false, &[(DVec3::Z, DVec3::Z)]).unwrap();
         assert!((f[0][0] - 0.5 / std::f64::consts::PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_refused_request_is_an_input_error_tagged_with_its_option() {
+        let s = Session::cpu();
+        let p = crate::resolve_params(
+            "ashikhmin_shirley",
+            None,
+            &["nu=10".into(), "nv=1000".into()],
+        )
+        .unwrap();
+        let grid = Grid::Isotropic {
+            n_theta_i: 2,
+            n_theta_o: 2,
+            n_dphi: 2,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.exr");
+        let e = s
+            .write_table(&p, false, grid, &path, &mut |_, _| {})
+            .unwrap_err();
+        match &e {
+            Error::Input { input, .. } => assert_eq!(input.option, "grid", "{e}"),
+            other => panic!("expected an input error, got {other:?}"),
+        }
+        assert!(e.to_string().contains("anisotropic"), "{e}");
+        assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
     }
 
     #[test]

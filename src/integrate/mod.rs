@@ -164,3 +164,15 @@ pub struct Settings {
     /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
 }
+
+impl Default for Settings {
+    /// The peak rule at its default node count (1e-6 relative at every preset), no white furnace.
+    fn default() -> Self {
+        let method = Method::Peak;
+        Settings {
+            method,
+            samples: method.default_samples(),
+            white_furnace: false,
+        }
+    }
+}
