@@ -1049,7 +1049,13 @@ fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
         bar.set_message(what.to_string());
     };
     let session = open_session(a.model.backend, a.model.device.clone())?;
-    let report = lobe::tradeoff::run(session.gpu(), &params, material, &opts, &mut progress)?;
+    let report = lobe::tradeoff::run(
+        &session.evaluator(),
+        &params,
+        material,
+        &opts,
+        &mut progress,
+    )?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     match a.format {
