@@ -417,7 +417,7 @@ fn pareto_plot_is_a_picture_of_the_requested_size() {
         albedo: albedo_setup(&[256, 4096]),
     };
     let report = lobe::tradeoff::run(
-        Some(&gpu),
+        &Evaluator::gpu(&gpu),
         &params,
         Some("granite"),
         &opts,

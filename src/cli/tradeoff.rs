@@ -156,7 +156,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
     };
     let session = open_session(&a.backend)?;
     let report = with_flag(
-        lobe::tradeoff::run(session.gpu(), &params, material, &opts, &mut step),
+        lobe::tradeoff::run(&session.evaluator(), &params, material, &opts, &mut step),
         tradeoff_flag,
     )?;
     progress.finish_and_clear();

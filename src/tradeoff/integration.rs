@@ -1,0 +1,128 @@
+//! The integration section: each fixed albedo rule of [`crate::integrate`] × a ladder of node
+//! counts on each backend, timed from scratch per directional albedo and judged against the
+//! adaptive reference (see the notes of [`crate::tradeoff`]).
+
+use super::albedo::{albedo_errors, backend_tag, AlbedoSetup};
+use super::{mark_pareto, Row, Section};
+use crate::bench::median;
+use crate::eval::Evaluator;
+use crate::integrate::{sum_rule, view_direction, Method, Rule};
+use crate::model::ParamSet;
+use anyhow::Result;
+use glam::DVec3;
+use std::time::Instant;
+
+/// One integration variant: a method and the rule it gives for a node count.
+#[derive(Clone, Debug)]
+pub struct IntegrationVariant {
+    /// The albedo rule.
+    pub method: Method,
+    /// The node count asked for.
+    pub asked: usize,
+    /// The rule that node count gives: its nodes and weights.
+    pub rule: Rule,
+}
+
+/// Every fixed rule × the ladder, rules that come out equal listed once.
+pub fn integration_variants(params: &ParamSet, ladder: &[usize]) -> Vec<IntegrationVariant> {
+    let mut out: Vec<IntegrationVariant> = Vec::new();
+    for method in Method::ALL {
+        for &n in ladder {
+            let Some(rule) = method.rule(n, params) else {
+                continue;
+            };
+            if !out.iter().any(|v| v.rule == rule) {
+                out.push(IntegrationVariant {
+                    method,
+                    asked: n,
+                    rule,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// E(ωo) (delta excluded) by `rule` on `backend`, from scratch: the nodes, then Σ w f (f64 sums
+/// of f64 values on the CPU; the reduction kernel on the GPU). Returns E and the node count.
+pub fn rule_albedo_once(
+    backend: &Evaluator,
+    params: &ParamSet,
+    rule: &Rule,
+    wo: DVec3,
+) -> Result<(DVec3, usize)> {
+    let (value, n) = sum_rule(backend, params, false, *rule, &[wo])?
+        .pop()
+        .expect("one sum per direction");
+    Ok((value, n as usize))
+}
+
+/// Measures every integration variant on each backend (GPU first; the two never overlap: on
+/// lavapipe they would share the same cores). `truth` holds the reference E at `setup.mus`.
+pub fn measure_integration(
+    backends: &[Evaluator],
+    params: &ParamSet,
+    setup: &AlbedoSetup,
+    truth: &[DVec3],
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<Row>> {
+    let wo: Vec<DVec3> = setup
+        .mus
+        .iter()
+        .map(|&mu| view_direction(mu, 0.0))
+        .collect();
+    let variants = integration_variants(params, &setup.samples);
+    let mut rows = Vec::new();
+    for backend in backends {
+        for v in &variants {
+            let label = format!("{} {}", v.method.name(), backend_tag(backend));
+            progress(&label);
+            // The untimed run: builds the pipeline, and its values are the ones judged.
+            let mut values = Vec::with_capacity(wo.len());
+            let mut nodes = 0usize;
+            for &o in &wo {
+                let (e, n) = rule_albedo_once(backend, params, &v.rule, o)?;
+                values.push(e);
+                nodes += n;
+            }
+            let (max_error, rms_error) = albedo_errors(&values, truth);
+            let (mut walls, mut kernels) = (Vec::new(), Vec::new());
+            for _ in 0..setup.repeats {
+                if let Some(g) = backend.as_gpu() {
+                    g.take_gpu_time();
+                }
+                let t = Instant::now();
+                for &o in &wo {
+                    std::hint::black_box(rule_albedo_once(backend, params, &v.rule, o)?);
+                }
+                walls.push(t.elapsed().as_secs_f64() * 1e3 / wo.len() as f64);
+                if let Some(g) = backend.as_gpu() {
+                    if let Some(k) = g.take_gpu_time() {
+                        kernels.push(k.as_secs_f64() * 1e3 / wo.len() as f64);
+                    }
+                }
+            }
+            let mean_nodes = (nodes as f64 / wo.len() as f64).round() as u64;
+            rows.push(Row {
+                section: Section::Integration,
+                variant: format!(
+                    "{} {} nodes, {}",
+                    v.method.name(),
+                    mean_nodes,
+                    backend_tag(backend)
+                ),
+                backend: backend.name(),
+                samples: Some(mean_nodes),
+                cost: median(walls),
+                cost_unit: Section::Integration.cost_unit().into(),
+                kernel_cost: (!kernels.is_empty()).then(|| median(kernels)),
+                max_error,
+                rms_error,
+                error_kind: Section::Integration.error_kind().into(),
+                pareto: false,
+            });
+        }
+    }
+    mark_pareto(&mut rows);
+    Ok(rows)
+}
