@@ -33,7 +33,7 @@ impl Scene {
         // run that fails before writing anything leaves nothing behind.
         if out_dir.exists() && !out_dir.is_dir() {
             bail!(
-                "the output folder {} is a file, not a folder; pick another with --output-dir",
+                "the output folder {} is a file, not a folder; pick another output folder",
                 out_dir.display()
             );
         }
