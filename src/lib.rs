@@ -2,7 +2,7 @@
 //! lobe: evaluate BRDFs with Vulkan compute shaders (GLSL, f32) over dense (light, view) grids,
 //! checked against a CPU reference in f64, and write lobe tables.
 //!
-//! Conventions (DESIGN §2): local frame n = +z, t = +x, b = +y; ω = (sinθ cosφ, sinθ sinφ, cosθ);
+//! Conventions (docs/design.md §2): local frame n = +z, t = +x, b = +y; ω = (sinθ cosφ, sinθ sinφ, cosθ);
 //! ωi points to the light, ωo to the viewer; f is in 1/sr, linear RGB, without the cosine, and 0
 //! whenever cosθi ≤ 0 or cosθo ≤ 0.
 

@@ -117,21 +117,6 @@ impl Pending {
     }
 }
 
-/// [`Pending::new`]'s temporary file on its own, for callers that keep it themselves until
-/// [`persist`].
-pub(crate) fn temp_beside(dest: &Path) -> Result<tempfile::NamedTempFile> {
-    Pending::new(dest).map(|p| p.tmp)
-}
-
-/// [`Pending::commit`] for a temporary file from [`temp_beside`].
-pub(crate) fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
-    Pending {
-        tmp,
-        dest: dest.to_path_buf(),
-    }
-    .commit()
-}
-
 /// Writes `dest` through `write`, which gets a buffered writer on a [`Pending`] file; the buffer
 /// is flushed (so a late write error is not lost) and the file committed only when `write`
 /// succeeds. Returns what `write` returns.

@@ -121,10 +121,10 @@ impl Scene {
         e.check_cancelled()?;
         let mut json = report.to_json(&m.params, a.white_furnace, &e.name());
         json["material"] = serde_json::json!(m.name);
-        let tmp = table::temp_beside(&path)?;
-        serde_json::to_writer_pretty(tmp.as_file(), &json)
-            .with_context(|| format!("writing {}", path.display()))?;
-        table::persist(tmp, &path)?;
+        crate::output::write_atomic(&path, |w| {
+            serde_json::to_writer_pretty(w, &json)
+                .with_context(|| format!("writing {}", path.display()))
+        })?;
         let h = report.hemispherical.albedo;
         let line = format!(
             "albedo {} ({} {}, hemispherical [{:.4}, {:.4}, {:.4}], {:.2} s)",

@@ -91,17 +91,6 @@ pub fn sibling_paths(exr_path: &Path) -> (PathBuf, PathBuf) {
     )
 }
 
-/// A temporary file beside `dest`, renamed onto it by [`persist`]: the two steps of
-/// [`crate::output::Pending`] for the callers that still hold the temporary file themselves.
-pub fn temp_beside(dest: &Path) -> Result<tempfile::NamedTempFile> {
-    crate::output::temp_beside(dest)
-}
-
-/// Renames a finished temporary file from [`temp_beside`] onto `dest`.
-pub fn persist(tmp: tempfile::NamedTempFile, dest: &Path) -> Result<()> {
-    crate::output::persist(tmp, dest)
-}
-
 /// Maps pixel (x, y) of the EXR mosaic to its npy cell index.
 type PixelToCell = Box<dyn Fn(usize, usize) -> usize + Sync>;
 
