@@ -2,9 +2,18 @@
 //! lobe: evaluate BRDFs with Vulkan compute shaders (GLSL, f32) over dense (light, view) grids,
 //! checked against a CPU reference in f64, and write lobe tables.
 //!
-//! Conventions (docs/design.md §2): local frame n = +z, t = +x, b = +y; ω = (sinθ cosφ, sinθ sinφ, cosθ);
-//! ωi points to the light, ωo to the viewer; f is in 1/sr, linear RGB, without the cosine, and 0
-//! whenever cosθi ≤ 0 or cosθo ≤ 0.
+//! Start at [`Session`]: it opens the backend (a Vulkan device or the f64 CPU reference), owns
+//! the pipeline cache and runs every job the command line runs — f at direction pairs, lobe tables
+//! in memory or as files, directional and hemispherical albedo, look-up tables, previews, the
+//! stability sweep, benchmarks — returning [`Error`]. Parameter sets are built with
+//! [`ParamSet::for_model`], [`ParamSet::preset`] and [`ParamSet::with`]; models are data
+//! ([`model::ModelInfo`]), and a model defined at run time joins them through
+//! [`model::runtime::RuntimeModel`]. The job modules below are the same functions one level down,
+//! taking a session's [`Evaluator`].
+//!
+//! Conventions (docs/design.md §2): local frame n = +z, t = +x, b = +y;
+//! ω = (sinθ cosφ, sinθ sinφ, cosθ); ωi points to the light, ωo to the viewer; f is in 1/sr,
+//! linear RGB, without the cosine, and 0 whenever cosθi ≤ 0 or cosθo ≤ 0.
 
 pub mod bench;
 pub mod demo;
