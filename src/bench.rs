@@ -45,6 +45,7 @@ fn time_task(
     work: impl Fn() -> Result<()>,
 ) -> Result<Throughput> {
     let run = || -> Result<(f64, Option<f64>)> {
+        eval.check_cancelled()?;
         if let Some(g) = eval.as_gpu() {
             g.take_gpu_time();
         }

@@ -29,6 +29,7 @@ pub enum Backend<'a> {
 pub struct Evaluator<'a> {
     backend: Backend<'a>,
     cancel: Option<&'a CancelToken>,
+    fast_pow: bool,
 }
 
 fn f32x4(v: DVec3) -> [f32; 4] {
@@ -41,6 +42,7 @@ impl<'a> Evaluator<'a> {
         Evaluator {
             backend: Backend::Gpu(gpu),
             cancel: None,
+            fast_pow: false,
         }
     }
 
@@ -49,6 +51,7 @@ impl<'a> Evaluator<'a> {
         Evaluator {
             backend: Backend::Cpu,
             cancel: None,
+            fast_pow: false,
         }
     }
 
@@ -58,6 +61,13 @@ impl<'a> Evaluator<'a> {
             cancel: Some(cancel),
             ..self
         }
+    }
+
+    /// The same backend, with cos^n lobes in tables evaluated by GLSL's plain pow
+    /// (exp2(n log2 x)) instead of the careful formulation: a speed-for-accuracy variant that
+    /// `lobe tradeoff` measures. The CPU reference ignores it.
+    pub fn with_fast_pow(self, fast_pow: bool) -> Evaluator<'a> {
+        Evaluator { fast_pow, ..self }
     }
 
     /// The backend.
@@ -157,6 +167,7 @@ impl<'a> Evaluator<'a> {
                     &wi,
                     &wo,
                     white_furnace,
+                    self.fast_pow,
                     sink,
                 )
             }

@@ -59,7 +59,20 @@ enum Command {
 }
 
 fn main() {
-    let result = match Cli::parse().command {
+    let command = Cli::parse().command;
+    // Ctrl-C (SIGINT, SIGTERM) sets the cancellation token every session carries, for the
+    // commands whose jobs check it between chunks; the others (eval, models, plot) end at once.
+    let cancellable = !matches!(
+        command,
+        Command::Eval(_) | Command::Models(_) | Command::Plot(_)
+    );
+    if cancellable {
+        if let Err(e) = cli::install_ctrl_c() {
+            eprintln!("lobe: error: {e:#}");
+            std::process::exit(1);
+        }
+    }
+    let result = match command {
         Command::Eval(a) => cli::eval::run(a),
         Command::Table(a) => cli::table::run(a),
         Command::Models(a) => cli::models::run(a),

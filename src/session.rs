@@ -359,5 +359,15 @@ mod tests {
         };
         let e = s.table(&p, false, &grid, 1 << 20).unwrap_err();
         assert!(matches!(e, Error::Cancelled(_)), "{e}");
+        // Every albedo method stops too, the adaptive reference included.
+        for method in crate::integrate::Method::ALL {
+            let settings = AlbedoSettings {
+                method,
+                samples: method.default_samples(),
+                white_furnace: false,
+            };
+            let e = s.directional_albedo(&p, &settings, &[(0.5, 0.0)]).unwrap_err();
+            assert!(matches!(e, Error::Cancelled(_)), "{}: {e}", method.name());
+        }
     }
 }

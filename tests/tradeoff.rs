@@ -48,7 +48,16 @@ fn rational_g1_error_is_recomputed_independently() {
         n_theta_o: 8,
         n_dphi: 8,
     };
-    let rows = measure_eval(Some(&gpu), &truth, &chosen, &grid, &timing, 1, &mut |_| {}).unwrap();
+    let rows = measure_eval(
+        &Evaluator::gpu(&gpu),
+        &truth,
+        &chosen,
+        &grid,
+        &timing,
+        1,
+        &mut |_| {},
+    )
+    .unwrap();
     let figure = rows[0].max_error;
 
     // Independently: every (wi, wo) of the grid through the pairs kernel, and the truth in f64.

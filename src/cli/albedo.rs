@@ -2,9 +2,7 @@
 //! of a scene.
 
 use super::run::run_scene;
-use super::{
-    install_ctrl_c, open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat,
-};
+use super::{open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::integrate::{Method, Settings};
@@ -109,7 +107,6 @@ pub struct AlbedoArgs {
 
 pub fn run(a: AlbedoArgs) -> Result<()> {
     if let Some(scene) = &a.scene {
-        install_ctrl_c()?;
         return run_scene(
             scene,
             a.output_dir.as_deref().unwrap_or(Path::new(".")),

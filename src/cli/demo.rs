@@ -1,6 +1,6 @@
 //! `lobe demo`: the built-in materials with every model, shown on DIR/index.html.
 
-use super::{bar, install_ctrl_c, open_session, BackendArgs};
+use super::{bar, open_session, BackendArgs};
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
@@ -20,7 +20,6 @@ pub struct DemoArgs {
 }
 
 pub fn run(a: DemoArgs) -> Result<()> {
-    install_ctrl_c()?;
     let settings = if a.quick {
         lobe::demo::Settings::quick()
     } else {

@@ -1,7 +1,7 @@
 //! `lobe preview`: the labelled contact sheet of shaded objects, or every preview of a scene.
 
 use super::run::run_scene;
-use super::{bar, install_ctrl_c, open_session, BackendArgs};
+use super::{bar, open_session, BackendArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use glam::DVec3;
@@ -89,7 +89,6 @@ fn parse_ambient(text: &str) -> Result<DVec3> {
 
 pub fn run(a: PreviewArgs) -> Result<()> {
     if let Some(scene) = &a.scene {
-        install_ctrl_c()?;
         return run_scene(
             scene,
             a.output_dir.as_deref().unwrap_or(Path::new(".")),

@@ -1,6 +1,6 @@
 //! `lobe run`: everything a scene file asks for; also `table`, `albedo` and `preview --scene`.
 
-use super::{install_ctrl_c, open_session, BackendArgs};
+use super::{open_session, BackendArgs};
 use anyhow::{bail, Result};
 use clap::Args;
 use lobe::scene::Outputs;
@@ -20,7 +20,6 @@ pub struct RunArgs {
 }
 
 pub fn run(a: RunArgs) -> Result<()> {
-    install_ctrl_c()?;
     run_scene(&a.scene, &a.output_dir, &a.backend, Outputs::ALL)
 }
 

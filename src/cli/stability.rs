@@ -1,7 +1,7 @@
 //! `lobe stability`: every model over the edges of its domain; fails on any NaN, Inf or
 //! negative value.
 
-use super::{bar, install_ctrl_c, open_session, BackendArg, BackendArgs};
+use super::{bar, open_session, BackendArg, BackendArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::stability;
@@ -35,7 +35,6 @@ pub struct StabilityArgs {
 }
 
 pub fn run(a: StabilityArgs) -> Result<()> {
-    install_ctrl_c()?;
     let models = stability::models_named(&a.models)?;
     let progress = bar(models.len() as u64, "{msg} [{bar:30}] {pos}/{len}");
     let mut step = |label: &str| {

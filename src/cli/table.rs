@@ -1,7 +1,7 @@
 //! `lobe table`: one lobe table (EXR mosaic, .npy and .json), or every table of a scene.
 
 use super::run::run_scene;
-use super::{bar, install_ctrl_c, open_session, BackendArgs, ModelArgs};
+use super::{bar, open_session, BackendArgs, ModelArgs};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::grid::Grid;
@@ -61,7 +61,6 @@ pub struct TableArgs {
 }
 
 pub fn run(a: TableArgs) -> Result<()> {
-    install_ctrl_c()?;
     if let Some(scene) = &a.scene {
         return run_scene(
             scene,

@@ -54,7 +54,7 @@ impl Gpu {
         if wo.is_empty() || n_nodes == 0 {
             return Ok(vec![[0.0; 3]; wo.len()]);
         }
-        let pipe = self.pipeline(Kernel::Albedo, model, white_furnace)?;
+        let pipe = self.pipeline(Kernel::Albedo, model, white_furnace, false)?;
         let limits = &self.dev.limits;
         let max_groups = limits.max_compute_work_group_count[0] as u64;
         let range = limits.max_storage_buffer_range as u64;

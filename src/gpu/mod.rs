@@ -17,7 +17,7 @@ pub use device::{Device, DeviceOptions};
 pub use error::{GpuError, Result, INSTALL_HINT};
 use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline};
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
@@ -61,7 +61,6 @@ pub struct Gpu {
     dev: Arc<Device>,
     pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
     built: Mutex<Vec<(String, Duration)>>,
-    fast_pow: AtomicBool,
     log: Option<LogSink>,
 }
 
@@ -72,7 +71,6 @@ impl Gpu {
             dev: Arc::new(dev),
             pipelines: Mutex::default(),
             built: Mutex::default(),
-            fast_pow: AtomicBool::new(false),
             log: None,
         }
     }
@@ -88,10 +86,18 @@ impl Gpu {
         &self.dev
     }
 
-    fn pipeline(&self, kernel: Kernel, model: Model, white_furnace: bool) -> Result<Arc<Pipeline>> {
-        let fast_pow = self.fast_pow.load(Ordering::Relaxed);
+    /// The pipeline for `key`, built on first use. The cache stays locked while one builds, so
+    /// that two threads asking for the same pipeline build it once.
+    fn pipeline(
+        &self,
+        kernel: Kernel,
+        model: Model,
+        white_furnace: bool,
+        fast_pow: bool,
+    ) -> Result<Arc<Pipeline>> {
         let key = (kernel, model, white_furnace, fast_pow);
-        if let Some(p) = lock(&self.pipelines).get(&key) {
+        let mut cache = lock(&self.pipelines);
+        if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
         }
         let p = Arc::new(Pipeline::new(
@@ -109,14 +115,8 @@ impl Gpu {
             ));
         }
         lock(&self.built).push((p.label.clone(), p.build_time));
-        lock(&self.pipelines).insert(key, p.clone());
+        cache.insert(key, p.clone());
         Ok(p)
-    }
-
-    /// Evaluate cos^n lobes with GLSL's plain pow (exp2(n log2 x)) instead of the careful
-    /// formulation, from now on: a speed-for-accuracy variant that `lobe tradeoff` measures.
-    pub fn set_fast_pow(&self, fast: bool) {
-        self.fast_pow.store(fast, Ordering::Relaxed);
     }
 
     /// GPU time (from timestamp queries) of every dispatch since the last call, or None where
@@ -154,7 +154,7 @@ impl Gpu {
         pairs: &[GpuPair],
         white_furnace: bool,
     ) -> Result<Vec<[f32; 3]>> {
-        let pipe = self.pipeline(Kernel::Pairs, model, white_furnace)?;
+        let pipe = self.pipeline(Kernel::Pairs, model, white_furnace, false)?;
         let params: Vec<u8> = blocks.concat();
         let chunk = (self.max_chunk(&pipe, std::mem::size_of::<GpuPair>() as u64) as usize)
             .min(pairs.len().max(1));
@@ -196,6 +196,7 @@ impl Gpu {
         wi: &[[f32; 4]],
         wo: &[[f32; 4]],
         white_furnace: bool,
+        fast_pow: bool,
         sink: &mut TableSink<'_, E>,
     ) -> std::result::Result<(), E> {
         let cells = wi.len() as u64 * wo.len() as u64;
@@ -206,7 +207,7 @@ impl Gpu {
             ))
             .into());
         }
-        let pipe = self.pipeline(Kernel::Table, model, white_furnace)?;
+        let pipe = self.pipeline(Kernel::Table, model, white_furnace, fast_pow)?;
         let chunk = self.max_chunk(&pipe, 0).min(cells.max(1));
         let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
         param_buf.write(block);

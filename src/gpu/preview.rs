@@ -83,7 +83,7 @@ impl Gpu {
                 u32::MAX
             )));
         }
-        let pipe = self.pipeline(Kernel::Preview, model, false)?;
+        let pipe = self.pipeline(Kernel::Preview, model, false, false)?;
         let chunk = self.max_chunk(&pipe, 0).min(pixels.max(1));
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;

@@ -57,8 +57,11 @@ pub fn directional(
                 .model()
                 .require_reference("the reference integrator")?;
             wo.par_iter()
-                .map(|&o| reference_albedo(&r, o, REFERENCE_RTOL))
-                .collect()
+                .map(|&o| {
+                    backend.check_cancelled()?;
+                    Ok(reference_albedo(&r, o, REFERENCE_RTOL))
+                })
+                .collect::<Result<_>>()?
         }
     };
     Ok(points
@@ -219,6 +222,7 @@ pub fn hemispherical(
             samples: e_avg.evals,
         });
     }
+    backend.check_cancelled()?;
     let rows: Vec<Estimate> = if table.is_empty() {
         (0..phis.len()).into_par_iter().map(e_avg_at).collect()
     } else {

@@ -82,9 +82,10 @@ pub fn sum_rule(
             params.model().require_reference("the CPU backend")?;
             let r = Reference::new(params, white_furnace);
             let shared = (!rule.depends_on_wo()).then(|| rule.nodes(DVec3::Z));
-            Ok(wo
-                .par_iter()
+            wo.par_iter()
                 .map(|&o| {
+                    // Ctrl-C: one view direction's sum at most runs on.
+                    backend.check_cancelled()?;
                     let own;
                     let nodes = match &shared {
                         Some(n) => n,
@@ -97,9 +98,9 @@ pub fn sum_rule(
                         .par_chunks(4096)
                         .map(|c| c.iter().map(|n| n.weight * r.eval(n.wi, o)).sum::<DVec3>())
                         .sum::<DVec3>();
-                    (sum, nodes.len() as u64)
+                    Ok((sum, nodes.len() as u64))
                 })
-                .collect())
+                .collect()
         }
         Backend::Gpu(gpu) => {
             // Nodes per direction travel to the GPU: a batch of directions at a time keeps host
@@ -111,6 +112,7 @@ pub fn sum_rule(
             };
             let mut out = Vec::with_capacity(wo.len());
             for part in wo.chunks(batch) {
+                backend.check_cancelled()?;
                 out.extend(gpu_sum(gpu, params, white_furnace, rule, part)?);
             }
             Ok(out)

@@ -329,6 +329,7 @@ pub fn render(
     };
     let width = image.width();
     for (col, column) in sheet.params.iter().enumerate() {
+        e.check_cancelled()?;
         // A material may select other components of the same model (the microfacet model's
         // distribution, masking and Fresnel are part of its pipeline): one job per pipeline.
         let mut groups: Vec<(Model, Vec<usize>)> = Vec::new();

@@ -156,21 +156,20 @@ pub fn variant_table(gpu: Option<&Gpu>, v: &EvalVariant, grid: &Grid) -> Result<
         Ok(())
     };
     match (v.gpu, gpu) {
-        (true, Some(g)) => {
-            g.set_fast_pow(v.fast_pow);
-            let r = Evaluator::gpu(g).eval_table(&v.params, false, grid, &mut sink);
-            g.set_fast_pow(false);
-            r?;
-        }
+        (true, Some(g)) => Evaluator::gpu(g)
+            .with_fast_pow(v.fast_pow)
+            .eval_table(&v.params, false, grid, &mut sink)?,
         (true, None) => anyhow::bail!("variant '{}' needs the GPU backend", v.name),
         (false, _) => Evaluator::cpu().eval_table(&v.params, false, grid, &mut sink)?,
     }
     Ok(out)
 }
 
-/// Measures every evaluation variant: error on `error_grid`, cost on `timing_grid`.
+/// Measures every evaluation variant: error on `error_grid`, cost on `timing_grid`; the GPU
+/// variants run where `backend` is the GPU, and its cancellation token stops the section
+/// between variants.
 pub fn measure_eval(
-    gpu: Option<&Gpu>,
+    backend: &Evaluator,
     truth: &ParamSet,
     variants: &[EvalVariant],
     error_grid: &Grid,
@@ -178,21 +177,22 @@ pub fn measure_eval(
     repeats: usize,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<Row>> {
+    truth.model().require_reference("the trade-off's truth")?;
+    let gpu = backend.as_gpu();
     let t = truth_table(truth, error_grid);
     let mut rows = Vec::new();
     for v in variants {
         if v.gpu && gpu.is_none() {
             continue;
         }
+        backend.check_cancelled()?;
         progress(&v.name);
         let got = variant_table(gpu, v, error_grid)?;
         let (max_rel_error, rms_rel_error) = relative_errors(&got, &t);
         let (cost, backend) = match (v.gpu, gpu) {
             (true, Some(g)) => {
-                g.set_fast_pow(v.fast_pow);
-                let m = bench::measure(&Evaluator::gpu(g), &v.params, timing_grid, repeats);
-                g.set_fast_pow(false);
-                let m = m?;
+                let ev = Evaluator::gpu(g).with_fast_pow(v.fast_pow);
+                let m = bench::measure(&ev, &v.params, timing_grid, repeats)?;
                 (1e9 / m.kernel_per_s.unwrap_or(m.wall_per_s), m.backend)
             }
             _ => {

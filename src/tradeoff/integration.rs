@@ -75,6 +75,7 @@ pub fn measure_integration(
     let mut rows = Vec::new();
     for backend in backends {
         for v in &variants {
+            backend.check_cancelled()?;
             let label = format!("{} {}", v.method.name(), backend_tag(backend));
             progress(&label);
             // The untimed run: builds the pipeline, and its values are the ones judged.

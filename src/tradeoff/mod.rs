@@ -236,6 +236,9 @@ pub fn run(
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<Report> {
     opts.albedo.check()?;
+    params
+        .model()
+        .require_reference("lobe tradeoff (its errors are against the f64 reference)")?;
     let (truth, variants) = eval_variants(params, conductor_of(material));
     let gpu = backend.as_gpu();
     let backends: Vec<Evaluator> = match (gpu, backend.cancel_token()) {
@@ -274,7 +277,7 @@ pub fn run(
     let mut rows = Vec::new();
     if has(Section::Evaluation) {
         rows.extend(measure_eval(
-            gpu,
+            backend,
             &truth,
             &variants,
             &opts.error_grid,

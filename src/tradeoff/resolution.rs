@@ -78,6 +78,7 @@ pub fn measure_tables(
     let mut rows = Vec::new();
     for backend in backends {
         for &n in &setup.table_res {
+            backend.check_cancelled()?;
             let grid = table_grid(n);
             let cells = grid.cells().unwrap_or(0);
             progress(&format!("table {n} {}", backend_tag(backend)));
