@@ -1,6 +1,6 @@
 //! One interface over the two backends: the Vulkan kernels (f32) and the CPU reference (f64).
 
-use crate::gpu::{Gpu, GpuPair};
+use crate::gpu::{Gpu, GpuPair, TableSwitches};
 use crate::grid::Grid;
 use crate::interrupt::{CancelToken, Interrupted};
 use crate::model::{Brdf, ParamSet, Reference};
@@ -166,8 +166,10 @@ impl<'a> Evaluator<'a> {
                     &block,
                     &wi,
                     &wo,
-                    white_furnace,
-                    self.fast_pow,
+                    TableSwitches {
+                        white_furnace,
+                        fast_pow: self.fast_pow,
+                    },
                     sink,
                 )
             }

@@ -158,7 +158,8 @@ impl Session {
     }
 
     /// The lobe table on `grid` in memory: f32 RGB per cell, cells in the grid's order. Refuses
-    /// tables over `max_cells` cells (a bound on memory: 12 bytes a cell).
+    /// tables over `max_cells` cells (a bound on memory: 12 bytes a cell), and an anisotropic set
+    /// on a grid that holds only the isotropic half of the angles.
     pub fn table(
         &self,
         params: &ParamSet,
@@ -366,7 +367,9 @@ mod tests {
                 samples: method.default_samples(),
                 white_furnace: false,
             };
-            let e = s.directional_albedo(&p, &settings, &[(0.5, 0.0)]).unwrap_err();
+            let e = s
+                .directional_albedo(&p, &settings, &[(0.5, 0.0)])
+                .unwrap_err();
             assert!(matches!(e, Error::Cancelled(_)), "{}: {e}", method.name());
         }
     }

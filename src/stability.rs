@@ -227,7 +227,17 @@ pub fn models_named(names: &[String]) -> Result<Vec<Model>> {
     let mut out = Vec::new();
     for name in names {
         let model = Model::from_name(name.trim())?;
-        out.extend(all.iter().filter(|m| m.name() == model.name()));
+        let swept: Vec<Model> = all
+            .iter()
+            .copied()
+            .filter(|m| m.name() == model.name())
+            .collect();
+        // A model the default sweep does not hold (one defined at run time) is swept as named.
+        out.extend(if swept.is_empty() {
+            model.variants()
+        } else {
+            swept
+        });
     }
     out.dedup();
     Ok(out)

@@ -17,7 +17,7 @@ use std::process::Command;
 const DISPLAY_ROUNDING: f64 = 0.5e-4 + 1e-12;
 
 /// Lambert's E is its albedo ρ exactly (docs/design.md §5). The peak rule's weights sum to π within
-/// ~1e-13 (src/integrate.rs tests) and Ē integrates the constant 2μρ exactly (Gauss–Kronrod), so
+/// ~1e-13 (src/integrate/ tests) and Ē integrates the constant 2μρ exactly (Gauss–Kronrod), so
 /// on the CPU (f64) the only error left is rounding: 1e-9 is generous and still catches any real
 /// mistake.
 const LAMBERT_TOL_CPU: f64 = 1e-9;

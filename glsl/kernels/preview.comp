@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // `lobe preview`: shades one object per cell of a contact sheet with the pipeline's model, one
-// pixel per evaluation. Twin of src/preview.rs (the f64 CPU render), which documents the scene:
+// pixel per evaluation. Twin of src/preview/shade.rs (the f64 CPU render), which documents the scene:
 // camera at the origin looking down -z with +y up and +x right (OpenGL eye space), the lab's
 // lights as positions in that space, and the shading frame n = +z, t = +x, b = +y
 // (docs/design.md §2) with t = normalize(cross(+y, n)), the sphere's lines of latitude.
@@ -120,7 +120,7 @@ vec3 shade(MODEL_PARAMS params_, vec3 p, vec3 n, vec3 d) {
         radiance += brdf(params_, wi, wo) * max(wi.z, 0.0) * e;
     }
     // Uniform sky of radiance A: its irradiance pi A is taken as arriving along the normal, so
-    // L = A pi f(n, wo). Exact for Lambert; a crude stand-in for glossy lobes (see src/preview.rs).
+    // L = A pi f(n, wo). Exact for Lambert; a crude stand-in for glossy lobes (see src/preview/shade.rs).
     radiance += ambient.rgb * PI * brdf(params_, vec3(0.0, 0.0, 1.0), wo);
     return radiance;
 }

@@ -6,7 +6,7 @@ use super::error::{Context, GpuError, Result};
 use ash::vk;
 use std::ffi::{c_void, CStr};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 unsafe extern "system" fn on_validation_message(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
@@ -17,7 +17,7 @@ unsafe extern "system" fn on_validation_message(
     let serious = vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
         | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR;
     if severity.intersects(serious) {
-        // SAFETY: `user` is the device's boxed counter, which outlives the messenger.
+        // SAFETY: `user` is the device's counter (`Arc::as_ptr`), which outlives the messenger.
         if let Some(count) = (user as *const AtomicUsize).as_ref() {
             count.fetch_add(1, Ordering::SeqCst);
         }
@@ -63,9 +63,9 @@ pub struct Device {
     pub(crate) queue_lock: Mutex<()>,
     /// See [`DeviceOptions::inject_device_lost`].
     pub(crate) inject_device_lost: bool,
-    /// Warnings and errors the validation layer reported on this device (boxed: the messenger
-    /// holds its address).
-    validation_messages: Box<AtomicUsize>,
+    /// Warnings and errors the validation layer reported on this device (shared: the messenger
+    /// holds a pointer to it, taken with `Arc::as_ptr`, which moving the `Arc` leaves valid).
+    validation_messages: Arc<AtomicUsize>,
 }
 
 fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
@@ -134,7 +134,7 @@ impl Device {
         validation: bool,
         opts: &DeviceOptions,
     ) -> Result<Device> {
-        let validation_messages = Box::new(AtomicUsize::new(0));
+        let validation_messages = Arc::new(AtomicUsize::new(0));
         let debug = if validation {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
@@ -148,7 +148,7 @@ impl Device {
                         | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
                 )
                 .pfn_user_callback(Some(on_validation_message))
-                .user_data(&*validation_messages as *const AtomicUsize as *mut c_void);
+                .user_data(Arc::as_ptr(&validation_messages) as *mut c_void);
             // SAFETY: the callback is a plain function that lives for the whole program.
             match unsafe { loader.create_debug_utils_messenger(&info, None) } {
                 Ok(m) => Some((loader, m)),

@@ -52,6 +52,15 @@ pub struct GpuPair {
 /// white-furnace and fast-pow specialization constants.
 type PipelineKey = (Kernel, Model, bool, bool);
 
+/// The specialization switches of a table pipeline.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TableSwitches {
+    /// Every Fresnel factor of a specular lobe replaced by 1.
+    pub white_furnace: bool,
+    /// cos^n lobes by GLSL's plain pow (exp2(n log2 x)): a speed-for-accuracy variant.
+    pub fast_pow: bool,
+}
+
 /// Receives each finished chunk of a table: its first cell's index and its RGB values.
 pub type TableSink<'a, E> = dyn FnMut(u64, &[f32]) -> std::result::Result<(), E> + 'a;
 
@@ -195,10 +204,13 @@ impl Gpu {
         block: &[u8],
         wi: &[[f32; 4]],
         wo: &[[f32; 4]],
-        white_furnace: bool,
-        fast_pow: bool,
+        switches: TableSwitches,
         sink: &mut TableSink<'_, E>,
     ) -> std::result::Result<(), E> {
+        let TableSwitches {
+            white_furnace,
+            fast_pow,
+        } = switches;
         let cells = wi.len() as u64 * wo.len() as u64;
         if cells > u32::MAX as u64 {
             return Err(GpuError::Limit(format!(

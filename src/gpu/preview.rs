@@ -1,6 +1,6 @@
 //! The GPU path of `lobe preview` (`glsl/kernels/preview.comp`): uploads a scene and one object
 //! per cell, shades every pixel of every cell with one model, and reads the radiance back. The
-//! scene itself (camera, lights, what the numbers mean) is described in `src/preview.rs`, whose
+//! scene itself (camera, lights, what the numbers mean) is described in `src/preview/mod.rs`, whose
 //! f64 twin renders the same image.
 
 use super::buffer::Buffer;

@@ -74,6 +74,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "ashikhmin_shirley",
     description: "Ashikhmin-Shirley anisotropic Phong: rough coat over a coupled diffuse base",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "AshikhminShirleyParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<AshikhminShirleyParams>(),

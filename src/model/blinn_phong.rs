@@ -62,6 +62,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "blinn_phong",
     description: "normalized Blinn-Phong: diffuse + (N+8)/(8pi) cos^N theta_h, N = 8192^(1-s)",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "BlinnPhongParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<BlinnPhongParams>(),

@@ -71,6 +71,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "cook_torrance",
     description: "Cook-Torrance: Beckmann D, V-cavity G, Schlick F, plus diffuse",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "CookTorranceParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<CookTorranceParams>(),

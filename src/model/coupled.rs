@@ -55,6 +55,7 @@ pub const INFO: ModelInfo = ModelInfo {
     description:
         "Shirley et al. 1997 coupled matte-specular: mirror spike plus energy-coupled matte",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "CoupledParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<CoupledParams>(),

@@ -44,6 +44,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "lambert",
     description: "ideal diffuse: albedo/pi",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "LambertParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<LambertParams>(),

@@ -255,6 +255,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "microfacet",
     description: "general microfacet: Beckmann or GGX D, V-cavity or Smith G, Schlick or exact Fresnel, plus diffuse",
     params: PARAMS,
+    optional_keys: OPTIONAL_KEYS,
     gpu_struct: "MicrofacetParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<MicrofacetParams>(),

@@ -292,7 +292,7 @@ impl ParamSet {
         self.model
             .params()
             .iter()
-            .filter(|s| !microfacet::OPTIONAL_KEYS.contains(&s.key) || self.is_set(s.key))
+            .filter(|s| !self.model.info().optional_keys.contains(&s.key) || self.is_set(s.key))
             .map(|s| (s.key, self.values[s.key]))
             .collect()
     }

@@ -55,6 +55,7 @@ pub const INFO: ModelInfo = ModelInfo {
     name: "oren_nayar",
     description: "Oren-Nayar qualitative model: rough diffuse with retro-reflection",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "OrenNayarParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<OrenNayarParams>(),

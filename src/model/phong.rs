@@ -63,6 +63,7 @@ pub const INFO: ModelInfo = ModelInfo {
     description:
         "normalized Phong (Lafortune-Willems): diffuse + (n+2)/(2pi) cos^n of the mirror angle",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "PhongParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<PhongParams>(),

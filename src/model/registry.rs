@@ -1,7 +1,9 @@
 //! What the crate knows about each model, stated once, by the model's own file, as a
 //! [`ModelInfo`]. The rest of the crate asks the model ([`Model::info`] and the methods built on
-//! it) instead of matching on its name: adding a built-in model is its GLSL file, its Rust twin
-//! (with its `INFO`) and one line in [`Model::info`].
+//! it) instead of matching on its name. Adding a built-in model is its GLSL file, its Rust twin
+//! (with its `INFO`), and its registry entry: the `Model` variant and its place in `Model::ALL`,
+//! the `Brdf` variant with its three dispatch arms (`src/model/mod.rs`), and its line in
+//! [`Model::info`] (docs/architecture.md §2.1).
 
 use super::params::{ParamError, ParamSpec, Value};
 use super::quadrature::SamplingLobes;
@@ -32,6 +34,9 @@ pub struct ModelInfo {
     pub description: &'static str,
     /// The parameter table: key, kind, range, default, meaning.
     pub params: &'static [ParamSpec],
+    /// Keys whose absence means something (the microfacet model's `alpha_x`, `alpha_y`, `f0`):
+    /// reports list them only when set.
+    pub optional_keys: &'static [&'static str],
     /// Name of the std430 parameter struct on both sides (`CookTorranceParams`).
     pub gpu_struct: &'static str,
     /// Field offsets of the parameter block, checked against the SPIR-V (tests/layout.rs).

@@ -192,6 +192,7 @@ impl RuntimeModel {
                 name: leak(name),
                 description: leak(description),
                 params,
+                optional_keys: &[],
                 gpu_struct: "Params",
                 gpu_layout: Box::leak(layout.into_boxed_slice()),
                 gpu_size: size,

@@ -56,6 +56,7 @@ pub const INFO: ModelInfo = ModelInfo {
     description:
         "Shirley's smooth layered: Fresnel mirror spike (delta) over Lambert; gains energy",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "SmoothLayeredParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<SmoothLayeredParams>(),

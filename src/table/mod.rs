@@ -32,6 +32,22 @@ pub const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
 /// [`MAX_TABLE_CELLS`] cells, and the path ends in `.exr` (the `.npy` and `.json` go beside it).
 /// Refusals are [`BadInput`]s tagged `grid`, `cells` or `path`.
 pub fn check_request(params: &ParamSet, grid: &Grid, exr_path: &Path) -> Result<u64> {
+    let cells = check_grid(params, grid)?;
+    if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(BadInput::new(
+            "path",
+            format!(
+                "the table path {} must end in .exr (the .npy and .json are written beside it)",
+                exr_path.display()
+            ),
+        )
+        .into());
+    }
+    Ok(cells)
+}
+
+/// The grid part of [`check_request`]: isotropy and size, for tables made in memory too.
+pub fn check_grid(params: &ParamSet, grid: &Grid) -> Result<u64> {
     if grid.needs_isotropy() && !params.is_isotropic() {
         let instead = match grid {
             Grid::Isotropic { .. } => "the full grid",
@@ -58,16 +74,6 @@ pub fn check_request(params: &ParamSet, grid: &Grid, exr_path: &Path) -> Result<
             ),
         )
     })?;
-    if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
-        return Err(BadInput::new(
-            "path",
-            format!(
-                "the table path {} must end in .exr (the .npy and .json are written beside it)",
-                exr_path.display()
-            ),
-        )
-        .into());
-    }
     Ok(cells)
 }
 
