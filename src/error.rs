@@ -48,8 +48,10 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
-    /// Sorts an error from a job's internals into the variant that says what went wrong: the
-    /// typed causes are found anywhere in the chain; the message keeps the whole chain.
+    /// Sorts an error from a job's internals into the variant that says what went wrong. The
+    /// typed causes are found anywhere in the chain; `Param`, `Gpu` and `NoReference` come back
+    /// as the cause itself (whose sentence names the parameter or the Vulkan step), while
+    /// `Input`, `Io` and `Invalid` keep the whole chain in their message.
     pub(crate) fn from_job(e: anyhow::Error) -> Error {
         if e.downcast_ref::<Interrupted>().is_some() {
             return Error::Cancelled(Interrupted);
