@@ -549,7 +549,7 @@ fn models_lists_every_model() {
         .collect();
     // The eight named models of docs/design.md §3 (all but `microfacet`), by name, and whatever the
     // library adds beyond them.
-    let seed = [
+    let named = [
         "lambert",
         "phong",
         "blinn_phong",
@@ -559,7 +559,7 @@ fn models_lists_every_model() {
         "coupled",
         "ashikhmin_shirley",
     ];
-    for name in seed
+    for name in named
         .iter()
         .copied()
         .chain(Model::ALL.iter().map(|m| m.name()))
