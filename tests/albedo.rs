@@ -344,6 +344,7 @@ fn presets() -> Vec<(&'static str, &'static str)> {
         "smooth_layered",
         "coupled",
         "ashikhmin_shirley",
+        "eon",
     ];
     let mut out = Vec::new();
     for m in models {

@@ -7,6 +7,7 @@ pub mod builder;
 pub mod catalogue;
 pub mod cook_torrance;
 pub mod coupled;
+pub mod eon;
 pub mod lambert;
 pub mod microfacet;
 pub mod oren_nayar;
@@ -18,6 +19,7 @@ pub mod runtime;
 pub mod smooth_layered;
 pub mod terms;
 
+use eon::EonConfig;
 use glam::DVec3;
 use microfacet::MicrofacetConfig;
 pub use params::{ParamError, ParamKind, ParamSpec, Value};
@@ -53,14 +55,18 @@ pub enum Model {
     /// The general microfacet model; its components are part of the model because each choice
     /// is a different pipeline (specialization constants).
     Microfacet(MicrofacetConfig),
+    /// Portsmouth, Kutz & Hill 2025, the energy-preserving Oren–Nayar model; its
+    /// multiple-scattering choice is part of the model because each is a different pipeline.
+    Eon(EonConfig),
     /// A model defined at run time ([`runtime::RuntimeModel`]): SPIR-V kernels from the caller,
     /// and an f64 reference only where the caller gave one.
     Runtime(&'static runtime::RuntimeModel),
 }
 
 impl Model {
-    /// The built-in models, each once; the microfacet model with its default components.
-    pub const ALL: [Model; 9] = [
+    /// The built-in models, each once; the microfacet and EON models with their default
+    /// components.
+    pub const ALL: [Model; 10] = [
         Model::Lambert,
         Model::Phong,
         Model::BlinnPhong,
@@ -70,6 +76,7 @@ impl Model {
         Model::Coupled,
         Model::AshikhminShirley,
         Model::Microfacet(MicrofacetConfig::DEFAULT),
+        Model::Eon(EonConfig::DEFAULT),
     ];
 
     /// Whether f carries the V-cavity masking min(1, 2 c_h min(c_i, c_o)/c_d), whose kinks the
@@ -156,6 +163,7 @@ impl Model {
     pub fn spec_constants(self) -> Vec<u32> {
         match self {
             Model::Microfacet(c) => c.spec_constants().to_vec(),
+            Model::Eon(c) => c.spec_constants().to_vec(),
             _ => Vec::new(),
         }
     }
@@ -185,18 +193,25 @@ impl ParamSet {
             explicit: BTreeSet::new(),
         };
         // A model that carries component choices sets them; they stay defaults (not explicit).
-        if let Model::Microfacet(c) = model {
-            for (key, name) in c.choices() {
-                set.values.insert(key, Value::Choice(name));
-            }
+        let choices: Vec<(&'static str, &'static str)> = match model {
+            Model::Microfacet(c) => c.choices().to_vec(),
+            Model::Eon(c) => c.choices().to_vec(),
+            _ => Vec::new(),
+        };
+        for (key, name) in choices {
+            set.values.insert(key, Value::Choice(name));
         }
         set
     }
 
     /// Keeps a model that carries component choices in step with the values.
     fn sync_model(&mut self) {
-        if let Model::Microfacet(_) = self.model {
-            self.model = Model::Microfacet(MicrofacetConfig::from_values(|k| self.values[k]));
+        match self.model {
+            Model::Microfacet(_) => {
+                self.model = Model::Microfacet(MicrofacetConfig::from_values(|k| self.values[k]));
+            }
+            Model::Eon(_) => self.model = Model::Eon(EonConfig::from_values(|k| self.values[k])),
+            _ => {}
         }
     }
 
@@ -361,6 +376,8 @@ pub enum Brdf {
     AshikhminShirley(ashikhmin_shirley::AshikhminShirley),
     /// Parameters of [`Model::Microfacet`], with its component choices.
     Microfacet(microfacet::Microfacet),
+    /// Parameters of [`Model::Eon`], with its multiple-scattering choice.
+    Eon(eon::Eon),
     /// Parameters of a [`Model::Runtime`] model.
     Runtime(runtime::RuntimeBrdf),
 }
@@ -389,6 +406,7 @@ impl Brdf {
                 Brdf::AshikhminShirley(ashikhmin_shirley::AshikhminShirley::new(p))
             }
             Model::Microfacet(_) => Brdf::Microfacet(microfacet::Microfacet::new(p)),
+            Model::Eon(_) => Brdf::Eon(eon::Eon::new(p)),
             Model::Runtime(r) => Brdf::Runtime(runtime::RuntimeBrdf::new(r, p)),
         }
     }
@@ -406,6 +424,7 @@ impl Brdf {
             Brdf::Coupled(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::AshikhminShirley(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::Microfacet(m) => bytes_of(&m.gpu_params()).to_vec(),
+            Brdf::Eon(m) => bytes_of(&m.gpu_params()).to_vec(),
             Brdf::Runtime(m) => m.gpu_block(),
         }
     }
@@ -437,6 +456,7 @@ impl Reference {
             Brdf::Coupled(p) => coupled::coupled(p, wi, wo),
             Brdf::AshikhminShirley(p) => ashikhmin_shirley::ashikhmin_shirley(p, wi, wo, wf),
             Brdf::Microfacet(p) => microfacet::microfacet(p, wi, wo, wf),
+            Brdf::Eon(p) => eon::eon(p, wi, wo),
             Brdf::Runtime(p) => p.eval(wi, wo),
         }
     }

@@ -112,26 +112,33 @@ impl Model {
             Model::Coupled => &coupled::INFO,
             Model::AshikhminShirley => &ashikhmin_shirley::INFO,
             Model::Microfacet(_) => &microfacet::INFO,
+            Model::Eon(_) => &eon::INFO,
             Model::Runtime(r) => r.info(),
         }
     }
 
-    /// A label that tells component choices apart: `microfacet[ggx smith_correlated schlick]`
-    /// (just the name for models without choices).
+    /// A label that tells component choices apart: `microfacet[ggx smith_correlated schlick]`,
+    /// `eon[exact]` (just the name for models without choices).
     pub fn label(self) -> String {
         match self {
             Model::Microfacet(c) => format!("{}[{}]", self.name(), c.label()),
+            Model::Eon(c) => format!("{}[{}]", self.name(), c.label()),
             _ => self.name().to_string(),
         }
     }
 
     /// The model with every component choice it offers: one entry per pipeline (`microfacet`
-    /// gives all its combinations, other models themselves).
+    /// gives all its combinations, `eon` its three multiple-scattering choices, other models
+    /// themselves).
     pub fn variants(self) -> Vec<Model> {
         match self {
             Model::Microfacet(_) => super::microfacet::MicrofacetConfig::all()
                 .into_iter()
                 .map(Model::Microfacet)
+                .collect(),
+            Model::Eon(_) => super::eon::EonConfig::all()
+                .into_iter()
+                .map(Model::Eon)
                 .collect(),
             m => vec![m],
         }

@@ -1,0 +1,95 @@
+// The energy-preserving Oren-Nayar model, EON (Portsmouth, Kutz & Hill, JCGT 14(1), 2025;
+// arXiv 2410.18026): Fujii's lobe f_ss = rho/pi (A + B s/t) plus the multiple-scattering lobe
+// f_ms = rho_ms/pi (1 - E(mu_o))(1 - E(mu_i)) / (1 - E_avg), written as
+// rho_ms/pi B loss(mu_o) loss(mu_i) / (c1 - c2) with loss = c1 - G/pi (1 - E = B loss,
+// 1 - E_avg = B (c1 - c2)): no cancellation for small r, no division by 1 - E_avg -> 0, and
+// r = 0 is Lambert exactly. The multiscatter choice is specialization constant 3, so a pipeline
+// holds only the branch it uses. Twin of src/model/eon.rs (derivations and citations there).
+#include "brdf/terms.glsl"
+
+layout(constant_id = 3) const uint EON_MULTISCATTER = 0u;  // 0 exact, 1 approx, 2 none
+
+// c1 = 1/2 - 2/(3 pi) and c2 = 2/3 - 28/(15 pi) as decimal literals, each rounded once to f32
+// (c2 folded in f32 would lose a few ulp to the cancellation 0.667 - 0.594).
+const float EON_C1 = 0.2877934092108062190;
+const float EON_C2 = 0.0724882124569240798;
+
+struct EonParams {
+    vec3 albedo;
+    float roughness;
+};
+
+// theta = atan2(s, mu) for s, mu >= 0 on the unit circle, in plain arithmetic: the Vulkan spec
+// lets atan be off by 4096 ulp, which G(theta) would carry into f. Two half-angle steps,
+// tan(theta/2) = s/(1 + mu) in [0, 1] and tan(theta/4) = t/(1 + sqrt(1 + t^2)) in [0, tan(pi/8)],
+// leave |w| <= 0.4142, where atan's series to w^15 is within 2^-24 relative (the first term left
+// out, w^17/17, is at most 0.1716^8/17 = 4.4e-8 of w). The f64 twin uses atan2.
+float eon_angle(float s, float mu) {
+    float t = s / (1.0 + mu);
+    float w = t / (1.0 + sqrt(1.0 + t * t));
+    float w2 = w * w;
+    return 4.0 * w * (1.0 + w2 * (-1.0 / 3.0 + w2 * (1.0 / 5.0 + w2 * (-1.0 / 7.0 + w2 * (1.0 / 9.0
+                    + w2 * (-1.0 / 11.0 + w2 * (1.0 / 13.0 + w2 * (-1.0 / 15.0))))))));
+}
+
+// G(theta)/pi without the removable 1/cos(theta): (1 - sin^3)/cos = cos (1 + sin + sin^2)/(1 + sin),
+// finite and free of cancellation on both sides of mu = 0 (the f32 form of the paper loses
+// about eps/mu there).
+float eon_g_over_pi(float mu) {
+    float s = sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)));
+    float theta = eon_angle(s, mu);
+    float g = s * (theta - s * mu) + (2.0 / 3.0) * s * (mu * (1.0 + s + s * s) / (1.0 + s) - 1.0);
+    return g * INV_PI;
+}
+
+// The paper's quartic fit of G/pi in m = 1 - mu.
+float eon_g_over_pi_fit(float mu) {
+    float m = 1.0 - mu;
+    return m * (0.0571085289 + m * (0.491881867 + m * (-0.332181442 + m * 0.0714429953)));
+}
+
+// (1 - E(mu))/B = c1 - G/pi, clamped at 0 (the fit overshoots c1 for mu < 1.4e-3). For the closed
+// form, pi c1 - G = (pi/2 - theta) + (theta - 2/3) mu^2/(1 + sin) + sin^2 mu
+// - (2/3) sin mu (1 + sin + sin^2)/(1 + sin), with pi/2 - theta taken directly: no cancellation as
+// mu -> 0, where subtracting G/pi ~ c1 would leave a relative error of eps/mu.
+float eon_loss(float mu) {
+    if (EON_MULTISCATTER == 1u) return max(0.0, EON_C1 - eon_g_over_pi_fit(mu));
+    float s = sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)));
+    float theta = eon_angle(s, mu);
+    float complement = eon_angle(mu, s);
+    float d = complement + (theta - 2.0 / 3.0) * (mu * mu / (1.0 + s)) + s * s * mu
+            - (2.0 / 3.0) * s * mu * (1.0 + s + s * s) / (1.0 + s);
+    return max(0.0, d * INV_PI);
+}
+
+// E(mu) = A + B G/pi, the single-scattering lobe's directional albedo for rho = 1.
+float eon_albedo_ss(float mu, float r) {
+    float a = 1.0 / (1.0 + EON_C1 * r);
+    float g = EON_MULTISCATTER == 1u ? eon_g_over_pi_fit(mu) : eon_g_over_pi(mu);
+    return a + r * a * g;
+}
+
+// E_avg = A (1 + c2 r).
+float eon_albedo_avg(float r) {
+    return (1.0 + EON_C2 * r) / (1.0 + EON_C1 * r);
+}
+
+vec3 eon(EonParams p, vec3 wi, vec3 wo) {
+    float mu_i = wi.z, mu_o = wo.z;
+    float r = p.roughness;
+    float a = 1.0 / (1.0 + EON_C1 * r);
+    float b = r * a;
+    vec2 ui = wi.xy, uo = wo.xy;
+    float s = dot(ui, uo);  // wi.wo - mu_i mu_o
+    // Where s <= 0: A + B s = A (1 - r) + B (1 + s) with 1 + s = (|ui + uo|^2 + mu_i^2 + mu_o^2)/2
+    // for unit vectors, a sum of squares: no cancellation as 1 + s -> 0, never negative.
+    vec2 u = ui + uo;
+    float lobe = s > 0.0 ? a + b * s / max(mu_i, mu_o)
+                         : a * (1.0 - r) + b * (0.5 * (dot(u, u) + (mu_i * mu_i + mu_o * mu_o)));
+    vec3 f_ss = p.albedo * INV_PI * lobe;
+    if (EON_MULTISCATTER == 2u) return f_ss;
+    float e_avg = a * (1.0 + EON_C2 * r);
+    vec3 rho_ms = p.albedo * p.albedo * e_avg / (vec3(1.0) - p.albedo * (1.0 - e_avg));
+    float losses = eon_loss(mu_o) * eon_loss(mu_i);
+    return f_ss + rho_ms * INV_PI * (b * losses / (EON_C1 - EON_C2));
+}
