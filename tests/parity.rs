@@ -196,10 +196,7 @@ fn compare(
     failures: &mut Vec<String>,
     summary: &mut Vec<String>,
 ) {
-    let model_label = match model {
-        Model::Microfacet(c) => format!("microfacet[{}]", c.label()),
-        m => m.name().to_string(),
-    };
+    let model_label = model.label();
     for white_furnace in [false, true] {
         if white_furnace && !model.has_specular_fresnel() {
             continue;

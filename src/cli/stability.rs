@@ -15,8 +15,8 @@ enum StabilityFormat {
 
 #[derive(Args)]
 pub struct StabilityArgs {
-    /// Models to sweep, comma-separated (default: the eight classic models and every microfacet
-    /// component choice). `microfacet` means all its component choices.
+    /// Models to sweep, comma-separated (default: every model with each of its component
+    /// choices). A model with choices (`microfacet`, `eon`) means all of them.
     #[arg(long, value_delimiter = ',')]
     models: Vec<String>,
     // With gpu (the default) the GPU and the CPU reference are swept and compared; with cpu the

@@ -144,6 +144,7 @@ pub const INFO: ModelInfo = ModelInfo {
     description:
         "energy-preserving Oren-Nayar (EON): Fujii's rough diffuse lobe plus multiple scattering",
     params: PARAMS,
+    optional_keys: &[],
     gpu_struct: "EonParams",
     gpu_layout: GPU_LAYOUT,
     gpu_size: std::mem::size_of::<EonParams>(),

@@ -117,7 +117,7 @@ impl Model {
         }
     }
 
-    /// A label that tells component choices apart: `microfacet[ggx smith_correlated schlick]`,
+    /// A label that tells component choices apart: `microfacet[ggx/smith_correlated/schlick]`,
     /// `eon[exact]` (just the name for models without choices).
     pub fn label(self) -> String {
         match self {
