@@ -3,8 +3,6 @@
 
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
-pub mod builder;
-pub mod catalogue;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
@@ -13,9 +11,8 @@ pub mod microfacet;
 pub mod oren_nayar;
 pub mod params;
 pub mod phong;
-pub mod quadrature;
 pub mod registry;
-pub mod runtime;
+pub use registry::{catalogue, quadrature, runtime};
 pub mod smooth_layered;
 pub mod terms;
 

@@ -1,9 +1,9 @@
 //! What the albedo integrator asks of a model: the shape of its peaked lobes, so that the
 //! `importance` rule can draw points where the integrand is large without knowing any model by
 //! name. (Whether f carries V-cavity masking, whose kinks the `peak` rule aligns with, is
-//! [`Model::has_v_cavity_masking`](super::Model::has_v_cavity_masking).)
+//! [`Model::has_v_cavity_masking`](crate::model::Model::has_v_cavity_masking).)
 
-use super::ParamSet;
+use crate::model::ParamSet;
 use glam::DVec3;
 
 /// A model seen as a diffuse part plus peaked lobes about the mirror direction r of ωo, each

@@ -1,8 +1,8 @@
 //! The catalogue of models: every model with its parameters (kind, range, default, meaning) and
 //! the material presets, as JSON for programs and as the text `lobe models` prints for people.
 
-use super::{Model, ParamKind};
 use crate::material;
+use crate::model::{Model, ParamKind};
 use serde_json::{json, Value};
 use std::fmt::Write;
 

@@ -7,11 +7,11 @@
 //! Registered models live for the rest of the process (their names must be unique), so that a
 //! [`Model`] stays a small `Copy` value whatever defined it.
 
-use super::params::{ParamError, ParamKind, ParamSpec};
 use super::quadrature::no_lobes;
-use super::registry::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
-use super::{Model, ParamSet};
+use super::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use crate::lut::Mapping;
+use crate::model::params::{ParamError, ParamKind, ParamSpec};
+use crate::model::{Model, ParamSet};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -331,16 +331,16 @@ mod tests {
     /// phong (vec3 diffuse, float shininess, vec3 specular) 32.
     #[test]
     fn std430_layout_matches_the_built_in_blocks() {
-        let (l, size) = std430_layout(super::super::lambert::PARAMS);
+        let (l, size) = std430_layout(crate::model::lambert::PARAMS);
         assert_eq!((l, size), (vec![("albedo", 0)], 16));
         let phong = [
-            super::super::phong::PARAMS[0],
-            super::super::phong::PARAMS[2],
-            super::super::phong::PARAMS[1],
+            crate::model::phong::PARAMS[0],
+            crate::model::phong::PARAMS[2],
+            crate::model::phong::PARAMS[1],
         ];
         let (l, size) = std430_layout(&phong);
         assert_eq!(l, vec![("diffuse", 0), ("shininess", 12), ("specular", 16)]);
         assert_eq!(size, 32);
-        assert_eq!(size, super::super::phong::INFO.gpu_size);
+        assert_eq!(size, crate::model::phong::INFO.gpu_size);
     }
 }

@@ -5,11 +5,15 @@
 //! the `Brdf` variant with its three dispatch arms (`src/model/mod.rs`), and its line in
 //! [`Model::info`] (docs/architecture.md §2.1).
 
-use super::params::{ParamError, ParamSpec, Value};
-use super::quadrature::SamplingLobes;
-use super::{Layout, Model, ParamSet};
+pub mod catalogue;
+pub mod quadrature;
+pub mod runtime;
+
 use crate::lut::Mapping;
+use crate::model::params::{ParamError, ParamSpec, Value};
+use crate::model::{Layout, Model, ParamSet};
 use glam::DVec3;
+use quadrature::SamplingLobes;
 
 /// The parameter axis a model's albedo look-up table sweeps by default. Every key takes the same
 /// value (Ashikhmin–Shirley's nu and nv: an isotropic lobe); an rgb key is set grey.
@@ -101,7 +105,7 @@ pub fn white_specular_alone(p: &mut ParamSet) -> Result<bool, ParamError> {
 impl Model {
     /// The model's description; every other question about it is answered from here.
     pub fn info(self) -> &'static ModelInfo {
-        use super::*;
+        use crate::model::*;
         match self {
             Model::Lambert => &lambert::INFO,
             Model::Phong => &phong::INFO,
@@ -132,11 +136,11 @@ impl Model {
     /// themselves).
     pub fn variants(self) -> Vec<Model> {
         match self {
-            Model::Microfacet(_) => super::microfacet::MicrofacetConfig::all()
+            Model::Microfacet(_) => crate::model::microfacet::MicrofacetConfig::all()
                 .into_iter()
                 .map(Model::Microfacet)
                 .collect(),
-            Model::Eon(_) => super::eon::EonConfig::all()
+            Model::Eon(_) => crate::model::eon::EonConfig::all()
                 .into_iter()
                 .map(Model::Eon)
                 .collect(),
@@ -159,7 +163,7 @@ impl ParamSet {
     pub fn as_microfacet(&self) -> Option<ParamSet> {
         match self.model() {
             Model::Microfacet(_) => Some(self.clone()),
-            Model::CookTorrance => super::cook_torrance::as_microfacet(self),
+            Model::CookTorrance => crate::model::cook_torrance::as_microfacet(self),
             _ => None,
         }
     }
