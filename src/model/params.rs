@@ -1,5 +1,5 @@
 //! Parameters as data with a contract: each model lists its keys with kind, range and default;
-//! every value reaches a model only through [`ParamSet`](ParamSet), which validates it once, on the host.
+//! every value reaches a model only through [`ParamSet`], which validates it once, on the host.
 
 use super::{Model, ParamSet};
 use std::fmt;
