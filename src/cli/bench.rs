@@ -4,7 +4,6 @@ use super::{bar, open_session, BackendArg, BackendArgs, TableFormat};
 use anyhow::{anyhow, Result};
 use clap::Args;
 use lobe::grid::Grid;
-use lobe::model::Model;
 use lobe::ParamSet;
 use std::io::Write;
 
@@ -34,14 +33,7 @@ pub struct BenchArgs {
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
-    let models: Vec<Model> = if a.models.is_empty() {
-        Model::ALL.to_vec()
-    } else {
-        a.models
-            .iter()
-            .map(|m| Model::from_name(m))
-            .collect::<Result<_, _>>()?
-    };
+    let models = super::models_or_all(&a.models)?;
     let grid = Grid::parse("isotropic", &a.res).map_err(|e| anyhow!("--res: {e}"))?;
     let mut rows = Vec::new();
     for backend in &a.backend {

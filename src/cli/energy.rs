@@ -1,11 +1,10 @@
 //! `lobe energy`: every model's largest E(mu), gain and loss, at its presets and over a sweep.
 
 use super::{open_albedo_session, BackendArgs, MethodArg, TableFormat};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use lobe::energy;
 use lobe::integrate::Method;
-use lobe::model::Model;
 use std::io::Write;
 
 #[derive(Args)]
@@ -36,14 +35,7 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         bail!("--samples 0: expected a positive number of nodes per direction");
     }
     let samples = a.samples.unwrap_or(method.default_samples());
-    let models: Vec<Model> = if a.models.is_empty() {
-        Model::ALL.to_vec()
-    } else {
-        a.models
-            .iter()
-            .map(|m| Model::from_name(m).with_context(|| format!("--models {m}")))
-            .collect::<Result<_>>()?
-    };
+    let models = super::models_or_all(&a.models)?;
     let bar = indicatif::ProgressBar::new(0);
     let session = open_albedo_session(&a.backend, method)?;
     let rows = energy::report(

@@ -15,7 +15,7 @@ pub mod stability;
 pub mod table;
 pub mod tradeoff;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::gpu::GpuError;
 use lobe::integrate::{Method, DEFAULT_MUS};
@@ -248,4 +248,16 @@ pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
         }
         _ => "--backend cpu runs the f64 CPU reference instead",
     })
+}
+
+/// The models a `--models` list names, each checked by name; every built-in model when the list
+/// is empty.
+pub fn models_or_all(names: &[String]) -> Result<Vec<lobe::Model>> {
+    if names.is_empty() {
+        return Ok(lobe::Model::ALL.to_vec());
+    }
+    names
+        .iter()
+        .map(|m| lobe::Model::from_name(m).with_context(|| format!("--models {m}")))
+        .collect()
 }

@@ -6,7 +6,6 @@ use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use glam::DVec3;
 use lobe::material;
-use lobe::model::Model;
 use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
 use std::path::{Path, PathBuf};
 
@@ -119,14 +118,7 @@ pub fn run(a: PreviewArgs) -> Result<()> {
         None => DVec3::ZERO,
         Some(text) => parse_ambient(text)?,
     };
-    let models: Vec<Model> = if a.models.is_empty() {
-        Model::ALL.to_vec()
-    } else {
-        a.models
-            .iter()
-            .map(|m| Model::from_name(m))
-            .collect::<Result<_, _>>()?
-    };
+    let models = super::models_or_all(&a.models)?;
     let materials: Vec<String> = if a.materials.is_empty() {
         material::names().into_iter().map(String::from).collect()
     } else {
