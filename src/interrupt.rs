@@ -44,5 +44,5 @@ impl CancelToken {
 
 /// The error a loop returns once its cancellation token is set.
 #[derive(Debug, thiserror::Error)]
-#[error("interrupted (Ctrl-C); no partial output was kept")]
+#[error("interrupted (Ctrl-C or a termination signal); no partial output was kept, and the old files are as they were")]
 pub struct Interrupted;

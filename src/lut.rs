@@ -26,13 +26,13 @@ use crate::eval::Evaluator;
 use crate::input::BadInput;
 use crate::integrate::{directional, hemispherical, Method, Settings};
 use crate::model::{Model, ParamKind, ParamSet, Value};
-use crate::output::FileSet;
+use crate::output::{FileSet, Pending};
 use crate::table::{exr_rgb, exr_text, npy};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use glam::DVec3;
 use serde_json::json;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// How cell t ∈ (0, 1) of the parameter axis maps to a parameter value.
@@ -432,28 +432,21 @@ pub fn write(
             .flat_map(|c| [c.x as f32, c.y as f32, c.z as f32])
             .collect()
     };
-    let write_npy = |file: &std::fs::File, shape: &[usize], values: &[f32], dest: &Path| {
-        let mut w = BufWriter::new(file);
+    let write_npy = |file: &Pending, shape: &[usize], values: &[f32], dest: &Path| {
+        let mut w = file.writer();
         w.write_all(&npy::header(shape))
             .and_then(|_| npy::write_f32(&mut w, values))
-            .and_then(|_| w.flush())
-            .with_context(|| format!("writing {}", dest.display()))
+            .map_err(|e| crate::output::encoder_error(dest, "npy", e))?;
+        w.finish()
     };
-    write_npy(
-        npy_tmp.file(),
-        &[spec.n_p, spec.n_mu, 3],
-        &flat(&lut.e),
-        &npy_path,
-    )?;
-    write_npy(avg_tmp.file(), &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
-    write_exr(exr_tmp.file(), spec, &lut)
-        .with_context(|| format!("writing {}", exr_path.display()))?;
+    write_npy(npy_tmp, &[spec.n_p, spec.n_mu, 3], &flat(&lut.e), &npy_path)?;
+    write_npy(avg_tmp, &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
+    write_exr(exr_tmp, spec, &lut)?;
     let sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
-    std::fs::write(
-        json_tmp.path(),
-        serde_json::to_string_pretty(&sidecar)? + "\n",
-    )
-    .with_context(|| format!("writing {}", json_path.display()))?;
+    let mut w = json_tmp.writer();
+    w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
+        .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
+    w.finish()?;
     set.commit()?;
     lut.files = vec![exr_path.to_path_buf(), npy_path, avg_path, json_path];
     Ok(lut)
@@ -535,7 +528,7 @@ fn exr_layer(
     Layer::new(
         (width, height),
         LayerAttributes::named(name),
-        Encoding::FAST_LOSSLESS,
+        crate::output::EXR_ENCODING,
         AnyChannels::sort(SmallVec::from_vec(vec![
             channel(0, "R"),
             channel(1, "G"),
@@ -544,7 +537,7 @@ fn exr_layer(
     )
 }
 
-fn write_exr(out: &std::fs::File, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
+fn write_exr(out: &Pending, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
     let mut e = exr_layer("E", spec.n_mu, spec.n_p, &lut.e);
     let text = |s: String| exr_text(&s);
     let attrs = [
@@ -565,13 +558,10 @@ fn write_exr(out: &std::fs::File, spec: &LutSpec, lut: &LutSummary) -> Result<()
     }
     let avg = exr_layer("E_avg", 1, spec.n_p, &lut.e_avg);
     let bounds = IntegerBounds::from_dimensions((spec.n_mu, spec.n_p));
-    Image::empty(ImageAttributes::new(bounds))
+    let image = Image::empty(ImageAttributes::new(bounds))
         .with_layer(e)
-        .with_layer(avg)
-        .write()
-        .to_buffered(BufWriter::new(out))
-        .map_err(|err| anyhow::anyhow!("EXR encoder: {err}"))?;
-    Ok(())
+        .with_layer(avg);
+    crate::output::write_exr(out, |w| image.write().to_buffered(w))
 }
 
 /// A LUT read back: E as (Np, Nμ) rows of RGB and E_avg per row, from either file kind.

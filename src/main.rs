@@ -60,12 +60,10 @@ enum Command {
 
 fn main() {
     let command = Cli::parse().command;
-    // Ctrl-C (SIGINT, SIGTERM) sets the cancellation token every session carries, for the
-    // commands whose jobs check it between chunks; the others (eval, models, plot) end at once.
-    let cancellable = !matches!(
-        command,
-        Command::Eval(_) | Command::Models(_) | Command::Plot(_)
-    );
+    // Ctrl-C, SIGTERM and SIGHUP set the cancellation token every session carries and stop all
+    // output, for every command that writes files; the others (eval, models: standard output
+    // only) end at once.
+    let cancellable = !matches!(command, Command::Eval(_) | Command::Models(_));
     if cancellable {
         if let Err(e) = cli::install_ctrl_c() {
             eprintln!("lobe: error: {e:#}");
@@ -91,6 +89,14 @@ fn main() {
         if let Some(hint) = cli::gpu_hint(&e) {
             eprintln!("lobe: hint: {hint}");
         }
-        std::process::exit(1);
+        // 128 + SIGINT, as shells report a command stopped by Ctrl-C.
+        let interrupted = e.chain().any(|c| {
+            c.downcast_ref::<lobe::interrupt::Interrupted>().is_some()
+                || matches!(
+                    c.downcast_ref::<lobe::Error>(),
+                    Some(lobe::Error::Cancelled(_))
+                )
+        });
+        std::process::exit(if interrupted { 130 } else { 1 });
     }
 }

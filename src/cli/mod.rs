@@ -133,14 +133,17 @@ pub fn default_mus() -> &'static str {
     TEXT.get_or_init(|| DEFAULT_MUS.map(|m| m.to_string()).join(","))
 }
 
-/// The process-wide cancellation token: Ctrl-C (SIGINT, SIGTERM) sets it; a second Ctrl-C
-/// while a job is still unwinding exits at once with status 130.
+/// The process-wide cancellation token: Ctrl-C (SIGINT), SIGTERM and SIGHUP set it.
 pub fn cancel_token() -> &'static CancelToken {
     static TOKEN: std::sync::OnceLock<CancelToken> = std::sync::OnceLock::new();
     TOKEN.get_or_init(CancelToken::new)
 }
 
-/// Installs the Ctrl-C handler that sets [`cancel_token`] (a second call is harmless).
+/// Installs the handler of Ctrl-C, SIGTERM and SIGHUP (a second call is harmless). The first
+/// signal sets [`cancel_token`] and interrupts all output ([`lobe::output::interrupt`]): jobs stop
+/// at their next chunk, encoders at their next write, no commit starts, and the command unwinds,
+/// removing its temporary files. A second signal while it unwinds removes every temporary file at
+/// once (after a commit under way, so no set is left half renamed) and exits with status 130.
 pub fn install_ctrl_c() -> Result<()> {
     static INSTALLED: std::sync::Once = std::sync::Once::new();
     let mut result = Ok(());
@@ -148,9 +151,14 @@ pub fn install_ctrl_c() -> Result<()> {
         result = ctrlc::set_handler(|| {
             let token = cancel_token();
             if token.is_cancelled() {
+                let removed = lobe::output::remove_staged();
+                eprintln!(
+                    "lobe: interrupted again: stopped at once; {removed} temporary files removed, the old files kept"
+                );
                 std::process::exit(130);
             }
             token.cancel();
+            lobe::output::interrupt();
         })
         .map_err(|e| anyhow::anyhow!("installing the Ctrl-C handler: {e}"));
     });

@@ -135,6 +135,8 @@ pub fn run(a: PreviewArgs) -> Result<()> {
     };
     let scene = Scene::lab(a.cell, shape, kind, ambient);
     let exr_path = a.output.with_extension("exr");
+    // Both files checked before the render; they replace the old pair together or not at all.
+    let set = lobe::output::FileSet::new(&[&exr_path, &a.output])?;
     let session = open_session(&a.backend)?;
     let backend = session.backend_name();
     let progress = bar(models.len() as u64, "{msg} [{bar:30}] {pos}/{len} columns");
@@ -145,9 +147,10 @@ pub fn run(a: PreviewArgs) -> Result<()> {
     })?;
     let render_time = started.elapsed();
     progress.finish_and_clear();
-    preview::write_exr(&image, &sheet, &scene, &backend, &exr_path)?;
+    preview::encode_exr(&image, &sheet, &scene, &backend, &set[0])?;
     let caption = preview::caption(&scene, a.exposure, &backend);
-    let (png_w, png_h) = preview::write_png(&image, &sheet, a.exposure, &caption, &a.output)?;
+    let (png_w, png_h) = preview::encode_png(&image, &sheet, a.exposure, &caption, &set[1])?;
+    set.commit()?;
     eprintln!(
         "lobe: rendered {} x {} cells of {} px in {:.2} s on {}; wrote {} ({png_w}x{png_h}, labelled) and {} ({}x{}, linear radiance)",
         sheet.materials.len(),

@@ -46,7 +46,8 @@ mod sheet;
 
 pub use shade::{icosahedron_normal, intersect, radiance_along, render_cells_cpu, shade};
 pub use sheet::{
-    caption, read_exr, srgb_encode, tone_map, write_exr, write_png, Sheet, SheetImage,
+    caption, encode_exr, encode_png, read_exr, srgb_encode, tone_map, write_exr, write_png, Sheet,
+    SheetImage,
 };
 
 use crate::eval::{Backend, Evaluator};

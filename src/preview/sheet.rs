@@ -7,7 +7,7 @@ use super::label::{Canvas, Typeface};
 use super::{ambient_text, LightKind, Scene};
 use crate::material;
 use crate::model::{Model, ParamSet};
-use crate::output::write_atomic;
+use crate::output::Pending;
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 
@@ -135,6 +135,19 @@ pub fn write_exr(
     backend: &str,
     path: &Path,
 ) -> Result<()> {
+    let out = Pending::new(path)?;
+    encode_exr(image, sheet, scene, backend, &out)?;
+    out.commit()
+}
+
+/// [`write_exr`] into `out`, a file of a set the caller commits.
+pub fn encode_exr(
+    image: &SheetImage,
+    sheet: &Sheet,
+    scene: &Scene,
+    backend: &str,
+    out: &Pending,
+) -> Result<()> {
     use exr::prelude::*;
     let channels = SpecificChannels::rgb(|Vec2(x, y)| {
         let [r, g, b] = image.pixel(x, y);
@@ -143,7 +156,7 @@ pub fn write_exr(
     let mut layer = Layer::new(
         (image.width(), image.height()),
         LayerAttributes::named("lobe preview"),
-        Encoding::FAST_LOSSLESS,
+        crate::output::EXR_ENCODING,
         channels,
     );
     let columns: Vec<&str> = sheet.models.iter().map(|m| m.name()).collect();
@@ -172,13 +185,7 @@ pub fn write_exr(
             .other
             .insert(Text::new_or_panic(k), crate::table::exr_text(&v));
     }
-    write_atomic(path, |w| {
-        Image::from_layer(layer)
-            .write()
-            .to_buffered(w)
-            .map_err(|e| anyhow::anyhow!("EXR encoder: {e}"))
-            .with_context(|| format!("writing {}", path.display()))
-    })
+    crate::output::write_exr(out, |w| Image::from_layer(layer).write().to_buffered(w))
 }
 
 /// Reads an EXR written by [`write_exr`] back: (width, height, rgb row-major).
@@ -334,23 +341,36 @@ pub fn write_png(
     caption: &str,
     path: &Path,
 ) -> Result<(usize, usize)> {
+    let out = Pending::new(path)?;
+    let size = encode_png(image, sheet, exposure, caption, &out)?;
+    out.commit()?;
+    Ok(size)
+}
+
+/// [`write_png`] into `out`, a file of a set the caller commits.
+pub fn encode_png(
+    image: &SheetImage,
+    sheet: &Sheet,
+    exposure: f64,
+    caption: &str,
+    out: &Pending,
+) -> Result<(usize, usize)> {
     let (canvas, layout) = compose(image, sheet, exposure, caption)?;
     let (width, height) = (layout.width, layout.height);
-    write_atomic(path, |w| {
+    let path = out.dest();
+    let mut w = out.writer();
+    {
+        let w = &mut w;
         let mut encoder = png::Encoder::new(w, width as u32, height as u32);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut writer = encoder
-            .write_header()
-            .with_context(|| format!("writing {}", path.display()))?;
-        writer
-            .write_image_data(&canvas.rgb)
-            .with_context(|| format!("writing {}", path.display()))?;
-        writer
-            .finish()
-            .with_context(|| format!("writing {}", path.display()))
-    })?;
+        let png_error = |e| crate::output::encoder_error(path, "PNG encoder", e);
+        let mut writer = encoder.write_header().map_err(png_error)?;
+        writer.write_image_data(&canvas.rgb).map_err(png_error)?;
+        writer.finish().map_err(png_error)?;
+    }
+    w.finish()?;
     Ok((width, height))
 }
 

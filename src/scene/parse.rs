@@ -381,6 +381,31 @@ fn find_material(
         })
 }
 
+/// `text` as a path inside the output folder, without `.` parts; why not, when it is absolute or
+/// climbs out with `..` (a shared scene must not write anywhere else the user can write).
+fn inside_output_folder(text: &str) -> Result<PathBuf, &'static str> {
+    use std::path::Component;
+    let mut p = PathBuf::new();
+    for c in std::path::Path::new(text).components() {
+        match c {
+            Component::Normal(n) => p.push(n),
+            Component::CurDir => {}
+            Component::ParentDir => {
+                return Err("has a '..' part: outputs stay inside the output folder (--output-dir), so write the path from there down");
+            }
+            Component::RootDir | Component::Prefix(_) => {
+                return Err(
+                    "is an absolute path: outputs are relative to the output folder (--output-dir)",
+                );
+            }
+        }
+    }
+    if p.as_os_str().is_empty() {
+        return Err("names no file");
+    }
+    Ok(p)
+}
+
 /// The output paths claimed so far, by name without extension: a table writes .npy and .json
 /// beside its .exr, a preview its .exr beside the .png, so two outputs may not share a stem.
 #[derive(Default)]
@@ -397,10 +422,11 @@ impl OutputNames {
         ext: &str,
         what: &str,
     ) -> Result<PathBuf, SceneError> {
-        let p = PathBuf::from(s.get_ref());
         if s.get_ref().trim().is_empty() {
             return Err(loc.at(s.span(), format!("{what} output: empty path")));
         }
+        let p = inside_output_folder(s.get_ref())
+            .map_err(|why| loc.at(s.span(), format!("{what} output '{}' {why}", s.get_ref())))?;
         if p.extension().and_then(|e| e.to_str()) != Some(ext) {
             return Err(loc.at(
                 s.span(),

@@ -3,24 +3,18 @@
 use super::{AlbedoJob, Outputs, PreviewJob, RunSummary, Scene, TableJob, ALBEDO_MU};
 use crate::eval::Evaluator;
 use crate::preview::{self, Sheet};
-use crate::{integrate, table};
+use crate::{integrate, output, table};
 use anyhow::{bail, Context, Result};
+use output::FileSet;
 use std::path::{Path, PathBuf};
-
-/// Creates the folder an output goes in, with its parents: the output folder itself when it is
-/// new, and the sub-folders a scene's output paths may name.
-fn create_parent(path: &Path) -> Result<()> {
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating the folder {}", parent.display()))?;
-    }
-    Ok(())
-}
 
 impl Scene {
     /// Produces the outputs `what` asks for under `out_dir` (made, with its parents, when missing),
-    /// evaluating on `e`. `log` receives a line per output as it is written. Stops with
-    /// "interrupted" on Ctrl-C (between and inside outputs), leaving no partial file.
+    /// evaluating on `e`, as one transaction: every output is checked before any work (each
+    /// resolves inside `out_dir`, symbolic links followed, and no two write one file), all are
+    /// staged, and they replace the old files together at the end, or none does. `log` receives
+    /// a line per output once all are in place. Stops with "interrupted" on Ctrl-C (between and
+    /// inside outputs), leaving no partial file and the old files as they were.
     pub fn run(
         &self,
         e: &Evaluator,
@@ -28,52 +22,118 @@ impl Scene {
         what: Outputs,
         log: &mut dyn FnMut(&str),
     ) -> Result<RunSummary> {
-        let mut summary = RunSummary::default();
-        // A missing folder (and its parents) is made with the first file written into it, so a
-        // run that fails before writing anything leaves nothing behind.
         if out_dir.exists() && !out_dir.is_dir() {
             bail!(
                 "the output folder {} is a file, not a folder; pick another output folder",
                 out_dir.display()
             );
         }
+        self.check_outputs(out_dir, what)?;
+        // A missing folder (and its parents) is made as the outputs are staged, and removed again
+        // if the run fails.
+        let mut set = FileSet::empty();
+        let mut summary = RunSummary::default();
         let mut done = |files: Vec<PathBuf>, line: String| {
-            log(&line);
             summary.written.extend(files);
             summary.lines.push(line);
         };
         if what.tables {
             for t in &self.tables {
                 e.check_cancelled()?;
-                self.run_table(e, t, out_dir, &mut done)?;
+                self.run_table(e, t, out_dir, &mut set, &mut done)?;
             }
         }
         if what.albedos {
             for a in &self.albedos {
                 e.check_cancelled()?;
-                self.run_albedo(e, a, out_dir, &mut done)?;
+                self.run_albedo(e, a, out_dir, &mut set, &mut done)?;
             }
         }
         if what.previews {
             for p in &self.previews {
                 e.check_cancelled()?;
-                self.run_preview(e, p, out_dir, &mut done)?;
+                self.run_preview(e, p, out_dir, &mut set, &mut done)?;
             }
+        }
+        e.check_cancelled()?;
+        set.commit()?;
+        for line in &summary.lines {
+            log(line);
         }
         Ok(summary)
     }
 
-    /// Writes one table (.exr, .npy and .json); `done` receives the files and the log line.
+    /// Every file the outputs of `what` write, relative to the output folder, each with the
+    /// output it belongs to as the scene names it.
+    fn planned_files(&self, what: Outputs) -> Vec<(PathBuf, &Path)> {
+        let mut files = Vec::new();
+        if what.tables {
+            for t in &self.tables {
+                let (npy, json) = table::sibling_paths(&t.output);
+                files.extend([t.output.clone(), npy, json].map(|f| (f, t.output.as_path())));
+            }
+        }
+        if what.albedos {
+            files.extend(
+                self.albedos
+                    .iter()
+                    .map(|a| (a.output.clone(), a.output.as_path())),
+            );
+        }
+        if what.previews {
+            for p in &self.previews {
+                let exr = p.output.with_extension("exr");
+                files.extend([p.output.clone(), exr].map(|f| (f, p.output.as_path())));
+            }
+        }
+        files
+    }
+
+    /// Before any work: every output resolves inside `out_dir` (following the symbolic links on
+    /// the way), no two outputs resolve to one file (sidecars included), and no file there is one
+    /// lobe would refuse to replace.
+    fn check_outputs(&self, out_dir: &Path, what: Outputs) -> Result<()> {
+        let root = resolve_on_disk(out_dir);
+        let mut seen: Vec<(PathBuf, &Path)> = Vec::new();
+        for (rel, output) in self.planned_files(what) {
+            let path = out_dir.join(&rel);
+            let resolved = resolve_on_disk(&path);
+            if !resolved.starts_with(&root) {
+                bail!(
+                    "{}: output '{}' resolves to {}, outside the output folder {} (through a symbolic link); outputs stay inside the output folder",
+                    self.file,
+                    output.display(),
+                    resolved.display(),
+                    out_dir.display()
+                );
+            }
+            if let Some((_, first)) = seen.iter().find(|(r, _)| *r == resolved) {
+                bail!(
+                    "{}: outputs '{}' and '{}' both write {}",
+                    self.file,
+                    first.display(),
+                    output.display(),
+                    resolved.display()
+                );
+            }
+            output::check_destination(&path)?;
+            seen.push((resolved, output));
+        }
+        Ok(())
+    }
+
+    /// Stages one table (.exr, .npy and .json); `done` receives the files and the log line.
     fn run_table(
         &self,
         e: &Evaluator,
         t: &TableJob,
         out_dir: &Path,
+        set: &mut FileSet,
         done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let m = &self.materials[t.material];
         let path = out_dir.join(&t.output);
-        create_parent(&path)?;
+        set.create_folder(output::folder_of(&path))?;
         let meta = table::TableMeta {
             params: &m.params,
             white_furnace: t.white_furnace,
@@ -81,7 +141,7 @@ impl Scene {
             backend: e.name(),
         };
         let started = std::time::Instant::now();
-        table::write_table(e, &meta, &path, &mut |_, _| {})
+        table::stage_table(e, &meta, &path, set, &mut |_, _| {})
             .with_context(|| format!("table of material '{}'", m.name))?;
         let line = format!(
             "table {} ({} {}, {} grid {:?}, {} cells, {:.2} s; {})",
@@ -99,17 +159,19 @@ impl Scene {
         Ok(())
     }
 
-    /// Writes one albedo report (JSON): E(μ) at [`ALBEDO_MU`] and the hemispherical albedo.
+    /// Stages one albedo report (JSON): E(μ) at [`ALBEDO_MU`] and the hemispherical albedo.
     fn run_albedo(
         &self,
         e: &Evaluator,
         a: &AlbedoJob,
         out_dir: &Path,
+        set: &mut FileSet,
         done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let m = &self.materials[a.material];
         let path = out_dir.join(&a.output);
-        create_parent(&path)?;
+        set.create_folder(output::folder_of(&path))?;
+        let k = set.add(&path)?;
         let settings = integrate::Settings {
             method: a.method,
             samples: a.samples,
@@ -121,10 +183,10 @@ impl Scene {
         e.check_cancelled()?;
         let mut json = report.to_json(&m.params, a.white_furnace, &e.name());
         json["material"] = serde_json::json!(m.name);
-        crate::output::write_atomic(&path, |w| {
-            serde_json::to_writer_pretty(w, &json)
-                .with_context(|| format!("writing {}", path.display()))
-        })?;
+        let mut w = set[k].writer();
+        serde_json::to_writer_pretty(&mut w, &json)
+            .map_err(|err| output::encoder_error(&path, "JSON", err))?;
+        w.finish()?;
         let h = report.hemispherical.albedo;
         let line = format!(
             "albedo {} ({} {}, hemispherical [{:.4}, {:.4}, {:.4}], {:.2} s)",
@@ -140,25 +202,27 @@ impl Scene {
         Ok(())
     }
 
-    /// Renders one contact sheet and writes it as .png and .exr (linear radiance).
+    /// Renders one contact sheet and stages it as .png and .exr (linear radiance).
     fn run_preview(
         &self,
         e: &Evaluator,
         p: &PreviewJob,
         out_dir: &Path,
+        set: &mut FileSet,
         done: &mut dyn FnMut(Vec<PathBuf>, String),
     ) -> Result<()> {
         let sheet = self.sheet(p)?;
         let scene = self.preview_scene(p.cell, p.shape)?;
         let path = out_dir.join(&p.output);
-        create_parent(&path)?;
+        set.create_folder(output::folder_of(&path))?;
         let exr_path = path.with_extension("exr");
+        let (exr_k, png_k) = (set.add(&exr_path)?, set.add(&path)?);
         let started = std::time::Instant::now();
         let image = preview::render(e, &sheet, &scene, &mut |_, _| {})?;
         e.check_cancelled()?;
-        preview::write_exr(&image, &sheet, &scene, &e.name(), &exr_path)?;
+        preview::encode_exr(&image, &sheet, &scene, &e.name(), &set[exr_k])?;
         let caption = preview::caption(&scene, p.exposure, &e.name());
-        preview::write_png(&image, &sheet, p.exposure, &caption, &path)?;
+        preview::encode_png(&image, &sheet, p.exposure, &caption, &set[png_k])?;
         let line = format!(
             "preview {} and {} ({} x {} cells of {} px, {:.2} s)",
             path.display(),
@@ -194,5 +258,28 @@ impl Scene {
             models: p.models.clone(),
             params,
         })
+    }
+}
+
+/// `path` with its longest existing beginning resolved (symbolic links followed, made absolute)
+/// and the rest appended as written: where a file there would land, even before its folders exist.
+fn resolve_on_disk(path: &Path) -> PathBuf {
+    let mut rest = Vec::new();
+    let mut at = path.to_path_buf();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(&at) {
+            return rest.iter().rev().fold(real, |p, c| p.join(c));
+        }
+        match (at.file_name().map(|n| n.to_os_string()), at.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name);
+                at = if parent.as_os_str().is_empty() {
+                    PathBuf::from(".")
+                } else {
+                    parent.to_path_buf()
+                };
+            }
+            _ => return path.to_path_buf(),
+        }
     }
 }

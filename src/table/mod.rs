@@ -16,11 +16,11 @@ use crate::eval::Evaluator;
 use crate::grid::Grid;
 use crate::input::BadInput;
 use crate::model::ParamSet;
-use crate::output::FileSet;
+use crate::output::{FileSet, Pending};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use serde_json::json;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Cells above which a table is refused before any work starts: 2^32 − 1, the GPU kernel's 32-bit
@@ -160,13 +160,29 @@ fn layout_text(grid: &Grid) -> &'static str {
     }
 }
 
-/// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json`. The npy is
-/// streamed chunk by chunk; the EXR is then written from a memory map of the npy, so no step holds
-/// the whole table in memory. `progress` receives (cells done, cells in all).
+/// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json`, as one
+/// transaction ([`FileSet`]): the three appear together, from this run, or not at all. See
+/// [`stage_table`].
 pub fn write_table(
     eval: &Evaluator,
     meta: &TableMeta,
     exr_path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<()> {
+    let mut set = FileSet::empty();
+    stage_table(eval, meta, exr_path, &mut set, progress)?;
+    set.commit()
+}
+
+/// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json` into `set`,
+/// which commits them (with whatever else it holds). The npy is streamed chunk by chunk; the EXR
+/// is then written from a memory map of the npy, so no step holds the whole table in memory.
+/// `progress` receives (cells done, cells in all).
+pub fn stage_table(
+    eval: &Evaluator,
+    meta: &TableMeta,
+    exr_path: &Path,
+    set: &mut FileSet,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<()> {
     let (npy_path, json_path) = sibling_paths(exr_path);
@@ -174,10 +190,13 @@ pub fn write_table(
     let mut shape = meta.grid.shape();
     shape.push(3);
     // The npy first: the EXR is written from it; the sidecar last.
-    let set = FileSet::new(&[&npy_path, exr_path, &json_path])?;
-    let (npy_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2]);
+    let first = set.len();
+    for p in [&npy_path, exr_path, &json_path] {
+        set.add(p)?;
+    }
+    let (npy_tmp, exr_tmp, json_tmp) = (&set[first], &set[first + 1], &set[first + 2]);
     {
-        let mut w = BufWriter::new(npy_tmp.file());
+        let mut w = npy_tmp.writer();
         w.write_all(&npy::header(&shape))
             .with_context(|| format!("writing {}", npy_path.display()))?;
         eval.eval_table(
@@ -189,23 +208,19 @@ pub fn write_table(
                 // way out and nothing is renamed into place.
                 eval.check_cancelled()?;
                 npy::write_f32(&mut w, values)
-                    .with_context(|| format!("writing {}", npy_path.display()))?;
+                    .map_err(|e| crate::output::encoder_error(&npy_path, "npy", e))?;
                 progress(first + values.len() as u64 / 3, cells);
                 Ok(())
             },
         )?;
-        w.flush()
-            .with_context(|| format!("writing {}", npy_path.display()))?;
+        w.finish()?;
     }
-    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp.file())
-        .with_context(|| format!("writing {}", exr_path.display()))?;
+    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp)?;
     let sidecar = sidecar_json(meta, exr_path);
-    std::fs::write(
-        json_tmp.path(),
-        serde_json::to_string_pretty(&sidecar)? + "\n",
-    )
-    .with_context(|| format!("writing {}", json_path.display()))?;
-    set.commit()
+    let mut w = json_tmp.writer();
+    w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
+        .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
+    w.finish()
 }
 
 fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
@@ -226,7 +241,7 @@ fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
     })
 }
 
-fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) -> Result<()> {
+fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &Pending) -> Result<()> {
     let file = std::fs::File::open(npy_path)?;
     // SAFETY: the temporary file is ours alone and is not modified while mapped.
     let map = unsafe { memmap2::Mmap::map(&file)? };
@@ -244,7 +259,7 @@ fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) ->
     let mut layer = Layer::new(
         (w, h),
         LayerAttributes::named("lobe"),
-        Encoding::FAST_LOSSLESS,
+        crate::output::EXR_ENCODING,
         channels,
     );
     let text = |s: &str| exr_text(s);
@@ -274,11 +289,7 @@ fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &std::fs::File) ->
             .other
             .insert(Text::new_or_panic(k), text(&v));
     }
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(BufWriter::new(out))
-        .map_err(|e| anyhow::anyhow!("EXR encoder: {e}"))?;
-    Ok(())
+    crate::output::write_exr(out, |w| Image::from_layer(layer).write().to_buffered(w))
 }
 
 /// A table read back from disk, in npy order (cells × rgb).
