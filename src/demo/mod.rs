@@ -19,7 +19,9 @@
 //!
 //! Nothing is written into the output folder until every step has succeeded: the steps write into
 //! a staging folder beside it (`.lobe-demo-*`), which is then renamed onto the output folder when
-//! that does not exist yet, or whose files are renamed into it one by one with `index.html` last.
+//! that does not exist yet, or whose files are moved into it as one transaction with `index.html`
+//! last (every check before the first move, the old files back if a move fails:
+//! [`crate::output::StagingFolder::commit`]).
 //! A failed or interrupted run removes the staging folder and leaves the output folder as it was.
 //!
 //! Sizes are chosen so that the whole demo takes well under a minute on two CPU cores with lavapipe

@@ -64,8 +64,11 @@
 //! cell whose model is the material's own shows the material's parameters, any other cell the
 //! material's preset for that model, so such a sheet needs presets.
 //!
-//! The output folder and the sub-folders outputs name are created as needed. A run's summary
-//! lists every file written (a table's three, an albedo's one, a preview's two).
+//! Output paths stay inside the output folder: absolute paths and `..` parts are refused when the
+//! scene is parsed, and paths leaving it through a symbolic link before the run starts. The
+//! output folder and the sub-folders outputs name are created as needed. A run is one
+//! transaction: every output is staged, then all replace the old files together, or none does.
+//! A run's summary lists every file written (a table's three, an albedo's one, a preview's two).
 //!
 //! Every error names the file, the line and the column of the offending text.
 
