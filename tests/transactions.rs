@@ -140,6 +140,45 @@ fn concurrent_writers_leave_one_runs_set() {
     );
 }
 
+/// A folder holding a small table set `t.exr`, `t.npy`, `t.json` (roughness 0.5), and its
+/// snapshot: the old set a failing or interrupted run must keep.
+fn folder_with_old_set() -> (tempfile::TempDir, BTreeMap<PathBuf, Vec<u8>>) {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let old = snapshot(dir.path());
+    (dir, old)
+}
+
+/// Starts `c` with its standard error captured.
+fn spawn(mut c: Command) -> Child {
+    c.stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawning lobe")
+}
+
+/// The run `child` ended by a signal as it should: status 130, `message` on standard error, and
+/// `dir` exactly as `old` (the old set, no temporary file).
+fn assert_interrupted(
+    child: Child,
+    what: &str,
+    message: &str,
+    dir: &Path,
+    old: &BTreeMap<PathBuf, Vec<u8>>,
+) {
+    let o = child.wait_with_output().expect("waiting for lobe");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(INTERRUPTED_STATUS), "{what}: {err}");
+    assert!(err.contains(message), "{what}: {err}");
+    assert!(
+        temporaries(dir).is_empty(),
+        "{what}: left {:?}\n{err}",
+        temporaries(dir)
+    );
+    assert!(snapshot(dir) == *old, "{what}: the old set changed\n{err}");
+}
+
 /// Sends `signal` (INT, TERM, HUP) to `child`.
 fn kill(child: &Child, signal: &str) -> bool {
     Command::new("kill")
@@ -179,16 +218,9 @@ const BIG_NPY_BYTES: u64 = 128 + 160 * 160 * 160 * 12;
 #[cfg(unix)]
 #[test]
 fn a_signal_during_encoding_keeps_the_old_set() {
-    let dir = tempfile::tempdir().expect("temporary folder");
-    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
-    assert!(o.status.success(), "{}", stderr(&o));
-    let old = snapshot(dir.path());
+    let (dir, old) = folder_with_old_set();
     for signal in ["INT", "TERM", "HUP"] {
-        let child = table(dir.path(), 0.2, BIG, "t.exr")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawning lobe");
+        let child = spawn(table(dir.path(), 0.2, BIG, "t.exr"));
         // Encoding has begun once the npy is complete and a second temporary file has data.
         let encoding = wait_for(dir.path(), |s| {
             s.contains(&BIG_NPY_BYTES) && s.iter().filter(|&&n| n > 0).count() >= 2
@@ -198,17 +230,12 @@ fn a_signal_during_encoding_keeps_the_old_set() {
             kill(&child, signal),
             "SIG{signal}: the run ended before the signal"
         );
-        let o = child.wait_with_output().expect("waiting for lobe");
-        let err = stderr(&o);
-        assert_eq!(
-            o.status.code(),
-            Some(INTERRUPTED_STATUS),
-            "SIG{signal}: {err}"
-        );
-        assert!(err.contains("interrupted"), "SIG{signal}: {err}");
-        assert!(
-            snapshot(dir.path()) == old,
-            "SIG{signal}: the old set changed"
+        assert_interrupted(
+            child,
+            &format!("SIG{signal}"),
+            "interrupted",
+            dir.path(),
+            &old,
         );
     }
 }
@@ -220,18 +247,11 @@ fn a_signal_during_encoding_keeps_the_old_set() {
 #[cfg(unix)]
 #[test]
 fn signals_while_waiting_for_the_lock_keep_the_old_set() {
-    let dir = tempfile::tempdir().expect("temporary folder");
-    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
-    assert!(o.status.success(), "{}", stderr(&o));
-    let old = snapshot(dir.path());
+    let (dir, old) = folder_with_old_set();
     for signals in [1, 2] {
         let lock = std::fs::File::open(dir.path()).expect("opening the folder");
         lock.lock().expect("locking the folder");
-        let mut child = table(dir.path(), 0.9, "4,4,4", "t.exr")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawning lobe");
+        let mut child = spawn(table(dir.path(), 0.9, "4,4,4", "t.exr"));
         // Staged: three temporary files, all written (the sidecar last).
         let staged = wait_for(dir.path(), |s| s.len() == 3 && s.iter().all(|&n| n > 0));
         assert!(staged, "{signals} signals: the set was never staged");
@@ -247,27 +267,17 @@ fn signals_while_waiting_for_the_lock_keep_the_old_set() {
         if signals == 1 {
             drop(lock);
         }
-        let o = child.wait_with_output().expect("waiting for lobe");
-        let err = stderr(&o);
-        assert_eq!(
-            o.status.code(),
-            Some(INTERRUPTED_STATUS),
-            "{signals} signals: {err}"
-        );
         let expected = if signals == 1 {
             "interrupted"
         } else {
             "interrupted again"
         };
-        assert!(err.contains(expected), "{signals} signals: {err}");
-        assert!(
-            temporaries(dir.path()).is_empty(),
-            "{signals} signals: left {:?}\n{err}",
-            temporaries(dir.path())
-        );
-        assert!(
-            snapshot(dir.path()) == old,
-            "{signals} signals: the old set changed\n{err}"
+        assert_interrupted(
+            child,
+            &format!("{signals} signals"),
+            expected,
+            dir.path(),
+            &old,
         );
     }
 }
@@ -292,9 +302,7 @@ fn a_name_too_long_for_the_sidecar_only_changes_nothing() {
 /// A folder in the way of the last file of the set (the sidecar): the old .exr and .npy stay.
 #[test]
 fn a_folder_in_the_way_of_the_last_file_changes_nothing() {
-    let dir = tempfile::tempdir().expect("temporary folder");
-    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, _) = folder_with_old_set();
     std::fs::remove_file(dir.path().join("t.json")).expect("removing");
     std::fs::create_dir(dir.path().join("t.json")).expect("a folder in the way");
     let old = snapshot(dir.path());
@@ -310,9 +318,7 @@ fn a_folder_in_the_way_of_the_last_file_changes_nothing() {
 #[test]
 fn a_read_only_old_file_is_refused() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = tempfile::tempdir().expect("temporary folder");
-    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, _) = folder_with_old_set();
     let json = dir.path().join("t.json");
     std::fs::set_permissions(&json, std::fs::Permissions::from_mode(0o444)).expect("chmod");
     let old = snapshot(dir.path());
@@ -328,9 +334,7 @@ fn a_read_only_old_file_is_refused() {
 #[test]
 #[ignore = "needs root (CAP_LINUX_IMMUTABLE) and a file system with chattr +i"]
 fn an_immutable_old_file_changes_nothing() {
-    let dir = tempfile::tempdir().expect("temporary folder");
-    let o = run(table(dir.path(), 0.5, "4,4,4", "t.exr"));
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (dir, _) = folder_with_old_set();
     let json = dir.path().join("t.json");
     let chattr = |flag: &str| {
         Command::new("chattr")
@@ -396,46 +400,31 @@ fn outputs_honour_the_umask() {
 #[test]
 fn exr_output_is_byte_stable() {
     let dir = tempfile::tempdir().expect("temporary folder");
-    let runs: [&[&str]; 3] = [
-        &[
-            "table",
-            "--backend",
-            "cpu",
-            "--grid",
-            "isotropic",
-            "--res",
-            "16,16,16",
-            "-o",
-        ],
-        &["preview", "--backend", "cpu", "--cell", "16", "-o"],
-        &[
-            "albedo",
-            "--backend",
-            "cpu",
-            "--lut-res",
-            "8,4",
-            "--samples",
-            "64",
-            "--lut",
-        ],
-    ];
-    for args in runs {
-        let name = |k: usize| match args[0] {
-            "preview" => (format!("p{k}.png"), format!("p{k}.exr")),
-            _ => (format!("{}{k}.exr", args[0]), format!("{}{k}.exr", args[0])),
-        };
-        for k in 0..2 {
-            let o = run({
-                let mut c = lobe();
-                c.current_dir(dir.path()).args(args).arg(name(k).0);
-                c
-            });
-            assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    let command = |kind: &str, out: &str| {
+        if kind == "table" {
+            return table(dir.path(), 0.5, "16,16,16", out);
         }
-        let read = |k: usize| std::fs::read(dir.path().join(name(k).1)).expect("reading");
+        let mut c = lobe();
+        c.current_dir(dir.path()).args([kind, "--backend", "cpu"]);
+        if kind == "preview" {
+            c.args(["--cell", "16", "-o", out]);
+        } else {
+            c.args(["--lut-res", "8,4", "--samples", "64", "--lut", out]);
+        }
+        c
+    };
+    for kind in ["table", "preview", "albedo"] {
+        for k in 0..2 {
+            // A preview is named by its PNG; its EXR goes beside it.
+            let ext = if kind == "preview" { "png" } else { "exr" };
+            let o = run(command(kind, &format!("{kind}{k}.{ext}")));
+            assert!(o.status.success(), "{kind}: {}", stderr(&o));
+        }
+        let read =
+            |k: usize| std::fs::read(dir.path().join(format!("{kind}{k}.exr"))).expect("reading");
         assert!(
             read(0) == read(1),
-            "{args:?}: two runs wrote different EXR bytes"
+            "{kind}: two runs wrote different EXR bytes"
         );
     }
 }
