@@ -518,3 +518,41 @@ fn demo_into_a_folder_with_something_in_the_way_changes_nothing() {
         temporaries(dir.path())
     );
 }
+
+/// SIGTERM stops the other commands that write files too (an albedo LUT while it integrates, a
+/// large preview while it renders or encodes): status 130, and the folder as it was.
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_lut_and_preview_runs() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    std::fs::write(dir.path().join("keep.txt"), "mine").expect("writing");
+    let old = snapshot(dir.path());
+    let runs: [&[&str]; 2] = [
+        &["albedo", "--backend", "cpu", "--lut", "l.exr"],
+        &[
+            "preview",
+            "--backend",
+            "cpu",
+            "--cell",
+            "300",
+            "-o",
+            "p.png",
+        ],
+    ];
+    for args in runs {
+        let mut c = lobe();
+        c.current_dir(dir.path()).args(args);
+        let child = spawn(c);
+        // Under way once its temporary files exist.
+        assert!(
+            wait_for(dir.path(), |s| !s.is_empty()),
+            "{args:?} never started"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+        assert!(
+            kill(&child, "TERM"),
+            "{args:?}: the run ended before the signal"
+        );
+        assert_interrupted(child, args[0], "interrupted", dir.path(), &old);
+    }
+}
