@@ -257,7 +257,8 @@ impl Pending {
         let tmp = temp_builder(&prefix, &suffix)
             .tempfile_in(dir)
             .map_err(|e| {
-                if e.raw_os_error() == Some(36) || e.to_string().contains("too long") {
+                // ENAMETOOLONG: the temporary name is as long as the destination's.
+                if e.kind() == io::ErrorKind::InvalidFilename {
                     anyhow::anyhow!(
                         "cannot write {}: the name is too long for the file system ({} bytes)",
                         dest.display(),
