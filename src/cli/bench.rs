@@ -55,7 +55,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         }
         progress.finish_and_clear();
     }
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?,
         TableFormat::Csv => {

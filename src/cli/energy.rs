@@ -50,7 +50,7 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         },
     )?;
     bar.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Table => {
             write!(out, "{}", energy::format_table(&rows))?;

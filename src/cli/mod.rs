@@ -211,6 +211,28 @@ pub fn parse_size(flag: &str, text: &str, example: &str) -> Result<(u32, u32)> {
     }
 }
 
+/// Standard output whose write errors say so: "writing to stdout: No space left on device".
+pub struct Stdout(std::io::StdoutLock<'static>);
+
+/// Locks standard output for a command's report (see [`Stdout`]).
+pub fn stdout() -> Stdout {
+    Stdout(std::io::stdout().lock())
+}
+
+impl std::io::Write for Stdout {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.write(bytes).map_err(stdout_error)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush().map_err(stdout_error)
+    }
+}
+
+fn stdout_error(e: std::io::Error) -> std::io::Error {
+    std::io::Error::new(e.kind(), format!("writing to stdout: {e}"))
+}
+
 /// A progress bar of `len` steps drawn with `template` (indicatif's syntax).
 pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len);

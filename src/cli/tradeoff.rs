@@ -160,7 +160,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         tradeoff_flag,
     )?;
     progress.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?,
         TableFormat::Csv => report.write_csv(&mut out)?,
