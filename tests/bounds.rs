@@ -257,3 +257,203 @@ fn a_full_stdout_is_named_and_a_closed_pipe_ends_quietly() {
     assert_eq!(out.status.code(), Some(141), "closed pipe: {stderr}");
     assert!(stderr.is_empty(), "closed pipe must end quietly: {stderr}");
 }
+
+/// Every size a user can ask for is refused at once, naming the flag and the limit, with a
+/// non-zero status and no file left.
+#[test]
+fn every_size_is_bounded_before_work_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec!["albedo", "--backend", "cpu", "--samples", "1000000000000"],
+            vec!["--samples 1000000000000", "1048576"],
+        ),
+        (
+            vec!["albedo", "--backend", "cpu", "--samples", "0"],
+            vec!["--samples 0", "from 1 to 1048576"],
+        ),
+        (
+            vec!["energy", "--backend", "cpu", "--samples", "1000000000000"],
+            vec!["--samples", "1048576"],
+        ),
+        (
+            vec!["energy", "--backend", "cpu", "--sweep", "1000000000"],
+            vec!["--sweep 1000000000", "at most 1024"],
+        ),
+        (
+            vec![
+                "plot",
+                "--kind",
+                "albedo",
+                "--backend",
+                "cpu",
+                "--samples",
+                "1000000000000",
+                "-o",
+                "p.png",
+            ],
+            vec!["--samples", "1048576"],
+        ),
+        (
+            vec!["bench", "--backend", "cpu", "--res", "100000,100000,100000"],
+            vec!["--res", "at most 16777216"],
+        ),
+        (
+            vec!["bench", "--backend", "cpu", "--repeats", "0"],
+            vec!["--repeats 0", "from 1 to 1000"],
+        ),
+        (
+            vec![
+                "tradeoff",
+                "--backend",
+                "cpu",
+                "--error-res",
+                "2000,2000,4000",
+                "--no-plot",
+            ],
+            vec!["--error-res", "at most 16777216"],
+        ),
+        (
+            vec![
+                "tradeoff",
+                "--backend",
+                "cpu",
+                "--timing-res",
+                "2000,2000,4000",
+                "--no-plot",
+            ],
+            vec!["--timing-res", "at most 16777216"],
+        ),
+        (
+            vec![
+                "tradeoff",
+                "--backend",
+                "cpu",
+                "--table-res",
+                "100000",
+                "--no-plot",
+            ],
+            vec!["--table-res", "at most 16777216"],
+        ),
+        (
+            vec![
+                "tradeoff",
+                "--backend",
+                "cpu",
+                "--samples",
+                "1000000000000",
+                "--no-plot",
+            ],
+            vec!["--samples", "1048576"],
+        ),
+        (
+            vec![
+                "table",
+                "--backend",
+                "cpu",
+                "--model",
+                "lambert",
+                "--grid",
+                "isotropic",
+                "--res",
+                "60000000,1,1",
+                "-o",
+                "t.exr",
+            ],
+            vec![
+                "--res 60000000,1,1",
+                "60000000 x 1 pixels",
+                "at most 4194304",
+            ],
+        ),
+        (
+            vec![
+                "preview",
+                "--backend",
+                "cpu",
+                "--cell",
+                "4096",
+                "-o",
+                "p.png",
+            ],
+            vec!["--cell 4096", "at most 67108864"],
+        ),
+        (
+            vec![
+                "plot",
+                "--backend",
+                "cpu",
+                "--model",
+                "phong,lambert,cook_torrance,oren_nayar,blinn_phong,coupled,eon",
+                "--theta-i-deg",
+                "0,10,20,30,40,50,60,70",
+                "-o",
+                "p.png",
+            ],
+            vec!["56 curves", "at most 24", "--model"],
+        ),
+        (
+            vec!["plot", "--backend", "cpu", "--decades", "0", "-o", "p.png"],
+            vec!["--decades", "more than 0 and at most 30"],
+        ),
+    ];
+    let failures: Vec<String> = cases
+        .iter()
+        .filter_map(|(args, needles)| refused(dir.path(), args, needles))
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A full disk while a plot is saved (the kernel's file-size limit with SIGXFSZ ignored: the
+/// write fails as on a full disk, without root) reads as the operating system's sentence, not
+/// as the debug text of the drawing library's error.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_failed_plot_save_reads_as_a_sentence() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = env!("CARGO_BIN_EXE_lobe");
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -f 16 && trap '' XFSZ && exec '{bin}' plot --backend cpu -o p.png"
+        ))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("writing p.png: File too large"), "{stderr}");
+    assert!(
+        !stderr.contains("IOError") && !stderr.contains("Os {"),
+        "{stderr}"
+    );
+}
+
+/// Without any Vulkan device, `lobe stability` points at `--backend cpu`, and that runs.
+#[test]
+fn stability_without_a_device_suggests_a_flag_it_takes() {
+    let no_device = [
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+    ];
+    let out = lobe()
+        .args(["stability", "--models", "lambert"])
+        .envs(no_device)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("--backend cpu"),
+        "{stderr}"
+    );
+    let out = lobe()
+        .args(["stability", "--models", "lambert", "--backend", "cpu"])
+        .envs(no_device)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

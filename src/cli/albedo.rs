@@ -141,8 +141,8 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
         }
         a.mu.clone()
     };
-    if let Some(0) = a.samples {
-        bail!("--samples 0: expected a positive number of nodes per direction");
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
     }
     let settings = Settings {
         method,

@@ -233,6 +233,44 @@ fn stdout_error(e: std::io::Error) -> std::io::Error {
     std::io::Error::new(e.kind(), format!("writing to stdout: {e}"))
 }
 
+/// The most cells of a grid a command holds in memory or times (`bench --res`, `tradeoff
+/// --error-res`, `--timing-res`, `--table-res`): 2^24, 400 MB per f64 RGB copy; the defaults are
+/// far below (bench 4.2 M cells).
+pub const MAX_HELD_CELLS: u64 = 1 << 24;
+
+/// Refuses a `--samples` count outside 1 to [`lobe::integrate::MAX_SAMPLES`] before any work.
+pub fn check_samples(flag: &str, samples: usize) -> Result<()> {
+    let max = lobe::integrate::MAX_SAMPLES;
+    if !(1..=max).contains(&samples) {
+        bail!("{flag} {samples}: expected nodes per view direction from 1 to {max} (at least 16 are used)");
+    }
+    Ok(())
+}
+
+/// Refuses a grid of more than [`MAX_HELD_CELLS`] cells for `flag` before any work.
+pub fn check_held_cells(flag: &str, grid: &lobe::grid::Grid) -> Result<()> {
+    match grid.cells() {
+        Some(c) if c <= MAX_HELD_CELLS => Ok(()),
+        cells => bail!(
+            "{flag}: a grid of shape {:?} has {} cells; this command takes at most {MAX_HELD_CELLS}",
+            grid.shape(),
+            cells.map_or("more than 2^64".to_string(), |c| c.to_string())
+        ),
+    }
+}
+
+/// The most timed runs per measurement: a median of 1000 is stable far below the machine's
+/// noise.
+pub const MAX_REPEATS: usize = 1000;
+
+/// Refuses a repeat count outside 1 to [`MAX_REPEATS`] for `flag`: a median needs a run.
+pub fn check_repeats(flag: &str, repeats: usize) -> Result<()> {
+    if !(1..=MAX_REPEATS).contains(&repeats) {
+        bail!("{flag} {repeats}: expected timed runs from 1 to {MAX_REPEATS} (the median of them is reported)");
+    }
+    Ok(())
+}
+
 /// A progress bar of `len` steps drawn with `template` (indicatif's syntax).
 pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len);

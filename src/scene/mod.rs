@@ -191,7 +191,7 @@ pub struct AlbedoJob {
 
 /// The most quadrature nodes per view direction a scene may ask for (GPU node buffers of 16 MiB
 /// per direction; far beyond what any rule needs for 1e-6).
-pub const MAX_ALBEDO_SAMPLES: i64 = 1 << 20;
+pub const MAX_ALBEDO_SAMPLES: i64 = crate::integrate::MAX_SAMPLES as i64;
 
 /// A `[[previews]]` section: one contact sheet to render.
 #[derive(Clone, Debug)]
