@@ -58,7 +58,35 @@ enum Command {
     Plot(cli::plot::PlotArgs),
 }
 
+/// The exit status after standard output was closed early (`lobe ... | head`): 128 + SIGPIPE,
+/// what a shell reports for a program that a closed pipe ended (`yes | head` gives the same).
+const BROKEN_PIPE_STATUS: i32 = 141;
+
+/// `println!` panics when standard output fails; this ends the process instead, quietly with
+/// [`BROKEN_PIPE_STATUS`] when the reader went away, else with a message that names stdout.
+/// Every other panic goes to the default hook.
+fn install_stdout_hook() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let text = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if let Some(reason) = text.strip_prefix("failed printing to stdout: ") {
+            if reason.starts_with("Broken pipe") {
+                std::process::exit(BROKEN_PIPE_STATUS);
+            }
+            eprintln!("lobe: error: writing to stdout: {reason}");
+            std::process::exit(1);
+        }
+        default(info);
+    }));
+}
+
 fn main() {
+    install_stdout_hook();
     let command = Cli::parse().command;
     // Ctrl-C, SIGTERM and SIGHUP set the cancellation token every session carries and stop all
     // output, for every command that writes files; the others (eval, models: standard output
@@ -85,6 +113,14 @@ fn main() {
         Command::Plot(a) => cli::plot::run(a),
     };
     if let Err(e) = result {
+        let io_kind = |c: &(dyn std::error::Error + 'static)| {
+            c.downcast_ref::<std::io::Error>().map(|io| io.kind())
+        };
+        if e.chain()
+            .any(|c| io_kind(c) == Some(std::io::ErrorKind::BrokenPipe))
+        {
+            std::process::exit(BROKEN_PIPE_STATUS);
+        }
         eprintln!("lobe: error: {e:#}");
         if let Some(hint) = cli::gpu_hint(&e) {
             eprintln!("lobe: hint: {hint}");

@@ -61,13 +61,55 @@ fn case(model: Model, sets: &[&str]) -> Result<Case> {
     Ok(Case { label, params })
 }
 
-/// The parameter edges swept for `model`: its defaults, then the edges the model states
-/// ([`crate::model::ModelInfo::stability_edges`]).
+/// The parameter edges swept for `model`: its defaults, the edges the model states
+/// ([`crate::model::ModelInfo::stability_edges`]), then the true ends of every scalar range
+/// ([`range_ends`]).
 pub fn cases(model: Model) -> Result<Vec<Case>> {
-    std::iter::once(&[][..])
+    let mut cases: Vec<Case> = std::iter::once(&[][..])
         .chain((model.info().stability_edges)(model))
         .map(|sets| case(model, sets))
-        .collect()
+        .collect::<Result<_>>()?;
+    cases.extend(range_ends(model)?);
+    Ok(cases)
+}
+
+/// The smallest positive f64, a subnormal: the lowest value a range open or closed at 0 allows.
+pub const SMALLEST_SUBNORMAL: f64 = 5e-324;
+
+/// The ends of each scalar parameter's range, each alone on the model's white configuration
+/// (colours at 1, a specular lobe alone where there is one, so that the lobe the parameter
+/// shapes is what is seen): the maximum, the minimum, and for a range that starts at 0 also
+/// 1e-30 and [`SMALLEST_SUBNORMAL`] (a value below a roughness floor is swept too: it must
+/// evaluate as the floor does).
+pub fn range_ends(model: Model) -> Result<Vec<Case>> {
+    let mut white = ParamSet::defaults(model);
+    (model.info().white)(&mut white)
+        .with_context(|| format!("stability: the white configuration of {}", model.name()))?;
+    let mut out = Vec::new();
+    for spec in model.params() {
+        if spec.kind != crate::model::ParamKind::Scalar {
+            continue;
+        }
+        let mut ends = vec![spec.max];
+        if !spec.min_exclusive {
+            ends.push(spec.min);
+        }
+        if spec.min == 0.0 {
+            ends.extend([1e-30, SMALLEST_SUBNORMAL]);
+        }
+        for v in ends {
+            let text = format!("{}={}", spec.key, crate::pairs::fmt_value(v));
+            let mut params = white.clone();
+            params
+                .set_text(&text)
+                .with_context(|| format!("stability case {} {text}", model.name()))?;
+            out.push(Case {
+                label: format!("white {text}"),
+                params,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// One region of direction pairs.

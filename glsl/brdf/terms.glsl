@@ -84,10 +84,15 @@ vec3 F_specular(float c, vec3 r0) {
 // D = exp(-(h_x^2/ax^2 + h_y^2/ay^2) / h_z^2) / (pi ax ay h_z^4).
 // The exponent is tan^2(theta_h) weighted by azimuth, taken from h_x^2 and h_y^2 over h_z^2
 // rather than (1 - c_h^2) / c_h^2, which cancels catastrophically in f32 when h is close to n.
+// Where exp(-e) underflows D is 0: there the denominator can underflow too (ax ay h_z^4 at a
+// grazing h with a small roughness, 1e-14 * 1e-28), and 0/0 would be NaN. Where exp(-e) > 0,
+// e < 104 bounds h_z away from 0, so the denominator stays in f32's normal range for every
+// roughness at or above the parameters' floor of 1e-7.
 float D_beckmann(vec3 h, float ax, float ay) {
     float ch2 = h.z * h.z;
     float e = (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / ch2;
-    return exp(-e) / (PI * ax * ay * ch2 * ch2);
+    float peak = exp(-e);
+    return peak == 0.0 ? 0.0 : peak / (PI * ax * ay * ch2 * ch2);
 }
 
 // GGX / Trowbridge-Reitz (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):

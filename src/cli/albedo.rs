@@ -141,8 +141,8 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
         }
         a.mu.clone()
     };
-    if let Some(0) = a.samples {
-        bail!("--samples 0: expected a positive number of nodes per direction");
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
     }
     let settings = Settings {
         method,
@@ -170,7 +170,7 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     let report = session.albedo_report(&params, &settings, &points, phi);
     spinner.finish_and_clear();
     let report = report?;
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
             out,
@@ -260,7 +260,7 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
         |o| lut_flag(spec, o),
     )?;
     progress.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
             out,

@@ -35,6 +35,8 @@ pub struct BenchArgs {
 pub fn run(a: BenchArgs) -> Result<()> {
     let models = super::models_or_all(&a.models)?;
     let grid = Grid::parse("isotropic", &a.res).map_err(|e| anyhow!("--res: {e}"))?;
+    super::check_held_cells("--res", &grid)?;
+    super::check_repeats("--repeats", a.repeats)?;
     let mut rows = Vec::new();
     for backend in &a.backend {
         // One session per backend measured, each opened as the backend flags of any command.
@@ -55,7 +57,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         }
         progress.finish_and_clear();
     }
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?,
         TableFormat::Csv => {

@@ -7,6 +7,10 @@ use lobe::energy;
 use lobe::integrate::Method;
 use std::io::Write;
 
+/// The most sweep values: each is a full albedo job for every model, and 1024 points resolve the
+/// parameter axis far finer than any LUT the project ships.
+const MAX_SWEEP: usize = 1024;
+
 #[derive(Args)]
 pub struct EnergyArgs {
     /// Models, comma-separated (default: every model).
@@ -31,8 +35,14 @@ pub struct EnergyArgs {
 
 pub fn run(a: EnergyArgs) -> Result<()> {
     let method = Method::from(a.method);
-    if let Some(0) = a.samples {
-        bail!("--samples 0: expected a positive number of nodes per direction");
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
+    }
+    if a.sweep > MAX_SWEEP {
+        bail!(
+            "--sweep {}: expected at most {MAX_SWEEP} values (each is an albedo job for every model)",
+            a.sweep
+        );
     }
     let samples = a.samples.unwrap_or(method.default_samples());
     let models = super::models_or_all(&a.models)?;
@@ -50,7 +60,7 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         },
     )?;
     bar.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Table => {
             write!(out, "{}", energy::format_table(&rows))?;

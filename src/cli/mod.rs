@@ -219,6 +219,66 @@ pub fn parse_size(flag: &str, text: &str, example: &str) -> Result<(u32, u32)> {
     }
 }
 
+/// Standard output whose write errors say so: "writing to stdout: No space left on device".
+pub struct Stdout(std::io::StdoutLock<'static>);
+
+/// Locks standard output for a command's report (see [`Stdout`]).
+pub fn stdout() -> Stdout {
+    Stdout(std::io::stdout().lock())
+}
+
+impl std::io::Write for Stdout {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.write(bytes).map_err(stdout_error)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush().map_err(stdout_error)
+    }
+}
+
+fn stdout_error(e: std::io::Error) -> std::io::Error {
+    std::io::Error::new(e.kind(), format!("writing to stdout: {e}"))
+}
+
+/// The most cells of a grid a command holds in memory or times (`bench --res`, `tradeoff
+/// --error-res`, `--timing-res`, `--table-res`): 2^24, 400 MB per f64 RGB copy; the defaults are
+/// far below (bench 4.2 M cells).
+pub const MAX_HELD_CELLS: u64 = 1 << 24;
+
+/// Refuses a `--samples` count outside 1 to [`lobe::integrate::MAX_SAMPLES`] before any work.
+pub fn check_samples(flag: &str, samples: usize) -> Result<()> {
+    let max = lobe::integrate::MAX_SAMPLES;
+    if !(1..=max).contains(&samples) {
+        bail!("{flag} {samples}: expected nodes per view direction from 1 to {max} (at least 16 are used)");
+    }
+    Ok(())
+}
+
+/// Refuses a grid of more than [`MAX_HELD_CELLS`] cells for `flag` before any work.
+pub fn check_held_cells(flag: &str, grid: &lobe::grid::Grid) -> Result<()> {
+    match grid.cells() {
+        Some(c) if c <= MAX_HELD_CELLS => Ok(()),
+        cells => bail!(
+            "{flag}: a grid of shape {:?} has {} cells; this command takes at most {MAX_HELD_CELLS}",
+            grid.shape(),
+            cells.map_or("more than 2^64".to_string(), |c| c.to_string())
+        ),
+    }
+}
+
+/// The most timed runs per measurement: a median of 1000 is stable far below the machine's
+/// noise.
+pub const MAX_REPEATS: usize = 1000;
+
+/// Refuses a repeat count outside 1 to [`MAX_REPEATS`] for `flag`: a median needs a run.
+pub fn check_repeats(flag: &str, repeats: usize) -> Result<()> {
+    if !(1..=MAX_REPEATS).contains(&repeats) {
+        bail!("{flag} {repeats}: expected timed runs from 1 to {MAX_REPEATS} (the median of them is reported)");
+    }
+    Ok(())
+}
+
 /// A progress bar of `len` steps drawn with `template` (indicatif's syntax).
 pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len);

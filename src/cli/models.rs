@@ -14,7 +14,7 @@ pub struct ModelsArgs {
 }
 
 pub fn run(a: ModelsArgs) -> Result<()> {
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&catalogue::json())?)?;
         return Ok(());

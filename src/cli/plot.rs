@@ -3,7 +3,7 @@
 use super::{
     open_albedo_session, open_session, parse_size, resolve, with_flag, BackendArgs, MethodArg,
 };
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::plot::{self, hemisphere::Projection, Channel, Common, Request, Subject};
 use std::path::PathBuf;
@@ -137,6 +137,10 @@ pub struct PlotArgs {
     size: Option<String>,
 }
 
+/// The most curves one picture overlays: beyond 24 the legend outgrows the image and the
+/// palette repeats, so the curves cannot be told apart.
+const MAX_CURVES: usize = 24;
+
 /// The flag behind a refused plot option.
 fn plot_flag(option: &str) -> Option<String> {
     let flag = match option {
@@ -168,6 +172,32 @@ pub fn run(a: PlotArgs) -> Result<()> {
             let params = resolve(model, *material, &a.sets)?;
             subjects.push(Subject::new(params, *material));
         }
+    }
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
+    }
+    let n_angles = if a.theta_i_deg.is_empty() {
+        4
+    } else {
+        a.theta_i_deg.len()
+    };
+    let curves = match a.kind {
+        PlotKind::Polar => subjects.len() * n_angles,
+        PlotKind::Albedo => subjects.len(),
+        _ => 0,
+    };
+    if curves > MAX_CURVES {
+        bail!(
+            "{curves} curves in one picture ({} models x {} materials{}); a plot overlays at most \
+             {MAX_CURVES}: ask for fewer --model, --material or --theta-i-deg values",
+            models.len(),
+            materials.len(),
+            if a.kind == PlotKind::Polar {
+                format!(" x {n_angles} angles")
+            } else {
+                String::new()
+            }
+        );
     }
     let size = match &a.size {
         Some(text) => parse_size("--size", text, "1200x800")?,

@@ -9,6 +9,10 @@ use lobe::material;
 use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
 use std::path::{Path, PathBuf};
 
+/// The most pixels of a contact sheet's cells: 2^26 (an 8192 x 8192 sheet), about 1 GB with the
+/// linear radiance, the sRGB image and the encoders' buffers.
+const MAX_SHEET_PIXELS: u64 = 1 << 26;
+
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
 enum ShapeArg {
     /// A sphere of radius 1, three units in front of the camera.
@@ -124,6 +128,18 @@ pub fn run(a: PreviewArgs) -> Result<()> {
     } else {
         a.materials.clone()
     };
+    let pixels = (materials.len() * models.len()) as u64 * u64::from(a.cell).pow(2);
+    if pixels > MAX_SHEET_PIXELS {
+        bail!(
+            "--cell {}: {} materials x {} models of {}x{} pixels is {pixels} pixels; a sheet is at \
+             most {MAX_SHEET_PIXELS} (use a smaller --cell or fewer --models, --materials)",
+            a.cell,
+            materials.len(),
+            models.len(),
+            a.cell,
+            a.cell
+        );
+    }
     let sheet = Sheet::new(&materials, &models)?;
     let shape = match a.shape {
         ShapeArg::Sphere => Shape::Sphere,

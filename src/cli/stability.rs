@@ -48,7 +48,7 @@ pub fn run(a: StabilityArgs) -> Result<()> {
     let session = open_session(&backend)?;
     let report = session.stability(models, &mut step)?;
     progress.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         StabilityFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?,
         StabilityFormat::Table => write!(out, "{}", stability::format_table(&report, a.all))?,

@@ -122,8 +122,17 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         let res = text
             .as_deref()
             .unwrap_or(if a.quick { quick } else { standard });
-        Grid::parse("isotropic", res).map_err(|e| anyhow!("{flag}: {e}"))
+        let grid = Grid::parse("isotropic", res).map_err(|e| anyhow!("{flag}: {e}"))?;
+        super::check_held_cells(flag, &grid)?;
+        Ok::<Grid, anyhow::Error>(grid)
     };
+    for &n in &albedo.samples {
+        super::check_samples("--samples", n)?;
+    }
+    for &n in &albedo.table_res {
+        super::check_held_cells("--table-res", &lobe::tradeoff::table_grid(n))?;
+    }
+    super::check_repeats("--repeats", albedo.repeats)?;
     let opts = Options {
         sections,
         error_grid: lobe::tradeoff::error_grid_for(
@@ -160,7 +169,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         tradeoff_flag,
     )?;
     progress.finish_and_clear();
-    let mut out = std::io::stdout().lock();
+    let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?,
         TableFormat::Csv => report.write_csv(&mut out)?,

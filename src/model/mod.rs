@@ -19,7 +19,7 @@ pub mod terms;
 use eon::EonConfig;
 use glam::DVec3;
 use microfacet::MicrofacetConfig;
-pub use params::{ParamError, ParamKind, ParamSpec, Value};
+pub use params::{ParamError, ParamKind, ParamSpec, Value, SLOPE_FLOOR};
 pub use registry::{LutAxis, ModelInfo};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -264,6 +264,10 @@ impl ParamSet {
         for v in value.numbers() {
             spec.check(v)?;
         }
+        let value = match value {
+            Value::One(v) if v < spec.floor => Value::One(spec.floor),
+            v => v,
+        };
         self.values.insert(spec.key, value);
         self.explicit.insert(spec.key);
         self.sync_model();

@@ -34,7 +34,18 @@ pub struct ParamSpec {
     pub default: f64,
     /// One line on what the parameter means, shown by `lobe models`.
     pub doc: &'static str,
+    /// Values in range but below this are evaluated as it ([`SLOPE_FLOOR`] for a roughness;
+    /// −∞, no floor, for every other parameter).
+    pub floor: f64,
 }
+
+/// The smallest roughness (slope) a model evaluates: a roughness in (0, 1e-7) is evaluated as
+/// 1e-7. Below it the f32 kernels cannot carry the distribution terms: α² and α⁴ (which the
+/// Beckmann normalisation reaches at grazing half vectors) leave f32's normal range near
+/// α = 1e-19 and 1e-10, and at α = 1e-30 even α² underflows to 0, which made every value NaN.
+/// At 1e-7 the peak 1/(πα²) is 3.2e13, far inside f32, and the lobe is 6e-6 degrees wide: a
+/// mirror to every grid, integrator and image lobe can make, so nothing a user can see changes.
+pub const SLOPE_FLOOR: f64 = 1e-7;
 
 impl ParamSpec {
     /// An RGB parameter in [0, 1], such as an albedo or a reflectance at normal incidence.
@@ -47,6 +58,7 @@ impl ParamSpec {
             max: 1.0,
             default,
             doc,
+            floor: f64::NEG_INFINITY,
         }
     }
 
@@ -66,6 +78,7 @@ impl ParamSpec {
             max,
             default,
             doc,
+            floor: f64::NEG_INFINITY,
         }
     }
 
@@ -84,6 +97,7 @@ impl ParamSpec {
             max: 0.0,
             default: default as f64,
             doc,
+            floor: f64::NEG_INFINITY,
         }
     }
 
@@ -111,10 +125,12 @@ impl ParamSpec {
             max,
             default,
             doc,
+            floor: f64::NEG_INFINITY,
         }
     }
 
-    /// A scalar parameter in (0, `max`]: zero itself is not allowed (a roughness, an exponent).
+    /// A roughness or slope in (0, `max`]: zero itself is not allowed, and a value below
+    /// [`SLOPE_FLOOR`] is evaluated as the floor.
     pub const fn positive(key: &'static str, max: f64, default: f64, doc: &'static str) -> Self {
         ParamSpec {
             key,
@@ -124,6 +140,7 @@ impl ParamSpec {
             max,
             default,
             doc,
+            floor: SLOPE_FLOOR,
         }
     }
 
@@ -163,6 +180,8 @@ impl ParamSpec {
 fn fmt_num(x: f64) -> String {
     if x == std::f64::consts::FRAC_PI_2 {
         "pi/2".to_string()
+    } else if x != 0.0 && x.abs() < 1e-3 {
+        format!("{x:e}")
     } else {
         format!("{x}")
     }

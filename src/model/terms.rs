@@ -65,12 +65,18 @@ pub fn F_specular(c: f64, r0: DVec3, white_furnace: bool) -> DVec3 {
     }
 }
 
-/// Anisotropic Beckmann distribution (Heitz 2014, eq. 84); see the GLSL twin.
+/// Anisotropic Beckmann distribution (Heitz 2014, eq. 84); 0 where exp(−e) underflows, so that
+/// an underflowing denominator cannot make 0/0 (see the GLSL twin).
 #[allow(non_snake_case)]
 pub fn D_beckmann(h: DVec3, ax: f64, ay: f64) -> f64 {
     let ch2 = h.z * h.z;
     let e = (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / ch2;
-    (-e).exp() / (PI * ax * ay * ch2 * ch2)
+    let peak = (-e).exp();
+    if peak == 0.0 {
+        0.0
+    } else {
+        peak / (PI * ax * ay * ch2 * ch2)
+    }
 }
 
 /// Anisotropic GGX / Trowbridge–Reitz distribution (Walter et al. 2007 eq. 33; Heitz 2014 eq. 85).

@@ -277,7 +277,7 @@ impl Common {
             return Err(bad(
                 "decades",
                 format!(
-                    "{} decades: a logarithmic scale spans between 0 and 30 decades",
+                    "{} decades: a logarithmic scale spans more than 0 and at most 30 decades",
                     self.decades
                 ),
             ));
@@ -743,6 +743,7 @@ pub(crate) fn render(
             root.fill(&WHITE).drawing("the background")?;
             draw_png(&root)?;
             root.present()
+                .map_err(|e| anyhow!(save_failure(&e.to_string())))
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         Format::Svg => {
@@ -754,6 +755,26 @@ pub(crate) fn render(
         }
     }
     pending.commit()
+}
+
+/// The sentence for a failed PNG save. plotters' bitmap backend reports it as the debug text of
+/// its error (`backend error: IOError(Os { code: 28, kind: StorageFull, .. })`); the operating
+/// system's error is rebuilt from the code in it, so the message reads "No space left on device
+/// (os error 28)".
+fn save_failure(text: &str) -> String {
+    // The code appears as `code: 28` (an OS error) or `(os error 27)` (one wrapped by the PNG
+    // encoder).
+    let code = ["code: ", "os error "].iter().find_map(|key| {
+        let (_, rest) = text.split_once(key)?;
+        rest.split(|c: char| !c.is_ascii_digit())
+            .next()?
+            .parse::<i32>()
+            .ok()
+    });
+    match code {
+        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
+        None => "the image could not be saved".to_string(),
+    }
 }
 
 /// What to plot: the kind with its own options.

@@ -194,7 +194,7 @@ pub struct AlbedoJob {
 
 /// The most quadrature nodes per view direction a scene may ask for (GPU node buffers of 16 MiB
 /// per direction; far beyond what any rule needs for 1e-6).
-pub const MAX_ALBEDO_SAMPLES: i64 = 1 << 20;
+pub const MAX_ALBEDO_SAMPLES: i64 = crate::integrate::MAX_SAMPLES as i64;
 
 /// A `[[previews]]` section: one contact sheet to render.
 #[derive(Clone, Debug)]
@@ -252,8 +252,18 @@ pub fn load(path: &Path) -> Result<Scene> {
             meta.len()
         );
     }
-    let bytes =
-        std::fs::read(path).with_context(|| format!("cannot read scene {}", path.display()))?;
+    // Read at most one byte past the limit: a device or pipe (/dev/zero) has no length to check.
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
+        .with_context(|| format!("cannot read scene {}", path.display()))?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        bail!(
+            "scene {} is more than {MAX_SCENE_BYTES} bytes; a scene file is at most that",
+            path.display()
+        );
+    }
     let text = String::from_utf8(bytes).map_err(|e| {
         let (line, column) = line_column(
             &String::from_utf8_lossy(e.as_bytes()),

@@ -27,6 +27,12 @@ use std::path::{Path, PathBuf};
 /// cell index (48 GiB of float32 RGB).
 pub const MAX_TABLE_CELLS: u64 = u32::MAX as u64;
 
+/// The longest side of a table's EXR mosaic, pixels: 2^22. The EXR encoder holds whole rows, about
+/// 55 bytes per pixel of a row, so a one-row mosaic of 6e7 pixels took 3.3 GB for a 720 MB table;
+/// at this side a row costs at most ~230 MB. Useful grids stay far below it (a 1024 x 2048 φ
+/// plane is 2^21 pixels wide).
+pub const MAX_MOSAIC_SIDE: usize = 1 << 22;
+
 /// Checks a table request before any work starts and returns its cell count: a grid that holds
 /// only the isotropic half of the angles needs an isotropic parameter set, the table has at most
 /// [`MAX_TABLE_CELLS`] cells, and the path ends in `.exr` (the `.npy` and `.json` go beside it).
@@ -74,6 +80,18 @@ pub fn check_grid(params: &ParamSet, grid: &Grid) -> Result<u64> {
             ),
         )
     })?;
+    let (w, h, _) = mosaic(grid);
+    if w.max(h) > MAX_MOSAIC_SIDE {
+        return Err(BadInput::new(
+            "cells",
+            format!(
+                "a table of shape {:?} would be an EXR mosaic of {w} x {h} pixels; a side is at most \
+                 {MAX_MOSAIC_SIDE} pixels (spread the cells over more axes)",
+                grid.shape()
+            ),
+        )
+        .into());
+    }
     Ok(cells)
 }
 
