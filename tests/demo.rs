@@ -178,8 +178,20 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     assert!(imgs.len() >= 8, "only {} images", imgs.len());
     for (src, w, h) in &imgs {
         assert_eq!(png_size(&dir.join(src)), (*w, *h), "{src}");
-        if src.starts_with("plots/polar") || src.starts_with("plots/albedo") {
+        if src.starts_with("plots/albedo") {
             assert_eq!((*w, *h), PLOT_SIZE, "{src}");
+        }
+        // A half disc is twice as wide as tall: polar plots keep the width on a lower canvas.
+        if src.starts_with("plots/polar") {
+            assert_eq!(*w, PLOT_SIZE.0, "{src}");
+            assert!(*h < PLOT_SIZE.1, "{src}");
+        }
+        // Beside each plot, the full parameters of its series.
+        if src.starts_with("plots/") {
+            let json = dir.join(src).with_extension("json");
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+            assert!(!v["series"].as_array().unwrap().is_empty(), "{src}");
         }
     }
     for kind in ["polar", "hemisphere", "albedo"] {

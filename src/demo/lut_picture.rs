@@ -1,6 +1,6 @@
 //! The demo's picture of its albedo LUT (the LUT's own files come from [`crate::lut::write`]).
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use std::path::Path;
 
 /// The LUT as a picture: E(μ, α) as a heat map (μ across, α up, each cell drawn at its true
@@ -33,7 +33,9 @@ pub(super) fn draw_lut(
         "1 − E is the energy single scattering loses (Kulla–Conty compensate it); dark = low E"
             .to_string(),
     ];
-    let draw = |root: &DrawingArea<BitMapBackend, plotters::coord::Shift>| -> Result<()> {
+    let draw = |root: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+                _ink: &mut crate::plot::Ink|
+     -> Result<()> {
         let body = header(root, &title, &lines)?;
         let (w, _) = body.dim_in_pixel();
         let (chart_area, bar_area) = body.split_horizontally(w - 110);
@@ -77,8 +79,6 @@ pub(super) fn draw_lut(
             "E (white furnace)",
         )
     };
-    crate::plot::render(path, size, draw, |_| {
-        bail!("the demo draws its LUT as PNG only")
-    })?;
+    crate::plot::render(path, size, draw)?;
     Ok(size)
 }
