@@ -854,6 +854,22 @@ impl Ink {
         }
     }
 
+    /// A label centred on `p` (canvas pixels), `size` pixels high, in `colour` with a white
+    /// halo so that it reads on any background.
+    pub fn label(&mut self, p: (f64, f64), text: &str, size: f64, colour: RGBColor) {
+        let text = text
+            .replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;");
+        self.svg.push_str(&format!(
+            "<text x=\"{}\" y=\"{}\" dy=\"0.35em\" text-anchor=\"middle\" font-family=\"{FONT}\" font-size=\"{}\" fill=\"{}\" stroke=\"white\" stroke-width=\"3\" stroke-linejoin=\"round\" paint-order=\"stroke\">{text}</text>\n",
+            coord(p.0),
+            coord(p.1),
+            coord(size),
+            hex(colour)
+        ));
+    }
+
     /// A white mask over everything outside the circle of radius `r` about `c` within the
     /// rectangle (x0, y0)–(x1, y1): an anti-aliased round edge for a heat map drawn in square
     /// cells.
@@ -872,6 +888,42 @@ impl Ink {
             d = coord(2.0 * r)
         ));
     }
+}
+
+/// The pieces of the contour line `value = level` of a grid of `nx` × `ny` values (row-major,
+/// row k at `ys[k]`, column j at `xs[j]`), by marching squares with linear interpolation along
+/// the cell edges: one segment per crossing pair in each square of four neighbouring values.
+pub fn contour_segments(
+    values: &[f64],
+    xs: &[f64],
+    ys: &[f64],
+    level: f64,
+) -> Vec<((f64, f64), (f64, f64))> {
+    let (nx, ny) = (xs.len(), ys.len());
+    let v = |j: usize, k: usize| values[k * nx + j];
+    let mut out = Vec::new();
+    for k in 0..ny.saturating_sub(1) {
+        for j in 0..nx.saturating_sub(1) {
+            // The square's corners, counter-clockwise from the bottom left.
+            let corners = [(j, k), (j + 1, k), (j + 1, k + 1), (j, k + 1)];
+            let mut cuts = Vec::new();
+            for e in 0..4 {
+                let (a, b) = (corners[e], corners[(e + 1) % 4]);
+                let (va, vb) = (v(a.0, a.1), v(b.0, b.1));
+                if !(va.is_finite() && vb.is_finite()) || (va < level) == (vb < level) {
+                    continue;
+                }
+                let t = (level - va) / (vb - va);
+                let at = |c: (usize, usize)| (xs[c.0], ys[c.1]);
+                let (pa, pb) = (at(a), at(b));
+                cuts.push((pa.0 + t * (pb.0 - pa.0), pa.1 + t * (pb.1 - pa.1)));
+            }
+            for pair in cuts.chunks_exact(2) {
+                out.push((pair[0], pair[1]));
+            }
+        }
+    }
+    out
 }
 
 /// A float version of a 2D chart's coordinate map: chart units to canvas pixels without
