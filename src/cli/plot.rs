@@ -135,8 +135,8 @@ pub struct PlotArgs {
     /// Albedo: quadrature nodes per view direction (default: the method's).
     #[arg(long)]
     samples: Option<usize>,
-    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; hemisphere: height to fit its
-    /// panels).
+    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; polar 1200x680, as a half disc is
+    /// twice as wide as tall; hemisphere: height to fit its panels).
     #[arg(long)]
     size: Option<String>,
 }
@@ -191,6 +191,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
             let side = (1090 / cols as u32).min(520);
             (1200, (150 + rows as u32 * (side + 30)).min(8000))
         }
+        None if a.kind == PlotKind::Polar => (1200, 680),
         None => (1200, 800),
     };
     let common = Common {

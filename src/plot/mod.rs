@@ -621,10 +621,26 @@ pub fn series_style(k: usize) -> SeriesStyle {
     }
 }
 
-/// The style of each subject. When every subject is a different model, each model keeps the
-/// style of its place in [`Model::ALL`](crate::model::Model::ALL) (a model registered at run
-/// time: the places after them), so that a model has the same colour in every plot; otherwise
-/// (one model in several materials) the subjects take the styles in order.
+/// The built-in models' places in [`series_style`]. The first seven take the seven colours;
+/// the others repeat a colour with a marker, each the colour of a model of another kind (a
+/// glossy lobe with a diffuse one), which are seldom compared in one plot.
+const MODEL_STYLES: [(&str, usize); 10] = [
+    ("lambert", 0),
+    ("phong", 1),
+    ("blinn_phong", 2),
+    ("oren_nayar", 3),
+    ("cook_torrance", 4),
+    ("smooth_layered", 5),
+    ("coupled", 6),
+    ("microfacet", 7),
+    ("eon", 8),
+    ("ashikhmin_shirley", 10),
+];
+
+/// The style of each subject. When every subject is a different model, each model keeps its
+/// place in [`MODEL_STYLES`] (a model registered at run time: the places after them), so that a
+/// model has the same look in every plot; otherwise (one model in several materials) the
+/// subjects take the styles in order.
 pub fn subject_styles(subjects: &[Subject]) -> Vec<SeriesStyle> {
     let names: Vec<&str> = subjects.iter().map(|s| s.params.model().name()).collect();
     let distinct = names
@@ -635,19 +651,16 @@ pub fn subject_styles(subjects: &[Subject]) -> Vec<SeriesStyle> {
     if !distinct {
         return (0..subjects.len()).map(series_style).collect();
     }
-    let builtin = crate::model::Model::ALL;
-    let mut next = builtin.len();
+    let mut next = MODEL_STYLES.iter().map(|m| m.1).max().unwrap_or(0) + 1;
     names
         .iter()
-        .map(
-            |name| match builtin.iter().position(|m| m.name() == *name) {
-                Some(k) => series_style(k),
-                None => {
-                    next += 1;
-                    series_style(next - 1)
-                }
-            },
-        )
+        .map(|name| match MODEL_STYLES.iter().find(|m| m.0 == *name) {
+            Some(&(_, k)) => series_style(k),
+            None => {
+                next += 1;
+                series_style(next - 1)
+            }
+        })
         .collect()
 }
 
@@ -1381,6 +1394,17 @@ mod tests {
         assert_eq!((s.lo, s.hi), (1.0, 100.0));
         let m = Scale::fit(&v, false, 4.0, 1.0);
         assert_eq!((m.lo, m.hi), (0.0, 1e9));
+    }
+
+    #[test]
+    fn every_built_in_model_has_a_style_place() {
+        for m in crate::model::Model::ALL {
+            assert!(
+                MODEL_STYLES.iter().any(|s| s.0 == m.name()),
+                "{} has no place in MODEL_STYLES",
+                m.name()
+            );
+        }
     }
 
     #[test]
