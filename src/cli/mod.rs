@@ -158,7 +158,8 @@ pub fn resolve_all(
                     format!("{rest}={}", &set[key.len() + 1..])
                 }
                 Some(_) => continue,
-                None if params.model().params().iter().any(|p| p.key == key.trim()) => set.clone(),
+                // With one model, an unknown key is refused with that model's parameter list.
+                None if specs.len() == 1 || has_key(&params, key.trim()) => set.clone(),
                 None => continue,
             };
             params
