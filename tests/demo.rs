@@ -178,8 +178,20 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     assert!(imgs.len() >= 8, "only {} images", imgs.len());
     for (src, w, h) in &imgs {
         assert_eq!(png_size(&dir.join(src)), (*w, *h), "{src}");
-        if src.starts_with("plots/polar") || src.starts_with("plots/albedo") {
+        if src.starts_with("plots/albedo") {
             assert_eq!((*w, *h), PLOT_SIZE, "{src}");
+        }
+        // A half disc is twice as wide as tall: polar plots keep the width on a lower canvas.
+        if src.starts_with("plots/polar") {
+            assert_eq!(*w, PLOT_SIZE.0, "{src}");
+            assert!(*h < PLOT_SIZE.1, "{src}");
+        }
+        // Beside each plot, the full parameters of its series.
+        if src.starts_with("plots/") {
+            let json = dir.join(src).with_extension("json");
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+            assert!(!v["series"].as_array().unwrap().is_empty(), "{src}");
         }
     }
     for kind in ["polar", "hemisphere", "albedo"] {
@@ -339,6 +351,7 @@ fn demo_on_the_gpu_with_full_settings() {
     assert!(stdout.contains("index.html"), "{stdout}");
     let html = check_page(&dir, Settings::full().preview_cell, true);
     assert!(html.contains("full settings"));
+    check_in_browser(&dir);
 }
 
 #[test]
@@ -352,6 +365,7 @@ fn demo_on_the_cpu_quick_into_an_existing_folder() {
     run_demo(&dir, &["--backend", "cpu", "--quick"]);
     let html = check_page(&dir, Settings::quick().preview_cell, false);
     assert!(html.contains("quick settings"));
+    check_in_browser(&dir);
     assert_eq!(
         std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
         "mine"
@@ -389,4 +403,101 @@ fn an_interrupted_demo_leaves_no_page_and_no_files() {
         .map(|e| e.unwrap().file_name())
         .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+/// The width of the browser window the page must fit, in CSS pixels.
+const BROWSER_WIDTH: u32 = 1280;
+
+/// A headless Chromium: `LOBE_CHROMIUM`, else `chromium` or `chromium-browser` on the PATH.
+/// None only when `LOBE_SKIP_BROWSER=1`; otherwise a missing browser fails the test with the
+/// install hint (CI installs it).
+fn chromium() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("LOBE_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    for dir in std::env::split_paths(&path) {
+        for name in ["chromium", "chromium-browser"] {
+            if dir.join(name).is_file() {
+                return Some(dir.join(name));
+            }
+        }
+    }
+    if std::env::var("LOBE_SKIP_BROWSER").as_deref() == Ok("1") {
+        eprintln!("skipping the browser check: LOBE_SKIP_BROWSER=1 and no chromium found");
+        return None;
+    }
+    panic!(
+        "the page check needs headless Chromium: apt-get install chromium (or set LOBE_CHROMIUM \
+         to its path; LOBE_SKIP_BROWSER=1 skips the check)"
+    );
+}
+
+/// Renders the demo's page in headless Chromium, {BROWSER_WIDTH} px wide, and checks that
+/// nothing on it is wider than the window (no horizontal scrolling) and that every image
+/// loaded. A copy of the page with a script that writes what it measured into the page is
+/// loaded beside the original, and Chromium prints the page as it is after loading.
+fn check_in_browser(dir: &Path) {
+    let Some(browser) = chromium() else {
+        return;
+    };
+    let html = std::fs::read_to_string(dir.join(INDEX)).unwrap();
+    let script = r#"<script>
+window.addEventListener('load', () => {
+  const root = document.documentElement;
+  const imgs = Array.from(document.images);
+  const broken = imgs.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute('src'));
+  const wide = Array.from(document.querySelectorAll('body *'))
+    .filter(e => e.getBoundingClientRect().right > root.clientWidth + 0.5)
+    .map(e => e.tagName + (e.id ? '#' + e.id : '') + (e.className ? '.' + e.className : ''))
+    .slice(0, 10);
+  const out = document.createElement('pre');
+  out.id = 'browser-check';
+  out.textContent = JSON.stringify({ window: window.innerWidth, client: root.clientWidth,
+    scroll: root.scrollWidth, images: imgs.length, broken: broken, wide: wide });
+  document.body.appendChild(out);
+});
+</script>"#;
+    let probe = dir.join("browser-check.html");
+    std::fs::write(&probe, html.replace("</body>", &format!("{script}</body>"))).unwrap();
+    let profile = tempfile::tempdir().unwrap();
+    let out = Command::new(&browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            &format!("--window-size={BROWSER_WIDTH},900"),
+            "--virtual-time-budget=20000",
+            &format!("--user-data-dir={}", profile.path().display()),
+            "--dump-dom",
+        ])
+        .arg(format!("file://{}", probe.display()))
+        .output()
+        .unwrap_or_else(|e| panic!("running {}: {e}", browser.display()));
+    std::fs::remove_file(&probe).unwrap();
+    let dom = String::from_utf8_lossy(&out.stdout);
+    let start = dom.find("<pre id=\"browser-check\">").unwrap_or_else(|| {
+        panic!(
+            "Chromium printed no measurement (status {}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    let text = &dom[start..];
+    let text = &text[text.find('>').unwrap() + 1..text.find("</pre>").unwrap()];
+    let text = text.replace("&quot;", "\"").replace("&amp;", "&");
+    println!("browser check of {}: {text}", dir.join(INDEX).display());
+    let v: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["window"], BROWSER_WIDTH, "{text}");
+    let (client, scroll) = (v["client"].as_u64().unwrap(), v["scroll"].as_u64().unwrap());
+    assert!(
+        scroll <= client,
+        "the page is {scroll} px wide in a {client} px window: {text}"
+    );
+    assert!(v["wide"].as_array().unwrap().is_empty(), "{text}");
+    assert!(v["images"].as_u64().unwrap() >= 8, "{text}");
+    assert!(
+        v["broken"].as_array().unwrap().is_empty(),
+        "images that did not load: {text}"
+    );
 }

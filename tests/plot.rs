@@ -500,3 +500,224 @@ fn cli_plot_writes_each_kind_on_the_cpu() {
         );
     }
 }
+
+/// The RGB pixels of a PNG.
+fn png_pixels(path: &Path) -> Vec<[u8; 3]> {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb, "{}", path.display());
+    buf[..info.buffer_size()]
+        .chunks_exact(3)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+/// A pixel that is `c` laid over white with a coverage strictly between 0 and 1 (each channel
+/// within one unit of rounding of the same mix).
+fn is_partial_cover(p: [u8; 3], c: [u8; 3]) -> bool {
+    let a = (255.0 - p[0] as f64) / (255.0 - c[0] as f64);
+    a > 0.05
+        && a < 0.95
+        && (0..3).all(|k| {
+            let want = 255.0 - a * (255.0 - c[k] as f64);
+            (p[k] as f64 - want).abs() <= 2.0
+        })
+}
+
+#[test]
+fn pngs_are_anti_aliased_and_byte_stable_and_svg_keeps_sub_pixel_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = Common {
+        log: true,
+        size: (600, 400),
+        ..Common::default()
+    };
+    let request = Request::Polar(PolarOptions {
+        theta_i_deg: vec![30.0],
+        samples: 360,
+    });
+    let e = Evaluator::cpu();
+    let (a, b, svg) = (
+        dir.path().join("a.png"),
+        dir.path().join("b.png"),
+        dir.path().join("c.svg"),
+    );
+    let subjects = [glossy_phong()];
+    run(&e, &subjects, &common, &request, &a);
+    run(&e, &subjects, &common, &request, &b);
+    run(&e, &subjects, &common, &request, &svg);
+    assert_eq!(
+        std::fs::read(&a).unwrap(),
+        std::fs::read(&b).unwrap(),
+        "the same plot twice gave different bytes"
+    );
+    // One θi on one model: the curve is palette(0); an aliased renderer draws it in that colour
+    // or not at all, an anti-aliased one also mixes it with the white around it.
+    let c = plot::palette(0);
+    let c = [c.0, c.1, c.2];
+    let pixels = png_pixels(&a);
+    let full = pixels.iter().filter(|p| **p == c).count();
+    let partial = pixels.iter().filter(|p| is_partial_cover(**p, c)).count();
+    assert!(full > 100, "{full} pixels of the curve's colour");
+    assert!(
+        partial > full / 4,
+        "{partial} partly covered pixels beside {full} full ones: not anti-aliased"
+    );
+    // The curve's points keep fractions of a pixel.
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let curve = text
+        .lines()
+        .find(|l| l.starts_with("<polyline") && l.contains("stroke-width=\"2\""))
+        .expect("no curve in the SVG");
+    let points = &curve[curve.find("points=\"").unwrap() + 8..];
+    let fractional = points.split([' ', ',']).filter(|v| v.contains('.')).count();
+    assert!(fractional > 20, "only {fractional} sub-pixel coordinates");
+    assert_eq!(
+        text.matches("<svg").count(),
+        1,
+        "one SVG document, its ink inside it"
+    );
+}
+
+#[test]
+fn twelve_series_stay_distinct_and_a_model_keeps_its_style() {
+    let styles: Vec<plot::SeriesStyle> = (0..12).map(plot::series_style).collect();
+    for i in 0..12 {
+        for j in 0..i {
+            assert_ne!(styles[i], styles[j], "series {i} and {j} look the same");
+        }
+    }
+    let subject = |m: Model| Subject::new(ParamSet::defaults(m), None);
+    let a = plot::subject_styles(&[subject(Model::Phong), subject(Model::Lambert)]);
+    let b = plot::subject_styles(&[
+        subject(Model::Lambert),
+        subject(Model::CookTorrance),
+        subject(Model::Phong),
+    ]);
+    assert_eq!(a[0], b[2], "phong changed style between plots");
+    assert_eq!(a[1], b[0], "lambert changed style between plots");
+    // Every built-in model has a style of its own.
+    let all: Vec<Subject> = Model::ALL.iter().map(|&m| subject(m)).collect();
+    let styles = plot::subject_styles(&all);
+    for i in 0..styles.len() {
+        for j in 0..i {
+            assert_ne!(styles[i], styles[j], "models {i} and {j}");
+        }
+    }
+}
+
+#[test]
+fn titles_name_shared_parameters_once_and_only_active_ones() {
+    let conductor = Subject::new(
+        params(
+            Model::Microfacet(lobe::model::microfacet::MicrofacetConfig::DEFAULT),
+            &["fresnel=conductor"],
+        ),
+        None,
+    );
+    let line = conductor.describe();
+    assert!(line.contains("eta=") && line.contains("k="), "{line}");
+    assert!(
+        !line.contains("ior="),
+        "ior is unused by a conductor: {line}"
+    );
+    let schlick = Subject::new(
+        params(
+            Model::Microfacet(lobe::model::microfacet::MicrofacetConfig::DEFAULT),
+            &[],
+        ),
+        None,
+    );
+    let line = schlick.describe();
+    assert!(line.contains("ior=") && !line.contains("eta="), "{line}");
+    // Two Phong lobes that differ in shininess: the rest once, the shininess per series.
+    let mut a = Subject::new(params(Model::Phong, &["shininess=50"]), None);
+    let mut b = Subject::new(params(Model::Phong, &["shininess=500"]), None);
+    a.label = "narrow".into();
+    b.label = "wide".into();
+    let lines = plot::describe_subjects(&[a, b]);
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines[0].starts_with("all: ") && lines[0].contains("diffuse="));
+    assert!(!lines[0].contains("shininess"), "{lines:?}");
+    assert_eq!(lines[1], "narrow: shininess=50 · wide: shininess=500");
+}
+
+#[test]
+fn contours_of_a_linear_field_are_where_it_crosses_the_level() {
+    // v = x + y on a 5 × 4 grid: the level 1.5 crosses the line x + y = 1.5 exactly (linear
+    // interpolation is exact for a linear field).
+    let xs = [0.0, 0.5, 1.0, 1.5, 2.0];
+    let ys = [0.0, 0.4, 0.8, 1.2];
+    let values: Vec<f64> = ys
+        .iter()
+        .flat_map(|y| xs.iter().map(move |x| x + y))
+        .collect();
+    let segments = plot::contour_segments(&values, &xs, &ys, 1.5);
+    assert!(segments.len() >= 3, "{segments:?}");
+    for (a, b) in segments {
+        for p in [a, b] {
+            assert!((p.0 + p.1 - 1.5).abs() < 1e-12, "{p:?}");
+        }
+    }
+}
+
+fn lobe_plot(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["plot", "--backend", "cpu", "--res", "64"])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn set_applies_per_model_and_a_model_spec_carries_its_own_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.svg");
+    let out = lobe_plot(&[
+        "-o",
+        path.to_str().unwrap(),
+        "--model",
+        "phong,blinn_phong,microfacet{fresnel=conductor,eta=0.2,0.4,1.4}",
+        "--set",
+        "shininess=50",
+        "--set",
+        "blinn_phong.smoothness=0.5",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path.with_extension("json")).unwrap())
+            .unwrap();
+    let series = json["series"].as_array().unwrap();
+    assert_eq!(series.len(), 3);
+    assert_eq!(series[0]["params"]["shininess"], 50.0);
+    assert_eq!(series[1]["params"]["smoothness"], 0.5);
+    assert_eq!(series[2]["params"]["fresnel"], "conductor");
+    assert_eq!(
+        series[2]["params"]["eta"],
+        serde_json::json!([0.2, 0.4, 1.4])
+    );
+    // A key no listed model has, or a model not listed, fails and writes nothing.
+    for bad in [
+        vec!["--model", "phong,lambert", "--set", "smoothness=1"],
+        vec!["--model", "phong", "--set", "lambert.albedo=0.5"],
+        vec!["--model", "phong{shininess=50"],
+    ] {
+        let path = dir.path().join("bad.png");
+        let mut args = vec!["-o", path.to_str().unwrap()];
+        args.extend(bad.iter().copied());
+        let out = lobe_plot(&args);
+        assert!(!out.status.success(), "{bad:?} succeeded");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("smoothness") || err.contains("lambert") || err.contains('}'),
+            "{bad:?}: {err}"
+        );
+        assert!(!path.exists(), "{bad:?} left a file");
+    }
+}

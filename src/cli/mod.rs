@@ -55,11 +55,12 @@ pub struct BackendArgs {
 /// The flags that choose a parameter set.
 #[derive(Args, Clone, Debug)]
 pub struct ModelArgs {
-    /// BRDF model (see `lobe models`).
+    /// BRDF model (see `lobe models`), optionally with parameters: 'phong{shininess=50}'.
     #[arg(long, default_value = "cook_torrance")]
     pub model: String,
-    /// Set a parameter, KEY=VALUE; rgb values as r,g,b or one number. Repeatable; applied after
-    /// --material.
+    /// Set a parameter, KEY=VALUE (or MODEL.KEY=VALUE); rgb values as r,g,b or one number.
+    /// Repeatable; applied after --material. The model may also carry its own:
+    /// --model 'phong{shininess=50}'.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub sets: Vec<String>,
     /// Start from a material preset: tin, gold, glazed_ceramic, granite.
@@ -77,13 +78,151 @@ impl ModelArgs {
     }
 }
 
-/// The model's defaults, then the preset, then each `--set`; a `--set` that is not KEY=VALUE is
-/// named as such.
+/// One model spec, `NAME` or `NAME{KEY=VALUE,...}` (rgb values as r,g,b inside the braces).
 pub fn resolve(model: &str, material: Option<&str>, sets: &[String]) -> Result<ParamSet> {
-    lobe::resolve_params(model, material, sets).map_err(|e| match e {
+    let mut all = resolve_all(&[model.to_string()], material, sets)?;
+    Ok(all.remove(0).1)
+}
+
+/// A model spec split into its name and its own assignments: `phong{shininess=50,diffuse=0.1}`
+/// gives ("phong", ["shininess=50", "diffuse=0.1"]); a comma not followed by KEY= belongs to
+/// the value before it (an rgb triple).
+pub fn split_spec(spec: &str) -> Result<(&str, Vec<String>)> {
+    let spec = spec.trim();
+    let Some(open) = spec.find('{') else {
+        if spec.contains('}') {
+            bail!("model '{spec}': a '}}' without its '{{'; write NAME{{KEY=VALUE,...}}");
+        }
+        return Ok((spec, Vec::new()));
+    };
+    let Some(inner) = spec[open + 1..].strip_suffix('}') else {
+        bail!("model '{spec}': the parameters must end with '}}', as in phong{{shininess=50}}");
+    };
+    let mut sets: Vec<String> = Vec::new();
+    for piece in inner.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        match sets.last_mut() {
+            Some(last) if !piece.contains('=') => {
+                last.push(',');
+                last.push_str(piece);
+            }
+            _ => sets.push(piece.to_string()),
+        }
+    }
+    Ok((spec[..open].trim(), sets))
+}
+
+/// Splits comma-separated model specs at the commas outside braces:
+/// `phong{diffuse=0.1,0.2,0.3},lambert` gives two specs.
+pub fn split_specs(list: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    for text in list {
+        let (mut depth, mut cur) = (0i32, String::new());
+        for c in text.chars() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    out.push(std::mem::take(&mut cur));
+                    continue;
+                }
+                _ => {}
+            }
+            cur.push(c);
+        }
+        out.push(cur);
+    }
+    out.into_iter().filter(|s| !s.trim().is_empty()).collect()
+}
+
+/// The parameter sets of several model specs (`NAME` or `NAME{KEY=VALUE,...}`), each with its
+/// label (the spec as given, trimmed): the model's defaults, then the material preset, then
+/// each `--set`, then the spec's own assignments. A `--set MODEL.KEY=VALUE` applies to that
+/// model only; a plain `--set KEY=VALUE` applies to every listed model that has KEY, and is an
+/// error only when none has it.
+pub fn resolve_all(
+    specs: &[String],
+    material: Option<&str>,
+    sets: &[String],
+) -> Result<Vec<(String, ParamSet)>> {
+    let parsed: Vec<(&str, Vec<String>)> =
+        specs.iter().map(|s| split_spec(s)).collect::<Result<_>>()?;
+    let mut out = Vec::new();
+    for (spec, (name, own)) in specs.iter().zip(&parsed) {
+        let mut params = lobe::resolve_params(name, material, &[]).map_err(set_error)?;
+        for set in sets {
+            let (key, _) = set
+                .split_once('=')
+                .ok_or_else(|| set_error(ParamError::NotKeyValue { text: set.clone() }))?;
+            let assignment = match key.trim().split_once('.') {
+                Some((model, rest)) if model == *name => {
+                    format!("{rest}={}", &set[key.len() + 1..])
+                }
+                Some(_) => continue,
+                // With one model, an unknown key is refused with that model's parameter list.
+                None if specs.len() == 1 || has_key(&params, key.trim()) => set.clone(),
+                None => continue,
+            };
+            params
+                .set_text(&assignment)
+                .map_err(set_error)
+                .with_context(|| format!("--set {set} for model {name}"))?;
+        }
+        for set in own {
+            params
+                .set_text(set)
+                .map_err(set_error)
+                .with_context(|| format!("model {spec}"))?;
+        }
+        out.push((spec.trim().to_string(), params));
+    }
+    // Every --set must reach some model.
+    let names: Vec<&str> = parsed.iter().map(|(n, _)| *n).collect();
+    for set in sets {
+        let key = set
+            .split_once('=')
+            .map(|(k, _)| k.trim())
+            .unwrap_or_default();
+        let reached = match key.split_once('.') {
+            Some((model, rest)) => {
+                if !names.contains(&model) {
+                    bail!(
+                        "--set {set}: '{model}' is not one of the models listed ({})",
+                        names.join(", ")
+                    );
+                }
+                out.iter()
+                    .any(|(_, p)| p.model().name() == model && has_key(p, rest))
+            }
+            None => out.iter().any(|(_, p)| has_key(p, key)),
+        };
+        if !reached {
+            let lists: Vec<String> = out
+                .iter()
+                .map(|(_, p)| {
+                    let keys: Vec<&str> = p.model().params().iter().map(|s| s.key).collect();
+                    format!("{}: {}", p.model().name(), keys.join(", "))
+                })
+                .collect();
+            bail!(
+                "--set {set}: no listed model has the parameter '{}'; their parameters are: {}",
+                key.rsplit('.').next().unwrap_or(key),
+                lists.join("; ")
+            );
+        }
+    }
+    Ok(out)
+}
+
+fn has_key(p: &ParamSet, key: &str) -> bool {
+    p.model().params().iter().any(|s| s.key == key)
+}
+
+/// A parameter error as anyhow; one that is not KEY=VALUE is named as a `--set`.
+fn set_error(e: ParamError) -> anyhow::Error {
+    match e {
         ParamError::NotKeyValue { .. } => anyhow::Error::new(e).context("--set"),
         e => e.into(),
-    })
+    }
 }
 
 /// Output format of the commands that print a table for people, CSV or JSON.

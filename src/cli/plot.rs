@@ -1,7 +1,8 @@
 //! `lobe plot`: pictures of one or more models (polar, hemisphere, slice, 3d, albedo curves).
 
 use super::{
-    open_albedo_session, open_session, parse_size, resolve, with_flag, BackendArgs, MethodArg,
+    open_albedo_session, open_session, parse_size, resolve_all, split_specs, with_flag,
+    BackendArgs, MethodArg,
 };
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
@@ -75,14 +76,17 @@ pub struct PlotArgs {
     #[arg(short = 'o', long = "output", value_name = "PATH.png|PATH.svg")]
     output: PathBuf,
     /// BRDF model (see `lobe models`); repeatable or comma-separated to overlay several
-    /// (default cook_torrance). Every model is drawn with every --material.
-    #[arg(long = "model", value_delimiter = ',')]
+    /// (default cook_torrance). Every model is drawn with every --material. A model may carry
+    /// its own parameters: --model 'phong{shininess=50},phong{shininess=500}'.
+    #[arg(long = "model")]
     models: Vec<String>,
     /// Material preset (tin, gold, glazed_ceramic, granite); repeatable or comma-separated.
     #[arg(long = "material", value_delimiter = ',')]
     materials: Vec<String>,
-    /// Set a parameter of every model drawn, KEY=VALUE; repeatable; applied after --material.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
+    /// Set a parameter, KEY=VALUE: for every model drawn that has KEY (an error only if none
+    /// has it); MODEL.KEY=VALUE for one model (phong.shininess=50). Repeatable; applied after
+    /// --material, before a model's own {KEY=VALUE}.
+    #[arg(long = "set", value_name = "[MODEL.]KEY=VALUE")]
     sets: Vec<String>,
     /// Replace every Fresnel factor of a specular lobe by 1 (shows the lobe's own energy).
     #[arg(long)]
@@ -131,8 +135,8 @@ pub struct PlotArgs {
     /// Albedo: quadrature nodes per view direction (default: the method's).
     #[arg(long)]
     samples: Option<usize>,
-    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; hemisphere: height to fit its
-    /// panels).
+    /// Image size WIDTHxHEIGHT in pixels (default 1200x800; polar 1200x680, as a half disc is
+    /// twice as wide as tall; hemisphere: height to fit its panels).
     #[arg(long)]
     size: Option<String>,
 }
@@ -159,7 +163,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
     let models = if a.models.is_empty() {
         vec!["cook_torrance".to_string()]
     } else {
-        a.models.clone()
+        split_specs(&a.models)
     };
     let materials: Vec<Option<&str>> = if a.materials.is_empty() {
         vec![None]
@@ -168,9 +172,15 @@ pub fn run(a: PlotArgs) -> Result<()> {
     };
     let mut subjects = Vec::new();
     for material in &materials {
-        for model in &models {
-            let params = resolve(model, *material, &a.sets)?;
-            subjects.push(Subject::new(params, *material));
+        for (label, params) in resolve_all(&models, *material, &a.sets)? {
+            let mut subject = Subject::new(params, *material);
+            if label.contains('{') {
+                subject.label = match material {
+                    Some(m) => format!("{m} {label}"),
+                    None => label,
+                };
+            }
+            subjects.push(subject);
         }
     }
     if let Some(n) = a.samples {
@@ -211,6 +221,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
             let side = (1090 / cols as u32).min(520);
             (1200, (150 + rows as u32 * (side + 30)).min(8000))
         }
+        None if a.kind == PlotKind::Polar => (1200, 680),
         None => (1200, 800),
     };
     let common = Common {
@@ -275,11 +286,13 @@ pub fn run(a: PlotArgs) -> Result<()> {
         ),
         plot_flag,
     )?;
+    plot::write_params_json(&a.output, &subjects, &plotted)?;
     let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
     println!(
-        "lobe plot: wrote {} ({} bytes, {} evaluations, {:.2} s): {}",
+        "lobe plot: wrote {} ({} bytes, parameters in {}, {} evaluations, {:.2} s): {}",
         a.output.display(),
         bytes,
+        plot::params_json_path(&a.output).display(),
         plotted.evaluations(),
         start.elapsed().as_secs_f64(),
         plotted.title()

@@ -14,22 +14,36 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-/// An RGB triple as the page shows it (and tests/demo.rs parses it): four decimals.
+/// An RGB triple as the page shows it (and tests/demo.rs parses it): four decimals, one
+/// channel a line (the cell keeps the line breaks), so that the columns stay narrow and the
+/// digits of r, g and b line up.
 pub fn rgb_text(v: [f64; 3]) -> String {
-    format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
+    format!("{:.4}\n{:.4}\n{:.4}", v[0], v[1], v[2])
+}
+
+/// The style of a loss cell: a blue whose strength grows with the largest channel's loss
+/// (none at 0, full at half the energy lost or more).
+fn loss_style(loss: [f64; 3]) -> String {
+    let worst = loss.iter().copied().fold(0.0, f64::max).clamp(0.0, 0.5) / 0.5;
+    format!(
+        " style=\"background: rgba(0, 114, 178, {:.2})\"",
+        0.35 * worst
+    )
 }
 
 const CSS: &str = "
-body { font-family: system-ui, -apple-system, 'Segoe UI', sans-serif; margin: 0 auto; max-width: 1280px; padding: 1em 2em 4em; color: #222; line-height: 1.45; }
+body { font-family: system-ui, -apple-system, 'Segoe UI', sans-serif; margin: 0 auto; max-width: 1200px; padding: 1em 2em 4em; box-sizing: border-box; color: #222; line-height: 1.45; }
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 2px solid #ddd; padding-bottom: 0.2em; margin-top: 2em; }
 .meta { color: #555; }
 table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.9em; }
 th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
 th { background: #f4f4f4; }
-td.num, td.rgb { font-family: ui-monospace, 'DejaVu Sans Mono', monospace; text-align: right; white-space: nowrap; }
+td.num, td.rgb { font-family: ui-monospace, 'DejaVu Sans Mono', monospace; text-align: right; white-space: nowrap; font-variant-numeric: tabular-nums; }
+td.rgb { white-space: pre-line; line-height: 1.25; }
+td, th { overflow-wrap: anywhere; }
 td.gain { background: #fde2e1; color: #a40000; font-weight: bold; }
 td.ok { color: #176b1a; } td.bad { background: #fde2e1; color: #a40000; font-weight: bold; }
-figure { margin: 1em 0 2em; } figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figure { margin: 1em 0 2em; } figure img { max-width: 100%; height: auto; border: 1px solid #ddd; box-sizing: border-box; }
 figcaption { color: #444; font-size: 0.92em; margin-top: 0.3em; }
 code { background: #f4f4f4; padding: 0 0.25em; border-radius: 3px; }
 .note { background: #f7f7ff; border-left: 4px solid #99c; padding: 0.5em 1em; }
@@ -157,7 +171,7 @@ pub(super) fn page(
     let _ = writeln!(h, "<h2>Albedo and energy</h2>");
     let _ = writeln!(
         h,
-        "<p>E(μ) is the directional albedo at view direction μ = cosθo (φo = 0), the mirror spike of the layered models included exactly; Ē the hemispherical albedo; <i>max E</i> the largest E seen over the E(μ) curve and the three points, any channel (above 1 + {GAIN_FLOOR:.0e}, marked <i>gain</i>, the model creates energy); <i>1 − E<sub>avg</sub></i> the energy not reflected (E<sub>avg</sub> = 2∫E(μ)μ dμ), absorption by the material's colour included. Each RGB cell reads r g b. Integrator: <code>peak</code>, {} nodes per direction; <i>err</i> is its own error estimate.</p>",
+        "<p>E(μ) is the directional albedo at view direction μ = cosθo (φo = 0), the mirror spike of the layered models included exactly; Ē the hemispherical albedo; <i>max E</i> the largest E seen over the E(μ) curve and the three points, any channel (above 1 + {GAIN_FLOOR:.0e}, marked <i>gain</i>, the model creates energy); <i>1 − E<sub>avg</sub></i> the energy not reflected (E<sub>avg</sub> = 2∫E(μ)μ dμ), absorption by the material's colour included. Each RGB cell reads r, g, b from top to bottom; red marks a gain, blue the energy lost (darker: more). Integrator: <code>peak</code>, {} nodes per direction; <i>err</i> is its own error estimate.</p>",
         r.settings.albedo_samples
     );
     let mats: Vec<&str> = {
@@ -208,7 +222,8 @@ pub(super) fn page(
             );
             let _ = write!(
                 h,
-                "<td class=\"rgb\" data-field=\"loss\">{}</td><td class=\"num\">{:.1e}</td><td><a href=\"{}\">json</a></td></tr>",
+                "<td class=\"rgb loss\" data-field=\"loss\"{}>{}</td><td class=\"num\">{:.1e}</td><td><a href=\"{}\">json</a></td></tr>",
+                loss_style(loss),
                 rgb_text(loss),
                 a.error,
                 esc(&a.json)

@@ -24,6 +24,9 @@ pub struct PlannedPlot {
     pub request: Request,
 }
 
+/// The canvas of the demo's polar plots, in pixels.
+const POLAR_SIZE: (u32, u32) = (1200, 680);
+
 /// The demo's plots: polar overlays, a hemisphere map, and an E(μ) chart per material.
 pub(super) fn plan_plots(
     settings: &Settings,
@@ -37,8 +40,10 @@ pub(super) fn plan_plots(
         size: PLOT_SIZE,
         ..Common::default()
     };
+    // A half disc is twice as wide as tall: polar plots get a lower canvas.
     let log = Common {
         log: true,
+        size: POLAR_SIZE,
         ..line.clone()
     };
     let polar = |theta: Vec<f64>| {
@@ -82,7 +87,10 @@ pub(super) fn plan_plots(
             caption: "Glazed ceramic under Cook–Torrance at θi = 0°, 30°, 60°, 80°, linear radius: the lobe grows and tilts off-specular towards grazing.".into(),
             material: None,
             subjects: vec![subject("glazed_ceramic", Model::CookTorrance)?],
-            common: line.clone(),
+            common: Common {
+                size: POLAR_SIZE,
+                ..line.clone()
+            },
             request: polar(vec![0.0, 30.0, 60.0, 80.0]),
         },
     ];

@@ -233,11 +233,20 @@ pub(super) fn plots(
             &d.staging.path(&pl.file),
         )
         .with_context(|| format!("drawing {}", pl.file))?;
+        let params = plot::params_json_path(std::path::Path::new(&pl.file));
+        plot::write_params_json(&d.staging.path(&pl.file), &pl.subjects, &drawn)?;
         files.push(pl.file.clone());
+        files.push(params.to_string_lossy().into_owned());
         out.push((pl.file.clone(), drawn));
         p.advance(k as u64 + 1);
     }
-    Ok((out, format!("{} PNG plots", plots.len())))
+    Ok((
+        out,
+        format!(
+            "{} PNG plots, each with its parameters in JSON",
+            plots.len()
+        ),
+    ))
 }
 
 /// The E(μ) curves extend each albedo row's largest E (and where it was seen).

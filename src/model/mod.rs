@@ -313,6 +313,39 @@ impl ParamSet {
             .collect()
     }
 
+    /// Whether `key` changes f under this set's component choices. Every key does, except in
+    /// the microfacet model: `ior` only for fresnel=dielectric, or schlick without `f0`; `f0`
+    /// only for schlick; `eta` and `k` only for conductor; `beckmann_g1` only for Smith masking
+    /// of the Beckmann distribution; `alpha` not when both `alpha_x` and `alpha_y` are set.
+    pub fn is_active(&self, key: &str) -> bool {
+        if !matches!(self.model, Model::Microfacet(_)) {
+            return true;
+        }
+        let choice = |k: &str| match self.values.get(k) {
+            Some(Value::Choice(name)) => *name,
+            _ => "",
+        };
+        let fresnel = choice("fresnel");
+        match key {
+            "ior" => fresnel == "dielectric" || (fresnel == "schlick" && !self.is_set("f0")),
+            "f0" => fresnel == "schlick",
+            "eta" | "k" => fresnel == "conductor",
+            "beckmann_g1" => {
+                choice("distribution") == "beckmann" && choice("masking") != "v_cavity"
+            }
+            "alpha" => !(self.is_set("alpha_x") && self.is_set("alpha_y")),
+            _ => true,
+        }
+    }
+
+    /// The [`entries`](ParamSet::entries) that are [active](ParamSet::is_active).
+    pub fn active_entries(&self) -> Vec<(&'static str, Value)> {
+        self.entries()
+            .into_iter()
+            .filter(|(k, _)| self.is_active(k))
+            .collect()
+    }
+
     /// The same set with every value rounded to f32, as the GPU receives it.
     pub fn rounded_to_f32(&self) -> ParamSet {
         let mut out = self.clone();

@@ -6,8 +6,8 @@
 //! lobes are included exactly and their part is reported apart.
 
 use super::{
-    bad, check_finite_deg, header, legend, palette, render, Common, Dash, Drawn, LegendEntry,
-    Subject,
+    bad, check_finite_deg, describe_subjects, header, legend, legend_width, pixel_map, render,
+    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, Marker, Subject,
 };
 use crate::eval::Evaluator;
 use crate::integrate::{directional, Method, Settings};
@@ -123,11 +123,10 @@ pub fn albedo_data(
         .copied()
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
-    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
         "Directional albedo E(μ), μ = cosθo ({} rule): {}",
         opts.method.name(),
-        names.join(" vs ")
+        super::series_names(subjects)
     );
     Ok(AlbedoData {
         title,
@@ -148,32 +147,46 @@ pub fn plot_albedo(
 ) -> Result<AlbedoData> {
     super::Format::of(path)?;
     let data = albedo_data(eval, subjects, common, opts)?;
-    render(
-        path,
-        common.size,
-        |root| draw(root, &data, subjects, common),
-        |root| draw(root, &data, subjects, common),
-    )?;
+    render(path, common.size, |root, ink| {
+        draw(root, ink, &data, subjects, common)
+    })?;
     Ok(data)
 }
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     data: &AlbedoData,
     subjects: &[Subject],
     common: &Common,
 ) -> Result<()> {
-    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
-    let mut note =
-        "delta lobes included exactly; dashed grey: E = 1 (energy conserved); top axis: θo in degrees"
-            .to_string();
+    let mut lines = describe_subjects(subjects);
+    let mut note = "delta lobes included exactly; top axis: θo in degrees".to_string();
     if common.white_furnace {
         note = format!("{note}; white furnace (Fresnel of specular lobes = 1)");
     }
     lines.push(note);
     let body = header(root, &data.title, &lines)?;
+    let styles = subject_styles(subjects);
+    let entries: Vec<LegendEntry> = subjects
+        .iter()
+        .zip(&styles)
+        .map(|(s, st)| LegendEntry {
+            label: s.label.clone(),
+            colour: st.colour,
+            dash: Dash::Solid,
+            marker: st.marker,
+        })
+        .chain(std::iter::once(LegendEntry {
+            label: "E = 1: energy conserved".to_string(),
+            colour: RGBColor(120, 120, 120),
+            dash: Dash::Dashed,
+            marker: Marker::None,
+        }))
+        .collect();
     let (w, _) = body.dim_in_pixel();
-    let (plot_area, legend_area) = body.split_horizontally(w - (w / 4).clamp(180, 340));
+    let legend_w = legend_width(&body, &entries).clamp(150, w / 3);
+    let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(16)
         .x_label_area_size(44)
@@ -201,31 +214,25 @@ fn draw<DB: DrawingBackend>(
         .axis_desc_style((super::FONT, 13))
         .draw()
         .drawing("the θo axis")?;
-    chart
-        .draw_series(DashedLineSeries::new(
-            [(0.0, 1.0), (1.0, 1.0)],
-            8,
-            6,
-            RGBColor(120, 120, 120).stroke_width(2),
-        ))
-        .drawing("E = 1")?;
+    let px = pixel_map(chart.plotting_area());
+    ink.line(
+        &[px((0.0, 1.0)), px((1.0, 1.0))],
+        RGBColor(120, 120, 120),
+        2.0,
+        Dash::Dashed,
+        1.0,
+    );
     for c in &data.curves {
-        chart
-            .draw_series(LineSeries::new(
-                c.mu.iter().copied().zip(c.albedo.iter().copied()),
-                palette(c.subject).stroke_width(2),
-            ))
-            .drawing("an albedo curve")?;
+        let st = styles[c.subject];
+        let pts: Vec<(f64, f64)> =
+            c.mu.iter()
+                .zip(&c.albedo)
+                .map(|(&m, &e)| px((m, e)))
+                .collect();
+        ink.line(&pts, st.colour, 2.0, Dash::Solid, 1.0);
+        let phase = (c.subject % 4) as f64 / 4.0;
+        ink.markers_along(&pts, st.marker, st.colour, 80.0, phase);
     }
-    let entries: Vec<LegendEntry> = subjects
-        .iter()
-        .enumerate()
-        .map(|(j, s)| LegendEntry {
-            label: s.label.clone(),
-            colour: palette(j),
-            dash: Dash::Solid,
-        })
-        .collect();
-    legend(&legend_area, &entries)?;
+    legend(&legend_area, ink, &entries)?;
     Ok(())
 }

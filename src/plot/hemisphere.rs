@@ -11,8 +11,8 @@
 //! Every panel is one (model, fixed direction); all panels share one colour scale.
 
 use super::{
-    bad, check_deg, check_finite_deg, colour_bar, colour_map, fmt_value, header, rad, render,
-    text_style, Common, Drawn, Scale, Subject,
+    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, fmt_value, header,
+    pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -259,11 +259,10 @@ pub fn hemisphere_data(
         ("ωi", "ωo")
     };
     let what = if common.cos { "f·cosθi" } else { "f" };
-    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
         "{what} over every {over} for fixed {fixed} ({} projection): {}",
         opts.projection.name(),
-        names.join(" vs ")
+        super::series_names(subjects)
     );
     Ok(HemisphereData {
         title,
@@ -294,23 +293,21 @@ pub fn plot_hemisphere(
 ) -> Result<HemisphereData> {
     super::Format::of(path)?;
     let data = hemisphere_data(eval, subjects, common, opts)?;
-    render(
-        path,
-        common.size,
-        |root| draw(root, &data, subjects, common, opts),
-        |root| draw(root, &data, subjects, common, opts),
-    )?;
+    render(path, common.size, |root, ink| {
+        draw(root, ink, &data, subjects, common, opts)
+    })?;
     Ok(data)
 }
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     data: &HemisphereData,
     subjects: &[Subject],
     common: &Common,
     opts: &HemisphereOptions,
 ) -> Result<()> {
-    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut lines = describe_subjects(subjects);
     let mut note = format!(
         "seen from above: +x (φ = 0°) right, +y (φ = 90°) up; rings at θ = 30°, 60°, horizon 90°; \
          × mirror direction, ○ the fixed {}",
@@ -327,7 +324,7 @@ fn draw<DB: DrawingBackend>(
     let cols = opts.theta_deg.len();
     let areas = maps.split_evenly((rows, cols));
     for (panel, area) in data.panels.iter().zip(areas.iter()) {
-        draw_panel(area, panel, data, subjects, opts)?;
+        draw_panel(area, ink, panel, data, subjects, opts)?;
     }
     let caption = format!(
         "{}{}",
@@ -340,6 +337,7 @@ fn draw<DB: DrawingBackend>(
 
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     panel: &HemispherePanel,
     data: &HemisphereData,
     subjects: &[Subject],
@@ -384,11 +382,37 @@ fn draw_panel<DB: DrawingBackend>(
     let pa = chart.plotting_area();
     let n = data.res;
     let cell = 2.0 / n as f64;
+    // A cell outside the disc takes the value of a neighbour inside it, so that the cells
+    // cover the whole disc; the white mask drawn over them then gives the rim its round,
+    // anti-aliased edge.
+    let value = |row: usize, col: usize| -> f64 {
+        let v = panel.values[row * n + col];
+        if v.is_finite() {
+            return v;
+        }
+        let (r, c) = (row as i64, col as i64);
+        [
+            (0, 1),
+            (0, -1),
+            (1, 0),
+            (-1, 0),
+            (1, 1),
+            (1, -1),
+            (-1, 1),
+            (-1, -1),
+        ]
+        .iter()
+        .map(|(dr, dc)| (r + dr, c + dc))
+        .filter(|&(a, b)| a >= 0 && b >= 0 && a < n as i64 && b < n as i64)
+        .map(|(a, b)| panel.values[a as usize * n + b as usize])
+        .find(|v| v.is_finite())
+        .unwrap_or(f64::NAN)
+    };
     // Runs of cells of one colour along a row are drawn as one rectangle (smaller SVG files).
     for row in 0..n {
         let mut col = 0;
         while col < n {
-            let v = panel.values[row * n + col];
+            let v = value(row, col);
             if !v.is_finite() {
                 col += 1;
                 continue;
@@ -396,7 +420,7 @@ fn draw_panel<DB: DrawingBackend>(
             let colour = colour_map(data.scale.unit(v));
             let mut end = col + 1;
             while end < n {
-                let u = panel.values[row * n + end];
+                let u = value(row, end);
                 if !u.is_finite() || colour_map(data.scale.unit(u)) != colour {
                     break;
                 }
@@ -409,17 +433,21 @@ fn draw_panel<DB: DrawingBackend>(
             col = end;
         }
     }
+    let px = pixel_map(pa);
+    let (c, edge) = (px((0.0, 0.0)), px((1.0, 0.0)));
+    // The cells lie within [-1, 1]²; the mask covers that square and a pixel more.
+    let (l, t) = px((-1.0, 1.0));
+    let (r, b) = px((1.0, -1.0));
+    ink.mask_outside_circle((l - 1.0, t - 1.0, r + 1.0, b + 1.0), c, edge.0 - c.0);
     let circle = |theta_deg: f64| -> Vec<(f64, f64)> {
-        (0..=180)
-            .map(|k| opts.projection.point(rad(theta_deg), rad(k as f64 * 2.0)))
+        (0..=360)
+            .map(|k| px(opts.projection.point(rad(theta_deg), rad(k as f64))))
             .collect()
     };
     for t in [30.0, 60.0] {
-        pa.draw(&PathElement::new(circle(t), WHITE.mix(0.6).stroke_width(1)))
-            .drawing("a ring")?;
+        ink.line(&circle(t), WHITE, 1.0, Dash::Solid, 0.6);
     }
-    pa.draw(&PathElement::new(circle(90.0), BLACK.stroke_width(1)))
-        .drawing("the horizon")?;
+    ink.line(&circle(90.0), BLACK, 1.0, Dash::Solid, 1.0);
     for k in 0..4 {
         let phi = 90.0 * k as f64;
         let (x, y) = (1.08 * rad(phi).cos(), 1.08 * rad(phi).sin());
@@ -430,22 +458,24 @@ fn draw_panel<DB: DrawingBackend>(
         ))
         .drawing("an azimuth label")?;
     }
-    let marker = |theta: f64, phi: f64| opts.projection.point(rad(theta), rad(phi));
+    let marker = |theta: f64, phi: f64| px(opts.projection.point(rad(theta), rad(phi)));
     let (mx, my) = marker(panel.mirror_deg.0, panel.mirror_deg.1);
-    let d = 0.05;
+    let d = 0.05 * (edge.0 - c.0);
     for (a, b) in [
         ((mx - d, my - d), (mx + d, my + d)),
         ((mx - d, my + d), (mx + d, my - d)),
     ] {
-        pa.draw(&PathElement::new(vec![a, b], WHITE.stroke_width(4)))
-            .drawing("the mirror marker")?;
-        pa.draw(&PathElement::new(vec![a, b], RED.stroke_width(2)))
-            .drawing("the mirror marker")?;
+        ink.line(&[a, b], WHITE, 4.0, Dash::Solid, 1.0);
+        ink.line(&[a, b], RED, 2.0, Dash::Solid, 1.0);
     }
     let (fx, fy) = marker(panel.theta_deg, panel.phi_deg);
-    pa.draw(&Circle::new((fx, fy), 5, WHITE.stroke_width(3)))
-        .drawing("the fixed direction")?;
-    pa.draw(&Circle::new((fx, fy), 5, BLACK.stroke_width(1)))
-        .drawing("the fixed direction")?;
+    let ring: Vec<(f64, f64)> = (0..=48)
+        .map(|k| {
+            let a = rad(k as f64 * 7.5);
+            (fx + 5.0 * a.cos(), fy + 5.0 * a.sin())
+        })
+        .collect();
+    ink.line(&ring, WHITE, 3.0, Dash::Solid, 1.0);
+    ink.line(&ring, BLACK, 1.0, Dash::Solid, 1.0);
     Ok(())
 }

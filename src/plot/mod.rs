@@ -216,10 +216,121 @@ impl Subject {
         Subject { label, params }
     }
 
-    /// `gold cook_torrance: diffuse=… specular=…`, for the header.
+    /// `gold cook_torrance: diffuse=… specular=…`, the parameters its components use.
     pub fn describe(&self) -> String {
-        format!("{}: {}", self.label, self.params.to_text())
+        describe_subjects(std::slice::from_ref(self)).remove(0)
     }
+}
+
+/// A parameter value for a title: numbers shortened, an RGB triple of one grey as one number.
+fn value_text(v: crate::model::Value) -> String {
+    use crate::model::Value;
+    match v {
+        Value::One(x) => fmt_value(x),
+        Value::Three([r, g, b]) if r == g && g == b => fmt_value(r),
+        Value::Three(c) => c.map(fmt_value).join(","),
+        Value::Choice(name) => name.to_string(),
+    }
+}
+
+/// The header lines that say what the series are: the parameters every series shares, once,
+/// then each series with only what differs, and only parameters that the series' components
+/// use ([`ParamSet::is_active`]). The full sets go to the JSON beside the picture
+/// ([`write_params_json`]).
+pub fn describe_subjects(subjects: &[Subject]) -> Vec<String> {
+    let active: Vec<Vec<(&str, String)>> = subjects
+        .iter()
+        .map(|s| {
+            s.params
+                .active_entries()
+                .into_iter()
+                .map(|(k, v)| (k, value_text(v)))
+                .collect()
+        })
+        .collect();
+    if subjects.len() == 1 {
+        let text: Vec<String> = active[0].iter().map(|(k, v)| format!("{k}={v}")).collect();
+        return vec![format!("{}: {}", subjects[0].label, text.join(" "))];
+    }
+    // Shared: the same value in every series.
+    let shared: Vec<&(&str, String)> = active[0]
+        .iter()
+        .filter(|e| active.iter().all(|a| a.contains(e)))
+        .collect();
+    let mut lines = Vec::new();
+    if !shared.is_empty() {
+        let text: Vec<String> = shared.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        lines.push(format!("all: {}", text.join(" ")));
+    }
+    let own: Vec<String> = subjects
+        .iter()
+        .zip(&active)
+        .map(|(s, a)| {
+            let text: Vec<String> = a
+                .iter()
+                .filter(|e| !shared.contains(e))
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect();
+            if text.is_empty() {
+                s.label.clone()
+            } else {
+                format!("{}: {}", s.label, text.join(" "))
+            }
+        })
+        .collect();
+    lines.push(own.join(" · "));
+    lines
+}
+
+/// The series for a title: `gold: phong, blinn_phong` when every label starts with the same
+/// material, `gold cook_torrance vs tin cook_torrance` otherwise; more than four series are
+/// counted (the legend names them).
+pub fn series_names(subjects: &[Subject]) -> String {
+    let labels: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
+    let first = labels.first().copied().unwrap_or_default();
+    let prefix = first.split_once(' ').map(|(m, _)| m);
+    let common_material = prefix.filter(|m| {
+        labels.len() > 1
+            && labels
+                .iter()
+                .all(|l| l.split_once(' ').map(|(p, _)| p) == Some(*m))
+    });
+    match common_material {
+        Some(m) if labels.len() > 4 => format!("{m}, {} models", labels.len()),
+        Some(m) => {
+            let rest: Vec<&str> = labels.iter().map(|l| &l[m.len() + 1..]).collect();
+            format!("{m}: {}", rest.join(" vs "))
+        }
+        None if labels.len() > 4 => format!("{} series", labels.len()),
+        None => labels.join(" vs "),
+    }
+}
+
+/// Where the parameters of a picture go: `path` with the extension `.json`.
+pub fn params_json_path(path: &Path) -> std::path::PathBuf {
+    path.with_extension("json")
+}
+
+/// Writes every series' full parameter set (and the picture's title) as JSON to
+/// [`params_json_path`] of `path`: `{"title": …, "series": [{"label", "model", "params"}]}`.
+pub fn write_params_json(path: &Path, subjects: &[Subject], plotted: &Plotted) -> Result<()> {
+    let series: Vec<serde_json::Value> = subjects
+        .iter()
+        .map(|s| {
+            serde_json::json!({
+                "label": s.label,
+                "model": s.params.model().name(),
+                "params": s.params.to_json(),
+            })
+        })
+        .collect();
+    let json = serde_json::json!({ "title": plotted.title(), "series": series });
+    let dest = params_json_path(path);
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    crate::output::write_atomic(&dest, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+            .with_context(|| format!("writing {}", dest.display()))
+    })
 }
 
 /// Settings every kind shares.
@@ -453,8 +564,9 @@ pub fn colour_map(t: f64) -> RGBColor {
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
-/// Line colours for overlaid series (Okabe–Ito, distinguishable by colour-blind readers).
-pub const PALETTE: [RGBColor; 8] = [
+/// Line colours for overlaid series: the Okabe–Ito palette (distinguishable by colour-blind
+/// readers) without its yellow, which is too light on white.
+pub const PALETTE: [RGBColor; 7] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
     RGBColor(0, 158, 115),
@@ -462,24 +574,106 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(230, 159, 0),
     RGBColor(86, 180, 233),
     RGBColor(0, 0, 0),
-    RGBColor(240, 228, 66),
 ];
 
-/// The k-th line colour of [`PALETTE`], starting again after eight.
+/// The k-th line colour of [`PALETTE`], starting again after seven.
 pub fn palette(k: usize) -> RGBColor {
     PALETTE[k % PALETTE.len()]
 }
 
-/// Line patterns for a second overlaid dimension (θi when several models share a colour).
+/// A symbol repeated along a curve, so that series whose colours repeat stay apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Marker {
+    /// No symbol: the line alone.
+    None,
+    /// A filled disc.
+    Circle,
+    /// A filled square.
+    Square,
+    /// A filled triangle, point up.
+    Triangle,
+    /// A filled diamond.
+    Diamond,
+}
+
+/// How one series is drawn: its colour and the marker along it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SeriesStyle {
+    /// The line's colour.
+    pub colour: RGBColor,
+    /// The symbol along the line.
+    pub marker: Marker,
+}
+
+/// The k-th series style: the seven colours of [`PALETTE`] with no marker, then again with
+/// circles, squares, triangles and diamonds: 35 distinct styles.
+pub fn series_style(k: usize) -> SeriesStyle {
+    const MARKERS: [Marker; 5] = [
+        Marker::None,
+        Marker::Circle,
+        Marker::Square,
+        Marker::Triangle,
+        Marker::Diamond,
+    ];
+    SeriesStyle {
+        colour: palette(k),
+        marker: MARKERS[(k / PALETTE.len()) % MARKERS.len()],
+    }
+}
+
+/// The built-in models' places in [`series_style`]. The first seven take the seven colours;
+/// the others repeat a colour with a marker, each the colour of a model of another kind (a
+/// glossy lobe with a diffuse one), which are seldom compared in one plot.
+const MODEL_STYLES: [(&str, usize); 10] = [
+    ("lambert", 0),
+    ("phong", 1),
+    ("blinn_phong", 2),
+    ("oren_nayar", 3),
+    ("cook_torrance", 4),
+    ("smooth_layered", 5),
+    ("coupled", 6),
+    ("microfacet", 7),
+    ("eon", 8),
+    ("ashikhmin_shirley", 10),
+];
+
+/// The style of each subject. When every subject is a different model, each model keeps its
+/// place in [`MODEL_STYLES`] (a model registered at run time: the places after them), so that a
+/// model has the same look in every plot; otherwise (one model in several materials) the
+/// subjects take the styles in order.
+pub fn subject_styles(subjects: &[Subject]) -> Vec<SeriesStyle> {
+    let names: Vec<&str> = subjects.iter().map(|s| s.params.model().name()).collect();
+    let distinct = names
+        .iter()
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
+        == names.len();
+    if !distinct {
+        return (0..subjects.len()).map(series_style).collect();
+    }
+    let mut next = MODEL_STYLES.iter().map(|m| m.1).max().unwrap_or(0) + 1;
+    names
+        .iter()
+        .map(|name| match MODEL_STYLES.iter().find(|m| m.0 == *name) {
+            Some(&(_, k)) => series_style(k),
+            None => {
+                next += 1;
+                series_style(next - 1)
+            }
+        })
+        .collect()
+}
+
+/// Line patterns for a second overlaid dimension (θi when several models are drawn).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dash {
     /// An unbroken line.
     Solid,
     /// Dashes of 10 pixels with gaps of 6.
     Dashed,
-    /// Dots of 3 pixels with gaps of 4.
+    /// Dots of 2 pixels with gaps of 4.
     Dotted,
-    /// Long dashes of 22 pixels with gaps of 6.
+    /// Long dashes of 22 pixels with a dot between.
     Long,
 }
 
@@ -489,64 +683,18 @@ impl Dash {
         [Dash::Solid, Dash::Dashed, Dash::Dotted, Dash::Long][k % 4]
     }
 
-    /// (dash length, gap) in pixels; None for a solid line.
-    fn pattern(self) -> Option<(u32, u32)> {
+    /// The SVG `stroke-dasharray` in pixels; None for a solid line.
+    fn dasharray(self) -> Option<&'static str> {
         match self {
             Dash::Solid => None,
-            Dash::Dashed => Some((10, 6)),
-            Dash::Dotted => Some((3, 4)),
-            Dash::Long => Some((22, 6)),
+            Dash::Dashed => Some("10 6"),
+            Dash::Dotted => Some("2 4"),
+            Dash::Long => Some("22 5 3 5"),
         }
     }
 }
 
-/// Splits a polyline in pixel space into dashes; returns the pieces to draw.
-pub fn dash_pieces(points: &[(i32, i32)], dash: Dash) -> Vec<Vec<(i32, i32)>> {
-    let Some((on, off)) = dash.pattern() else {
-        return vec![points.to_vec()];
-    };
-    let period = (on + off) as f64;
-    let mut pieces = Vec::new();
-    let mut cur: Vec<(i32, i32)> = Vec::new();
-    let mut s = 0.0f64;
-    for w in points.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
-        let len = dx.hypot(dy);
-        let mut t = 0.0;
-        while t < len {
-            let phase = s % period;
-            let (inside, left) = if phase < on as f64 {
-                (true, on as f64 - phase)
-            } else {
-                (false, period - phase)
-            };
-            let step = left.min(len - t);
-            let p = |u: f64| {
-                (
-                    (a.0 as f64 + dx * u / len).round() as i32,
-                    (a.1 as f64 + dy * u / len).round() as i32,
-                )
-            };
-            if inside {
-                if cur.is_empty() {
-                    cur.push(p(t));
-                }
-                cur.push(p(t + step));
-            } else if !cur.is_empty() {
-                pieces.push(std::mem::take(&mut cur));
-            }
-            t += step;
-            s += step;
-        }
-    }
-    if cur.len() > 1 {
-        pieces.push(cur);
-    }
-    pieces
-}
-
-/// One entry of a hand-drawn legend.
+/// One entry of a hand-drawn legend: a sample of a curve that the plot draws, and its label.
 #[derive(Clone, Debug)]
 pub struct LegendEntry {
     /// The text drawn beside the line sample.
@@ -555,6 +703,263 @@ pub struct LegendEntry {
     pub colour: RGBColor,
     /// The line's pattern.
     pub dash: Dash,
+    /// The symbol along the line.
+    pub marker: Marker,
+}
+
+/// `#rrggbb` of a colour.
+fn hex(c: RGBColor) -> String {
+    format!("#{:02x}{:02x}{:02x}", c.0, c.1, c.2)
+}
+
+/// A coordinate with two decimals: sub-pixel positions, and the same text for the same input.
+fn coord(v: f64) -> String {
+    let s = format!("{v:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+/// SVG elements drawn over plotters' picture in canvas pixels with sub-pixel precision: the
+/// curves, markers and masks whose shape matters (plotters rounds every coordinate to a whole
+/// pixel). PNG and SVG share them: the PNG is the SVG rasterised.
+#[derive(Debug, Default)]
+pub struct Ink {
+    svg: String,
+}
+
+impl Ink {
+    /// A polyline through `points` (canvas pixels); non-finite points break it into pieces.
+    pub fn line(
+        &mut self,
+        points: &[(f64, f64)],
+        colour: RGBColor,
+        width: f64,
+        dash: Dash,
+        opacity: f64,
+    ) {
+        for run in points.split(|p| !(p.0.is_finite() && p.1.is_finite())) {
+            if run.len() < 2 {
+                continue;
+            }
+            let mut pts = String::new();
+            let mut last: Option<(f64, f64)> = None;
+            for (k, &p) in run.iter().enumerate() {
+                // Points closer than a tenth of a pixel to the last one add nothing visible.
+                if let Some(q) = last {
+                    if k + 1 < run.len() && (p.0 - q.0).abs() < 0.1 && (p.1 - q.1).abs() < 0.1 {
+                        continue;
+                    }
+                }
+                if !pts.is_empty() {
+                    pts.push(' ');
+                }
+                pts.push_str(&format!("{},{}", coord(p.0), coord(p.1)));
+                last = Some(p);
+            }
+            let dash = dash
+                .dasharray()
+                .map(|d| format!(" stroke-dasharray=\"{d}\""))
+                .unwrap_or_default();
+            let opacity = if opacity < 1.0 {
+                format!(" stroke-opacity=\"{}\"", coord(opacity))
+            } else {
+                String::new()
+            };
+            self.svg.push_str(&format!(
+                "<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-linejoin=\"round\" stroke-linecap=\"round\"{dash}{opacity} points=\"{pts}\"/>\n",
+                hex(colour),
+                coord(width)
+            ));
+        }
+    }
+
+    /// One marker centred on `p`, `r` pixels in radius, filled with `colour` and ringed in white.
+    pub fn marker(&mut self, p: (f64, f64), marker: Marker, colour: RGBColor, r: f64) {
+        let (x, y) = p;
+        let style = format!(
+            "fill=\"{}\" stroke=\"white\" stroke-width=\"1\"",
+            hex(colour)
+        );
+        let shape = match marker {
+            Marker::None => return,
+            Marker::Circle => format!(
+                "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" {style}/>",
+                coord(x),
+                coord(y),
+                coord(r)
+            ),
+            Marker::Square => {
+                let a = r * 0.9;
+                format!(
+                    "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" {style}/>",
+                    coord(x - a),
+                    coord(y - a),
+                    coord(2.0 * a),
+                    coord(2.0 * a)
+                )
+            }
+            Marker::Triangle => {
+                let a = r * 1.2;
+                self.polygon(
+                    &[(x, y - a), (x + a, y + 0.8 * a), (x - a, y + 0.8 * a)],
+                    &style,
+                );
+                return;
+            }
+            Marker::Diamond => {
+                let a = r * 1.25;
+                self.polygon(&[(x, y - a), (x + a, y), (x, y + a), (x - a, y)], &style);
+                return;
+            }
+        };
+        self.svg.push_str(&shape);
+        self.svg.push('\n');
+    }
+
+    fn polygon(&mut self, pts: &[(f64, f64)], style: &str) {
+        let pts: Vec<String> = pts
+            .iter()
+            .map(|p| format!("{},{}", coord(p.0), coord(p.1)))
+            .collect();
+        self.svg.push_str(&format!(
+            "<polygon points=\"{}\" {style}/>\n",
+            pts.join(" ")
+        ));
+    }
+
+    /// Markers along `points` (canvas pixels), one every `spacing` pixels of arc length,
+    /// starting half a spacing in (with an offset `phase` in [0, 1) of a spacing, so that
+    /// overlaid curves do not put their markers at the same places).
+    pub fn markers_along(
+        &mut self,
+        points: &[(f64, f64)],
+        marker: Marker,
+        colour: RGBColor,
+        spacing: f64,
+        phase: f64,
+    ) {
+        if marker == Marker::None {
+            return;
+        }
+        let mut next = spacing * (0.5 + phase);
+        let mut s = 0.0;
+        for w in points.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if !(a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite()) {
+                continue;
+            }
+            let len = (b.0 - a.0).hypot(b.1 - a.1);
+            while next <= s + len {
+                let u = (next - s) / len;
+                self.marker(
+                    (a.0 + u * (b.0 - a.0), a.1 + u * (b.1 - a.1)),
+                    marker,
+                    colour,
+                    4.0,
+                );
+                next += spacing;
+            }
+            s += len;
+        }
+    }
+
+    /// A label centred on `p` (canvas pixels), `size` pixels high, in `colour` with a white
+    /// halo so that it reads on any background.
+    pub fn label(&mut self, p: (f64, f64), text: &str, size: f64, colour: RGBColor) {
+        let text = text
+            .replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;");
+        self.svg.push_str(&format!(
+            "<text x=\"{}\" y=\"{}\" dy=\"0.35em\" text-anchor=\"middle\" font-family=\"{FONT}\" font-size=\"{}\" fill=\"{}\" stroke=\"white\" stroke-width=\"3\" stroke-linejoin=\"round\" paint-order=\"stroke\">{text}</text>\n",
+            coord(p.0),
+            coord(p.1),
+            coord(size),
+            hex(colour)
+        ));
+    }
+
+    /// A white mask over everything outside the circle of radius `r` about `c` within the
+    /// rectangle (x0, y0)–(x1, y1): an anti-aliased round edge for a heat map drawn in square
+    /// cells.
+    pub fn mask_outside_circle(&mut self, rect: (f64, f64, f64, f64), c: (f64, f64), r: f64) {
+        let (x0, y0, x1, y1) = rect;
+        self.svg.push_str(&format!(
+            "<path fill=\"white\" fill-rule=\"evenodd\" d=\"M{},{}H{}V{}H{}Z M{},{}a{r},{r} 0 1,0 {d},0a{r},{r} 0 1,0 -{d},0Z\"/>\n",
+            coord(x0),
+            coord(y0),
+            coord(x1),
+            coord(y1),
+            coord(x0),
+            coord(c.0 - r),
+            coord(c.1),
+            r = coord(r),
+            d = coord(2.0 * r)
+        ));
+    }
+}
+
+/// The pieces of the contour line `value = level` of a grid of `nx` × `ny` values (row-major,
+/// row k at `ys[k]`, column j at `xs[j]`), by marching squares with linear interpolation along
+/// the cell edges: one segment per crossing pair in each square of four neighbouring values.
+pub fn contour_segments(
+    values: &[f64],
+    xs: &[f64],
+    ys: &[f64],
+    level: f64,
+) -> Vec<((f64, f64), (f64, f64))> {
+    let (nx, ny) = (xs.len(), ys.len());
+    let v = |j: usize, k: usize| values[k * nx + j];
+    let mut out = Vec::new();
+    for k in 0..ny.saturating_sub(1) {
+        for j in 0..nx.saturating_sub(1) {
+            // The square's corners, counter-clockwise from the bottom left.
+            let corners = [(j, k), (j + 1, k), (j + 1, k + 1), (j, k + 1)];
+            let mut cuts = Vec::new();
+            for e in 0..4 {
+                let (a, b) = (corners[e], corners[(e + 1) % 4]);
+                let (va, vb) = (v(a.0, a.1), v(b.0, b.1));
+                if !(va.is_finite() && vb.is_finite()) || (va < level) == (vb < level) {
+                    continue;
+                }
+                let t = (level - va) / (vb - va);
+                let at = |c: (usize, usize)| (xs[c.0], ys[c.1]);
+                let (pa, pb) = (at(a), at(b));
+                cuts.push((pa.0 + t * (pb.0 - pa.0), pa.1 + t * (pb.1 - pa.1)));
+            }
+            for pair in cuts.chunks_exact(2) {
+                out.push((pair[0], pair[1]));
+            }
+        }
+    }
+    out
+}
+
+/// A float version of a 2D chart's coordinate map: chart units to canvas pixels without
+/// rounding. `pa` is the chart's plotting area.
+pub(crate) fn pixel_map<DB: DrawingBackend>(
+    pa: &DrawingArea<
+        DB,
+        plotters::coord::cartesian::Cartesian2d<
+            plotters::coord::types::RangedCoordf64,
+            plotters::coord::types::RangedCoordf64,
+        >,
+    >,
+) -> impl Fn((f64, f64)) -> (f64, f64) {
+    let (px, py) = pa.get_pixel_range();
+    let (xr, yr) = (pa.get_x_range(), pa.get_y_range());
+    move |(x, y)| {
+        let u = (x - xr.start) / (xr.end - xr.start);
+        let v = (y - yr.start) / (yr.end - yr.start);
+        (
+            px.start as f64 + u * (px.end - px.start) as f64,
+            py.end as f64 - v * (py.end - py.start) as f64,
+        )
+    }
 }
 
 /// Maps plotters' errors (whose types depend on the backend) to anyhow with what was drawn.
@@ -640,34 +1045,72 @@ pub(crate) fn header<DB: DrawingBackend>(
     Ok(root.split_vertically(y + 6).1)
 }
 
-/// A legend in its own column: a line sample and the label for each entry.
-pub(crate) fn legend<DB: DrawingBackend>(
+/// The width in pixels a legend of `entries` needs: the sample, the widest label and margins.
+pub(crate) fn legend_width<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
+) -> u32 {
+    let style = anchored(LEGEND_TEXT, HPos::Left, VPos::Center);
+    let widest = entries
+        .iter()
+        .map(|e| {
+            area.estimate_text_size(&e.label, &style)
+                .map(|(w, _)| w)
+                .unwrap_or(0)
+        })
+        .max()
+        .unwrap_or(0);
+    widest + 72
+}
+
+/// `text`, shortened with "…" until it fits in `width` pixels at `size`.
+fn fit_text<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    text: &str,
+    width: u32,
+    size: u32,
+) -> String {
+    let style = anchored(size, HPos::Left, VPos::Center);
+    let fits = |t: &str| {
+        area.estimate_text_size(t, &style)
+            .map(|(w, _)| w <= width)
+            .unwrap_or(true)
+    };
+    if fits(text) {
+        return text.to_string();
+    }
+    let chars: Vec<char> = text.chars().collect();
+    (1..chars.len())
+        .rev()
+        .map(|n| chars[..n].iter().collect::<String>() + "…")
+        .find(|t| fits(t))
+        .unwrap_or_else(|| "…".to_string())
+}
+
+/// Text size of legend labels, in pixels.
+const LEGEND_TEXT: u32 = 14;
+
+/// A legend in its own column: a sample of each entry's curve (colour, pattern and marker) and
+/// its label.
+pub(crate) fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
+    entries: &[LegendEntry],
 ) -> Result<()> {
-    let size = 14;
+    let size = LEGEND_TEXT;
     let row = 22;
     let (w, h) = area.dim_in_pixel();
+    let (ox, oy) = area.get_base_pixel();
     let top = ((h as i32 - row * entries.len() as i32) / 2).max(10);
     for (k, e) in entries.iter().enumerate() {
         let y = top + row * k as i32 + row / 2;
-        for piece in dash_pieces(&[(8, y), (44, y)], e.dash) {
-            area.draw(&PathElement::new(piece, e.colour.stroke_width(2)))
-                .drawing("the legend")?;
-        }
-        let max = chars_in(w.saturating_sub(56), size);
-        let label: String = if e.label.chars().count() > max {
-            e.label
-                .chars()
-                .take(max.saturating_sub(1))
-                .collect::<String>()
-                + "…"
-        } else {
-            e.label.clone()
-        };
+        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 48) as f64, (oy + y) as f64);
+        ink.line(&[(x0, yy), (x1, yy)], e.colour, 2.0, e.dash, 1.0);
+        ink.marker(((x0 + x1) / 2.0, yy), e.marker, e.colour, 4.0);
+        let label = fit_text(area, &e.label, w.saturating_sub(60), size);
         area.draw(&Text::new(
             label,
-            (52, y),
+            (56, y),
             anchored(size, HPos::Left, VPos::Center),
         ))
         .drawing("the legend")?;
@@ -719,62 +1162,95 @@ pub(crate) fn colour_bar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Draws with `draw` on a PNG or SVG canvas of `size` by `path`'s extension. The picture is
-/// drawn into a temporary file beside `path` and renamed over it only when complete: a failed
-/// plot leaves no file.
+/// Draws with `draw` on an SVG canvas of `size` and writes it to `path`: as SVG, or for a
+/// `.png` rasterised, anti-aliased, by resvg (one drawing for both formats). `draw` gets the
+/// plotters canvas and an [`Ink`] layer that is drawn over it. The picture is written to a
+/// temporary file beside `path` and renamed over it only when complete: a failed plot leaves
+/// no file. The same input gives the same bytes.
 pub(crate) fn render(
     path: &Path,
     size: (u32, u32),
-    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
-    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
 ) -> Result<()> {
-    register_fonts()?;
     let format = Format::of(path)?;
-    // plotters writes the file itself and picks the PNG encoder by the name's extension.
-    let ext = match format {
-        Format::Png => "png",
-        Format::Svg => "svg",
+    let svg = draw_svg(size, draw)?;
+    let bytes = match format {
+        Format::Svg => svg.into_bytes(),
+        Format::Png => rasterise(&svg, size)?,
     };
-    let pending = Pending::with_extension(path, ext)?;
-    let tmp_path = pending.path();
-    match format {
-        Format::Png => {
-            let root = BitMapBackend::new(tmp_path, size).into_drawing_area();
-            root.fill(&WHITE).drawing("the background")?;
-            draw_png(&root)?;
-            root.present()
-                .map_err(|e| anyhow!(save_failure(&e.to_string())))
-                .with_context(|| format!("writing {}", path.display()))?;
-        }
-        Format::Svg => {
-            let root = SVGBackend::new(tmp_path, size).into_drawing_area();
-            root.fill(&WHITE).drawing("the background")?;
-            draw_svg(&root)?;
-            root.present()
-                .with_context(|| format!("writing {}", path.display()))?;
-        }
-    }
-    pending.commit()
+    crate::output::write_atomic(path, |w| {
+        std::io::Write::write_all(w, &bytes).with_context(|| format!("writing {}", path.display()))
+    })
 }
 
-/// The sentence for a failed PNG save. plotters' bitmap backend reports it as the debug text of
-/// its error (`backend error: IOError(Os { code: 28, kind: StorageFull, .. })`); the operating
-/// system's error is rebuilt from the code in it, so the message reads "No space left on device
-/// (os error 28)".
-fn save_failure(text: &str) -> String {
-    // The code appears as `code: 28` (an OS error) or `(os error 27)` (one wrapped by the PNG
-    // encoder).
-    let code = ["code: ", "os error "].iter().find_map(|key| {
-        let (_, rest) = text.split_once(key)?;
-        rest.split(|c: char| !c.is_ascii_digit())
-            .next()?
-            .parse::<i32>()
-            .ok()
-    });
-    match code {
-        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
-        None => "the image could not be saved".to_string(),
+/// The SVG text of what `draw` draws on a white canvas of `size`, its [`Ink`] on top.
+pub fn draw_svg(
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+) -> Result<String> {
+    register_fonts()?;
+    let mut svg = String::new();
+    let mut ink = Ink::default();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).drawing("the background")?;
+        draw(&root, &mut ink)?;
+        root.present().drawing("the picture")?;
     }
+    let end = svg
+        .rfind("</svg>")
+        .ok_or_else(|| anyhow!("the SVG backend wrote no closing tag"))?;
+    svg.insert_str(end, &ink.svg);
+    Ok(svg)
+}
+
+/// The fonts resvg draws text with: the embedded DejaVu Sans (regular and bold) as every
+/// family, so that no system font is read.
+fn font_db() -> std::sync::Arc<resvg::usvg::fontdb::Database> {
+    static DB: OnceLock<std::sync::Arc<resvg::usvg::fontdb::Database>> = OnceLock::new();
+    DB.get_or_init(|| {
+        let mut db = resvg::usvg::fontdb::Database::new();
+        db.load_font_data(dejavu::sans::regular().to_vec());
+        db.load_font_data(dejavu::sans::bold().to_vec());
+        db.set_sans_serif_family("DejaVu Sans");
+        std::sync::Arc::new(db)
+    })
+    .clone()
+}
+
+/// The SVG `svg` (of `size` pixels) as an 8-bit sRGB PNG, anti-aliased by resvg.
+pub fn rasterise(svg: &str, size: (u32, u32)) -> Result<Vec<u8>> {
+    let options = resvg::usvg::Options {
+        font_family: "DejaVu Sans".to_string(),
+        fontdb: font_db(),
+        ..Default::default()
+    };
+    let tree = resvg::usvg::Tree::from_str(svg, &options).context("reading the drawn SVG")?;
+    let (w, h) = size;
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h)
+        .ok_or_else(|| anyhow!("cannot make a {w}x{h} image"))?;
+    pixmap.fill(resvg::tiny_skia::Color::WHITE);
+    resvg::render(
+        &tree,
+        resvg::tiny_skia::Transform::identity(),
+        &mut pixmap.as_mut(),
+    );
+    // The background is opaque white, so the premultiplied RGBA pixels are plain RGB.
+    let rgb: Vec<u8> = pixmap
+        .data()
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    let mut out = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut out, w, h);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut writer = encoder.write_header().context("encoding the PNG")?;
+        writer.write_image_data(&rgb).context("encoding the PNG")?;
+    }
+    Ok(out)
 }
 
 /// What to plot: the kind with its own options.
@@ -920,11 +1396,14 @@ mod tests {
     }
 
     #[test]
-    fn dashes_cover_about_their_share() {
-        let pieces = dash_pieces(&[(0, 0), (160, 0)], Dash::Dashed);
-        let on: i32 = pieces.iter().map(|p| p.last().unwrap().0 - p[0].0).sum();
-        // 10 on, 6 off: 10/16 of the length, give or take one dash at the end.
-        assert!((on - 100).abs() <= 10, "{on}");
+    fn every_built_in_model_has_a_style_place() {
+        for m in crate::model::Model::ALL {
+            assert!(
+                MODEL_STYLES.iter().any(|s| s.0 == m.name()),
+                "{} has no place in MODEL_STYLES",
+                m.name()
+            );
+        }
     }
 
     #[test]

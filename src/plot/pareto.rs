@@ -189,12 +189,7 @@ pub fn plot_pareto(report: &Report, size: (u32, u32), path: &Path) -> Result<Par
         ),
         panels: sections.iter().map(|&s| panel_data(report, s)).collect(),
     };
-    render(
-        path,
-        size,
-        |root| draw(root, report, &data),
-        |root| draw(root, report, &data),
-    )?;
+    render(path, size, |root, _ink| draw(root, report, &data))?;
     Ok(data)
 }
 

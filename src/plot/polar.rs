@@ -6,8 +6,9 @@
 //! the mirror direction of ωi is s = +θi. A curve is the point at radius ρ(value) along ωo.
 
 use super::{
-    bad, check_deg, dash_pieces, fmt_value, header, legend, palette, rad, render, text_style,
-    Common, Dash, Drawn, LegendEntry, Scale, Subject,
+    bad, check_deg, fmt_value, header, legend, legend_width, palette, pixel_map, rad, render,
+    subject_styles, text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, SeriesStyle,
+    Subject,
 };
 use crate::eval::Evaluator;
 use crate::model::Reference;
@@ -188,11 +189,10 @@ pub fn polar_data(
         .map(|t| format!("{}°", fmt_value(*t)))
         .collect();
     let what = if common.cos { "f·cosθi" } else { "f" };
-    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
         "{what} in the plane of incidence, θi = {}: {}",
         angles.join(", "),
-        names.join(" vs ")
+        super::series_names(subjects)
     );
     Ok(PolarData {
         title,
@@ -212,24 +212,100 @@ pub fn plot_polar(
 ) -> Result<PolarData> {
     super::Format::of(path)?;
     let data = polar_data(eval, subjects, common, opts)?;
-    render(
-        path,
-        common.size,
-        |root| draw(root, &data, subjects, common, opts),
-        |root| draw(root, &data, subjects, common, opts),
-    )?;
+    render(path, common.size, |root, ink| {
+        draw(root, ink, &data, subjects, common, opts)
+    })?;
     Ok(data)
 }
 
-/// How each curve is styled: colour by θi when one model is drawn, else colour by model and
-/// line pattern by θi.
-fn style_of(s: &PolarSeries, subjects: usize, angle_index: usize) -> (RGBColor, Dash) {
-    if subjects == 1 {
-        (palette(angle_index), Dash::Solid)
+/// How each curve is styled: colour by θi when one model is drawn, else the subject's style
+/// (colour and marker) with the line pattern by θi.
+fn style_of(
+    s: &PolarSeries,
+    styles: &[SeriesStyle],
+    angle_index: usize,
+) -> (RGBColor, Marker, Dash) {
+    if styles.len() == 1 {
+        (palette(angle_index), Marker::None, Dash::Solid)
     } else {
-        (palette(s.subject), Dash::nth(angle_index))
+        let st = styles[s.subject];
+        (st.colour, st.marker, Dash::nth(angle_index))
     }
 }
+
+/// The legend: one row per curve when there are at most [`LEGEND_ROWS`] curves, else one row
+/// per subject (solid) and one per θi drawn as the first subject's curve at that θi. Every
+/// sample is a curve of the plot.
+fn legend_entries(
+    data: &PolarData,
+    subjects: &[Subject],
+    styles: &[SeriesStyle],
+    opts: &PolarOptions,
+) -> Vec<LegendEntry> {
+    let angles = &opts.theta_i_deg;
+    let theta = |t: f64| format!("θi = {}°", fmt_value(t));
+    let mut entries = Vec::new();
+    if subjects.len() == 1 {
+        for (k, &t) in angles.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: theta(t),
+                colour: palette(k),
+                dash: Dash::Solid,
+                marker: Marker::None,
+            });
+        }
+    } else if angles.len() == 1 {
+        // One θi (it is in the title): one row per subject.
+        for (j, s) in subjects.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: s.label.clone(),
+                colour: styles[j].colour,
+                dash: Dash::Solid,
+                marker: styles[j].marker,
+            });
+        }
+    } else if subjects.len() * angles.len() <= LEGEND_ROWS {
+        for (j, s) in subjects.iter().enumerate() {
+            for (k, &t) in angles.iter().enumerate() {
+                entries.push(LegendEntry {
+                    label: format!("{}, {}", s.label, theta(t)),
+                    colour: styles[j].colour,
+                    dash: Dash::nth(k),
+                    marker: styles[j].marker,
+                });
+            }
+        }
+    } else {
+        for (j, s) in subjects.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: s.label.clone(),
+                colour: styles[j].colour,
+                dash: Dash::Solid,
+                marker: styles[j].marker,
+            });
+        }
+        for (k, &t) in angles.iter().enumerate() {
+            entries.push(LegendEntry {
+                label: format!("{} ({} here)", theta(t), subjects[0].label),
+                colour: styles[0].colour,
+                dash: Dash::nth(k),
+                marker: styles[0].marker,
+            });
+        }
+    }
+    if !data.deltas.is_empty() {
+        entries.push(LegendEntry {
+            label: "arrow: δ spike, ρ = albedo".into(),
+            colour: BLACK,
+            dash: Dash::Solid,
+            marker: Marker::None,
+        });
+    }
+    entries
+}
+
+/// The most legend rows that list every curve on its own.
+const LEGEND_ROWS: usize = 16;
 
 /// Radius in chart units (the horizon circle is radius 1) of a plotted value.
 fn radius(scale: &Scale, v: f64) -> f64 {
@@ -242,12 +318,13 @@ fn radius(scale: &Scale, v: f64) -> f64 {
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     data: &PolarData,
     subjects: &[Subject],
     common: &Common,
     opts: &PolarOptions,
 ) -> Result<()> {
-    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut lines = super::describe_subjects(subjects);
     let mut notes = vec![
         "light on the left at φi = 180°; signed θo > 0 is the mirror side (φo = 0)".to_string(),
     ];
@@ -256,15 +333,17 @@ fn draw<DB: DrawingBackend>(
     }
     lines.push(notes.join("; "));
     let body = header(root, &data.title, &lines)?;
+    let styles = subject_styles(subjects);
+    let entries = legend_entries(data, subjects, &styles, opts);
     let (w, _) = body.dim_in_pixel();
-    let legend_w = (w / 4).clamp(180, 340);
+    let legend_w = legend_width(&body, &entries).clamp(150, w / 3);
     let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
 
     // Equal scale on both axes: fit the half disc (plus room for labels) in the area.
     let (pw, ph) = plot_area.dim_in_pixel();
-    let margin = 16u32;
+    let margin = 8u32;
     let (pw, ph) = ((pw - 2 * margin) as f64, (ph - 2 * margin) as f64);
-    let (half_w, y_lo, y_hi) = (1.18, -0.16, 1.12);
+    let (half_w, y_lo, y_hi) = (1.12, -0.14, 1.09);
     let px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi - y_lo));
     let x_half = pw / px_per_unit / 2.0;
     // Spare height goes equally above and below the half disc.
@@ -275,9 +354,15 @@ fn draw<DB: DrawingBackend>(
         .build_cartesian_2d(-x_half..x_half, y_bottom..y_top)
         .drawing("the polar chart")?;
     let pa = chart.plotting_area().clone();
+    let px = pixel_map(&pa);
     let at = |rho: f64, s_deg: f64| {
         let s = rad(s_deg);
         (rho * s.sin(), rho * s.cos())
+    };
+    let arc = |rho: f64| -> Vec<(f64, f64)> {
+        (0..=360)
+            .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
+            .collect()
     };
     let grid = RGBColor(200, 200, 200);
     // Rings: the scale's ticks; spokes every 15°.
@@ -287,9 +372,7 @@ fn draw<DB: DrawingBackend>(
         if rho <= 0.0 {
             continue;
         }
-        let ring: Vec<(f64, f64)> = (0..=180).map(|k| at(rho, -90.0 + k as f64)).collect();
-        pa.draw(&PathElement::new(ring, grid.stroke_width(1)))
-            .drawing("a ring")?;
+        ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
         pa.draw(&Text::new(
             fmt_value(v),
             (rho, -0.02),
@@ -297,22 +380,30 @@ fn draw<DB: DrawingBackend>(
         ))
         .drawing("a ring label")?;
     }
-    let horizon: Vec<(f64, f64)> = (0..=180).map(|k| at(1.0, -90.0 + k as f64)).collect();
-    pa.draw(&PathElement::new(horizon, BLACK.stroke_width(1)))
-        .drawing("the horizon")?;
+    ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
     for k in -6..=6 {
         let s = 15.0 * k as f64;
-        pa.draw(&PathElement::new(vec![(0.0, 0.0), at(1.0, s)], grid))
-            .drawing("a spoke")?;
+        ink.line(
+            &[px((0.0, 0.0)), px(at(1.0, s))],
+            grid,
+            1.0,
+            Dash::Solid,
+            1.0,
+        );
         pa.draw(&Text::new(
             format!("{}°", k * 15),
-            at(1.06, s),
+            at(1.05, s),
             text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
         ))
         .drawing("a spoke label")?;
     }
-    pa.draw(&PathElement::new(vec![(-1.0, 0.0), (1.0, 0.0)], BLACK))
-        .drawing("the surface")?;
+    ink.line(
+        &[px((-1.0, 0.0)), px((1.0, 0.0))],
+        BLACK,
+        1.0,
+        Dash::Solid,
+        1.0,
+    );
     let axis_caption = format!(
         "radius: {}{}   ·   angles: signed θo in degrees",
         common.quantity(),
@@ -324,26 +415,20 @@ fn draw<DB: DrawingBackend>(
     );
     pa.draw(&Text::new(
         axis_caption,
-        (0.0, -0.09),
+        (0.0, -0.08),
         text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
     ))
     .drawing("the axis caption")?;
 
     let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
-    // Incidence directions: thin grey lines towards the light, labelled with θi.
+    // Incidence directions: thin lines towards the light, labelled with θi.
     for &t in &opts.theta_i_deg {
         let (colour, dash) = if subjects.len() == 1 {
             (palette(angle_index(t)), Dash::Solid)
         } else {
             (RGBColor(90, 90, 90), Dash::nth(angle_index(t)))
         };
-        let end = at(1.0, -t);
-        let to_px = |p: (f64, f64)| pa.map_coordinate(&p);
-        let pts = vec![to_px((0.0, 0.0)), to_px(end)];
-        for piece in dash_pieces(&pts, dash) {
-            root.draw(&PathElement::new(piece, colour.mix(0.5).stroke_width(1)))
-                .drawing("an incidence direction")?;
-        }
+        ink.line(&[px((0.0, 0.0)), px(at(1.0, -t))], colour, 1.0, dash, 0.6);
         pa.draw(&Text::new(
             format!("ωi {}°", fmt_value(t)),
             at(0.93, -t - 2.5),
@@ -351,20 +436,18 @@ fn draw<DB: DrawingBackend>(
         ))
         .drawing("an incidence label")?;
     }
-    // Curves, drawn on the root in pixels (its origin is the canvas's) so that dashes have a
-    // fixed length.
+    // Curves, in canvas pixels with sub-pixel precision.
     for s in &data.series {
-        let (colour, dash) = style_of(s, subjects.len(), angle_index(s.theta_i_deg));
-        let pts: Vec<(i32, i32)> = s
+        let (colour, marker, dash) = style_of(s, &styles, angle_index(s.theta_i_deg));
+        let pts: Vec<(f64, f64)> = s
             .theta_o_deg
             .iter()
             .zip(&s.value)
-            .map(|(&a, &v)| pa.map_coordinate(&at(radius(&data.scale, v), a)))
+            .map(|(&a, &v)| px(at(radius(&data.scale, v), a)))
             .collect();
-        for piece in dash_pieces(&pts, dash) {
-            root.draw(&PathElement::new(piece, colour.stroke_width(2)))
-                .drawing("a curve")?;
-        }
+        ink.line(&pts, colour, 2.0, dash, 1.0);
+        let phase = (s.subject % 3) as f64 / 3.0;
+        ink.markers_along(&pts, marker, colour, 90.0, phase);
     }
     // Delta lobes: an arrow to the horizon circle along the mirror direction, labelled with the
     // spike's albedo (it has no finite value to plot).
@@ -372,20 +455,18 @@ fn draw<DB: DrawingBackend>(
         let colour = if subjects.len() == 1 {
             palette(angle_index(d.theta_i_deg))
         } else {
-            palette(d.subject)
+            styles[d.subject].colour
         };
         let tip = at(1.0, d.mirror_deg);
-        let back = |da: f64, r: f64| at(r, d.mirror_deg + da);
-        pa.draw(&PathElement::new(
-            vec![(0.0, 0.0), tip],
-            colour.stroke_width(3),
-        ))
-        .drawing("a delta arrow")?;
-        pa.draw(&PathElement::new(
-            vec![back(-2.5, 0.93), tip, back(2.5, 0.93)],
-            colour.stroke_width(3),
-        ))
-        .drawing("a delta arrow head")?;
+        let back = |da: f64, r: f64| px(at(r, d.mirror_deg + da));
+        ink.line(&[px((0.0, 0.0)), px(tip)], colour, 3.0, Dash::Solid, 1.0);
+        ink.line(
+            &[back(-2.5, 0.93), px(tip), back(2.5, 0.93)],
+            colour,
+            3.0,
+            Dash::Solid,
+            1.0,
+        );
         let a = d.albedo;
         let label = format!(
             "δ ρ={} ({}, {}, {})",
@@ -401,39 +482,6 @@ fn draw<DB: DrawingBackend>(
         ))
         .drawing("a delta label")?;
     }
-
-    let mut entries = Vec::new();
-    if subjects.len() == 1 {
-        for (k, &t) in opts.theta_i_deg.iter().enumerate() {
-            entries.push(LegendEntry {
-                label: format!("θi = {}°", fmt_value(t)),
-                colour: palette(k),
-                dash: Dash::Solid,
-            });
-        }
-    } else {
-        for (j, s) in subjects.iter().enumerate() {
-            entries.push(LegendEntry {
-                label: s.label.clone(),
-                colour: palette(j),
-                dash: Dash::Solid,
-            });
-        }
-        for (k, &t) in opts.theta_i_deg.iter().enumerate() {
-            entries.push(LegendEntry {
-                label: format!("θi = {}°", fmt_value(t)),
-                colour: RGBColor(90, 90, 90),
-                dash: Dash::nth(k),
-            });
-        }
-    }
-    if !data.deltas.is_empty() {
-        entries.push(LegendEntry {
-            label: "arrow: δ spike, ρ = albedo".into(),
-            colour: BLACK,
-            dash: Dash::Solid,
-        });
-    }
-    legend(&legend_area, &entries)?;
+    legend(&legend_area, ink, &entries)?;
     Ok(())
 }

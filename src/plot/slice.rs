@@ -125,11 +125,10 @@ pub fn slice_data(
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
     let what = if common.cos { "f·cosθi" } else { "f" };
-    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
         "{what} over θh × θd (Rusinkiewicz), φd = {}°: {}",
         fmt_value(opts.phi_d_deg),
-        names.join(" vs ")
+        super::series_names(subjects)
     );
     Ok(SliceData {
         title,
@@ -152,12 +151,9 @@ pub fn plot_slice(
 ) -> Result<SliceData> {
     super::Format::of(path)?;
     let data = slice_data(eval, subjects, common, opts)?;
-    render(
-        path,
-        common.size,
-        |root| draw(root, &data, subjects, common),
-        |root| draw(root, &data, subjects, common),
-    )?;
+    render(path, common.size, |root, _ink| {
+        draw(root, &data, subjects, common)
+    })?;
     Ok(data)
 }
 
@@ -175,7 +171,7 @@ fn draw<DB: DrawingBackend>(
     subjects: &[Subject],
     common: &Common,
 ) -> Result<()> {
-    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut lines = super::describe_subjects(subjects);
     let mut note = format!(
         "φh = 0°; grey: f = 0 (a direction below the horizon); colour saturates above {} (99th \
          percentile; max {})",

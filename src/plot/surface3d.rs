@@ -5,8 +5,8 @@
 //! The chart's vertical axis is the surface normal z; its other two axes are x and y.
 
 use super::{
-    bad, check_deg, check_finite_deg, fmt_value, header, legend, palette, rad, render, text_style,
-    Common, Dash, Drawn, LegendEntry, Scale, Subject,
+    bad, check_deg, check_finite_deg, fmt_value, header, legend, rad, render, subject_styles,
+    text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -187,11 +187,10 @@ pub fn surface3d_data(
         })
         .collect();
     let what = if common.cos { "f·cosθi" } else { "f" };
-    let names: Vec<&str> = subjects.iter().map(|s| s.label.as_str()).collect();
     let title = format!(
         "The lobe r(ωo) = {what}·ωo for ωi at φi = {}°: {}",
         fmt_value(opts.phi_i_deg),
-        names.join(" vs ")
+        super::series_names(subjects)
     );
     Ok(Surface3dData {
         title,
@@ -214,22 +213,20 @@ pub fn plot_surface3d(
 ) -> Result<Surface3dData> {
     super::Format::of(path)?;
     let data = surface3d_data(eval, subjects, common, opts)?;
-    render(
-        path,
-        common.size,
-        |root| draw(root, &data, subjects, common),
-        |root| draw(root, &data, subjects, common),
-    )?;
+    render(path, common.size, |root, ink| {
+        draw(root, ink, &data, subjects, common)
+    })?;
     Ok(data)
 }
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     data: &Surface3dData,
     subjects: &[Subject],
     common: &Common,
 ) -> Result<()> {
-    let mut lines: Vec<String> = subjects.iter().map(Subject::describe).collect();
+    let mut lines = super::describe_subjects(subjects);
     let unit = if data.scale.log {
         format!(
             "radius: position on a log scale of {} over {} decades below its maximum {}",
@@ -254,6 +251,7 @@ fn draw<DB: DrawingBackend>(
     } else {
         (body, None)
     };
+    let styles = subject_styles(subjects);
     let n_angles = data.panels.len() / subjects.len();
     let areas = charts.split_evenly((1, n_angles));
     let e = data.extent;
@@ -297,11 +295,7 @@ fn draw<DB: DrawingBackend>(
             .filter(|(k, _)| k % n_angles == a)
         {
             let _ = j;
-            let colour = if subjects.len() > 1 {
-                palette(panel.subject)
-            } else {
-                palette(0)
-            };
+            let colour = styles[panel.subject].colour;
             let (nt, np) = (data.n_theta, data.n_phi);
             let p = |k: usize, l: usize| {
                 let q = panel.points[k * np + l % np];
@@ -339,14 +333,15 @@ fn draw<DB: DrawingBackend>(
     if let Some(area) = legend_area {
         let entries: Vec<LegendEntry> = subjects
             .iter()
-            .enumerate()
-            .map(|(j, s)| LegendEntry {
+            .zip(&styles)
+            .map(|(s, st)| LegendEntry {
                 label: s.label.clone(),
-                colour: palette(j),
+                colour: st.colour,
                 dash: Dash::Solid,
+                marker: Marker::None,
             })
             .collect();
-        legend(&area, &entries)?;
+        legend(&area, ink, &entries)?;
     }
     Ok(())
 }
