@@ -121,6 +121,33 @@ fn mu_breaks() -> Vec<f64> {
 /// other one).
 const PHI_O_NODES: usize = 16;
 
+/// The μ nodes of the fixed outer rule, in the order gk15 visits them.
+fn outer_mus(breaks: &[f64]) -> Vec<f64> {
+    breaks
+        .windows(2)
+        .flat_map(|w| gk15_nodes(w[0], w[1]))
+        .collect()
+}
+
+/// The view azimuths of the outer rule: `phi` alone for an isotropic model.
+fn outer_phis(params: &ParamSet, phi: f64) -> Vec<f64> {
+    let mut v = vec![phi];
+    if !params.is_isotropic() {
+        v.extend((1..PHI_O_NODES).map(|l| phi + TAU * l as f64 / PHI_O_NODES as f64));
+    }
+    v
+}
+
+/// The view directions at which [`hemispherical`] evaluates E with a fixed rule, azimuth by
+/// azimuth, μ by μ.
+pub fn hemispherical_directions(params: &ParamSet, phi: f64) -> Vec<DVec3> {
+    let mus = outer_mus(&mu_breaks());
+    outer_phis(params, phi)
+        .iter()
+        .flat_map(|&p| mus.iter().map(move |&mu| view_direction(mu, p)))
+        .collect()
+}
+
 /// Ē and E_avg by Gauss–Kronrod 7/15 on the μ panels of `mu_breaks` (for `reference`: adaptive
 /// from those panels), the integrand 2μE(μ); anisotropic models add a trapezoid over φo
 /// (spectral for the smooth periodic E(μ, ·)), checked against its every-other-node half.
@@ -134,24 +161,11 @@ pub fn hemispherical(
 ) -> Result<HemiAlbedo> {
     let r = Reference::new(params, s.white_furnace);
     let breaks = mu_breaks();
-    // The μ nodes of the fixed outer rule, in the order gk15 visits them.
-    let mus: Vec<f64> = breaks
-        .windows(2)
-        .flat_map(|w| gk15_nodes(w[0], w[1]))
-        .collect();
-    let phis: Vec<f64> = if params.is_isotropic() {
-        vec![phi]
-    } else {
-        let mut v = vec![phi];
-        v.extend((1..PHI_O_NODES).map(|l| phi + TAU * l as f64 / PHI_O_NODES as f64));
-        v
-    };
+    let mus = outer_mus(&breaks);
+    let phis = outer_phis(params, phi);
     let table: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => {
-            let wo: Vec<DVec3> = phis
-                .iter()
-                .flat_map(|&p| mus.iter().map(move |&mu| view_direction(mu, p)))
-                .collect();
+            let wo = hemispherical_directions(params, phi);
             rule_albedo(backend, params, s.white_furnace, rule, &wo)?
         }
         None => {

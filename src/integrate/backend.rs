@@ -65,6 +65,24 @@ pub fn rule_albedo(
         .collect())
 }
 
+/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the fine
+/// and the coarse rule's nodes (for the replicated importance rule, its replicates' nodes).
+pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
+    let count = |r: Rule| -> u64 {
+        if r.depends_on_wo() {
+            wo.par_iter().map(|&o| r.nodes(o).len() as u64).sum()
+        } else {
+            r.nodes(DVec3::Z).len() as u64 * wo.len() as u64
+        }
+    };
+    match rule {
+        Rule::Importance {
+            replicate: None, ..
+        } => count(rule),
+        _ => count(rule) + count(rule.coarse().0),
+    }
+}
+
 /// Nodes of ωo-dependent rules gathered for one GPU call: 4M nodes, 64 MiB as f32x4 (and 128 MiB
 /// as f64 while they are made).
 const GPU_NODE_BATCH: usize = 1 << 22;

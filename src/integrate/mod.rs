@@ -37,8 +37,8 @@ mod report;
 mod rules;
 mod vcavity;
 
-pub use albedo::{directional, hemispherical, HemiAlbedo, PointAlbedo};
-pub use backend::{rule_albedo, sum_rule};
+pub use albedo::{directional, hemispherical, hemispherical_directions, HemiAlbedo, PointAlbedo};
+pub use backend::{rule_albedo, rule_evaluations, sum_rule};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};
