@@ -24,7 +24,10 @@ impl<'d> Buffer<'d> {
         let d = &dev.device;
         let info = vk::BufferCreateInfo::default()
             .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+            // Any buffer may be read as a texel buffer too (the table kernel's direction lists).
+            .usage(
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            )
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid create info on a live device; every object is released on the error paths.
         unsafe {
@@ -102,6 +105,10 @@ impl<'d> Buffer<'d> {
 
 impl Drop for Buffer<'_> {
     fn drop(&mut self) {
+        if self.dev.is_hung() {
+            // A timed-out submission may still read or write this memory: leak it.
+            return;
+        }
         // SAFETY: the GPU is idle after every dispatch; unmap, then release in reverse order.
         unsafe {
             self.dev.device.unmap_memory(self.memory);

@@ -105,7 +105,7 @@ impl Gpu {
                 first: first as u32,
                 count: count as u32,
                 n_wo: 0,
-                pad: 0,
+                n_wi: 0,
             })?;
             out.extend(
                 out_buf
