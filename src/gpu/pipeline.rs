@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 /// Which kernel of `glsl/kernels/`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
-    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out).
+    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out, 4 and 5
+    /// wi and wo as texel buffers).
     Table,
     /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
     Pairs,
@@ -22,7 +23,8 @@ pub enum Kernel {
     /// 3 out); see glsl/kernels/preview.comp.
     Preview,
     /// Directional albedo as a workgroup reduction over quadrature nodes (bindings 0 params,
-    /// 1 nodes, 2 wo, 3 partial sums); see glsl/kernels/albedo.comp and src/gpu/albedo.rs.
+    /// 1 nodes, 2 entries, 3 partial sums, 4 the nodes as a texel buffer); see
+    /// glsl/kernels/albedo.comp and src/gpu/albedo.rs.
     Albedo,
 }
 
@@ -46,7 +48,8 @@ impl Kernel {
             Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T)],
             Kernel::Pairs => &[(0, S), (1, S), (3, S)],
             Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
-            Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S)],
+            // 4: the nodes again, as a texel buffer (TEXEL_NODES).
+            Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
         }
     }
 }
@@ -54,7 +57,8 @@ impl Kernel {
 /// Specialization constant id of FAST_POW (glsl/common.glsl).
 pub const FAST_POW_ID: u32 = 10;
 
-/// Specialization constant id of TEXEL_DIRECTIONS (glsl/kernels/table.comp).
+/// Specialization constant id of TEXEL_DIRECTIONS (glsl/kernels/table.comp) and TEXEL_NODES
+/// (glsl/kernels/albedo.comp): read a list through a texel buffer.
 pub const TEXEL_DIRECTIONS_ID: u32 = 20;
 
 /// The format of a direction list read as a texel buffer: one vec4 per direction.
@@ -205,7 +209,7 @@ impl Pipeline {
                 evals_per_invocation,
                 fast_pow as u32,
             ];
-            if kernel == Kernel::Table {
+            if matches!(kernel, Kernel::Table | Kernel::Albedo) {
                 ids.push(TEXEL_DIRECTIONS_ID);
                 spec_data.push(texel_directions as u32);
             }
