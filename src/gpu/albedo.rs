@@ -133,7 +133,7 @@ impl Gpu {
         let entry_bytes = std::mem::size_of::<AlbedoEntry>() as u64;
         let mut entry_buf = Buffer::new(&self.dev, entry_bytes * per_chunk as u64, "albedo entry")?;
         let groups_max = groups_per_wo * per_chunk as u64;
-        let out_buf = Buffer::new(&self.dev, 12 * groups_max, "albedo partial sum")?;
+        let out_buf = Buffer::output(&self.dev, 12 * groups_max, "albedo partial sum")?;
         let dispatcher = Dispatcher::new(
             &pipe,
             &[&param_buf, &node_buf, &entry_buf, &out_buf, &node_buf],

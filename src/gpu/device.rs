@@ -298,20 +298,6 @@ impl Device {
     pub(crate) fn refuse_if_hung(&self) -> Option<GpuError> {
         self.is_hung().then_some(GpuError::Hung)
     }
-
-    /// Index of a memory type with all of `flags` among `type_bits`.
-    pub(crate) fn memory_type(
-        &self,
-        type_bits: u32,
-        flags: vk::MemoryPropertyFlags,
-    ) -> Option<u32> {
-        (0..self.memory.memory_type_count).find(|&i| {
-            type_bits & (1 << i) != 0
-                && self.memory.memory_types[i as usize]
-                    .property_flags
-                    .contains(flags)
-        })
-    }
 }
 
 impl Drop for Device {

@@ -187,7 +187,7 @@ impl Gpu {
             (chunk * std::mem::size_of::<GpuPair>()) as u64,
             "direction pair",
         )?;
-        let out_buf = Buffer::new(&self.dev, (chunk * 12) as u64, "output")?;
+        let out_buf = Buffer::output(&self.dev, (chunk * 12) as u64, "output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pair_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pairs.len());
         for (k, part) in pairs.chunks(chunk).enumerate() {
@@ -272,8 +272,8 @@ impl Gpu {
         // next one runs into the other buffer. Sized for whole invocations (the kernel writes the
         // last invocation's cells past the chunk's end into the padding).
         let outs = [
-            Buffer::new(&self.dev, chunk * 12, "output")?,
-            Buffer::new(&self.dev, chunk * 12, "output")?,
+            Buffer::output(&self.dev, chunk * 12, "output")?,
+            Buffer::output(&self.dev, chunk * 12, "output")?,
         ];
         let dispatchers = [
             Dispatcher::new(
