@@ -5,6 +5,8 @@
 
 use crate::eval::Evaluator;
 use crate::grid::Grid;
+use crate::integrate::Method;
+use crate::lut::LutSpec;
 use crate::model::ParamSet;
 use anyhow::Result;
 use std::time::Instant;
@@ -14,8 +16,9 @@ use std::time::Instant;
 pub struct Throughput {
     /// The model's name.
     pub model: String,
-    /// What was timed: "table" (a lobe table, output discarded) or "albedo" (directional albedo
-    /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU).
+    /// What was timed: "table" (a lobe table, output discarded), "albedo" (directional albedo
+    /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU) or "lut" (an
+    /// albedo look-up table E(μ, p) and E_avg(p), [`measure_lut`]).
     pub task: &'static str,
     /// The backend timed, as [`Evaluator::name`] says.
     pub backend: String,
@@ -85,9 +88,20 @@ pub fn measure(
     grid: &Grid,
     repeats: usize,
 ) -> Result<Throughput> {
+    measure_table(eval, params, false, grid, repeats)
+}
+
+/// [`measure`], optionally under the white furnace (docs/design.md §3).
+pub fn measure_table(
+    eval: &Evaluator,
+    params: &ParamSet,
+    white_furnace: bool,
+    grid: &Grid,
+    repeats: usize,
+) -> Result<Throughput> {
     let cells = grid.cells().unwrap_or(0);
     time_task(eval, params, "table", cells, repeats, || {
-        eval.eval_table(params, false, grid, &mut |_, v| {
+        eval.eval_table(params, white_furnace, grid, &mut |_, v| {
             std::hint::black_box(v);
             Ok(())
         })
@@ -103,7 +117,12 @@ pub const ALBEDO_RULE: crate::integrate::Rule = crate::integrate::Rule::Gauss { 
 
 /// Throughput of directional-albedo integration at [`ALBEDO_DIRECTIONS`] view directions with
 /// [`ALBEDO_RULE`], the median of `repeats` runs; evaluations = integrand evaluations.
-pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Result<Throughput> {
+pub fn measure_albedo(
+    eval: &Evaluator,
+    params: &ParamSet,
+    white_furnace: bool,
+    repeats: usize,
+) -> Result<Throughput> {
     use crate::integrate::{rule_albedo, view_direction};
     let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
@@ -112,7 +131,63 @@ pub fn measure_albedo(eval: &Evaluator, params: &ParamSet, repeats: usize) -> Re
         + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
     let evaluations = (per_direction * wo.len()) as u64;
     time_task(eval, params, "albedo", evaluations, repeats, || {
-        std::hint::black_box(rule_albedo(eval, params, false, ALBEDO_RULE, &wo)?);
+        std::hint::black_box(rule_albedo(eval, params, white_furnace, ALBEDO_RULE, &wo)?);
         Ok(())
     })
+}
+
+/// Nodes per view direction of the timed LUT: the peak rule at 32768 nodes.
+pub const LUT_SAMPLES: usize = 1 << 15;
+
+/// Cells of the timed LUT along μ and along the parameter axis: Kulla–Conty's 32 × 32.
+pub const LUT_RES: usize = 32;
+
+/// The LUT [`measure_lut`] times for `params`: the model's default axis at [`LUT_RES`] ×
+/// [`LUT_RES`] cells, the peak rule at [`LUT_SAMPLES`] nodes per direction.
+pub fn lut_spec(params: &ParamSet, white_furnace: bool) -> LutSpec {
+    let mut spec = LutSpec::new(params.clone(), white_furnace);
+    spec.n_mu = LUT_RES;
+    spec.n_p = LUT_RES;
+    spec.method = Method::Peak;
+    spec.samples = LUT_SAMPLES;
+    spec
+}
+
+/// Throughput of an albedo look-up table ([`lut_spec`], computed as `lobe albedo --lut` does,
+/// no file written), the median of `repeats` runs; evaluations = integrand evaluations of every
+/// entry, the coarse checks included.
+pub fn measure_lut(
+    eval: &Evaluator,
+    params: &ParamSet,
+    white_furnace: bool,
+    repeats: usize,
+) -> Result<Throughput> {
+    let spec = lut_spec(params, white_furnace);
+    let evaluations = lut_evaluations(&spec)?;
+    time_task(eval, params, "lut", evaluations, repeats, || {
+        std::hint::black_box(crate::lut::compute(eval, &spec, &mut |_, _| {})?);
+        Ok(())
+    })
+}
+
+/// Integrand evaluations of `spec`'s LUT: every row's directional view directions and its
+/// hemispherical ones, each with its fine and coarse rule.
+fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
+    use crate::integrate::{hemispherical_directions, rule_evaluations, view_direction};
+    spec.validate()?;
+    let mut total = 0;
+    for p in spec.ps() {
+        let params = spec.params_at(p)?;
+        let Some(rule) = spec.method.rule(spec.samples, &params) else {
+            continue;
+        };
+        let mut wo: Vec<glam::DVec3> = spec
+            .mus()
+            .into_iter()
+            .map(|mu| view_direction(mu, spec.phi))
+            .collect();
+        wo.extend(hemispherical_directions(&params, spec.phi));
+        total += rule_evaluations(rule, &wo);
+    }
+    Ok(total)
 }

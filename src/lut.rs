@@ -24,7 +24,7 @@
 
 use crate::eval::Evaluator;
 use crate::input::BadInput;
-use crate::integrate::{directional, hemispherical, Method, Settings};
+use crate::integrate::{albedo_rows, Method, Settings};
 use crate::model::{Model, ParamKind, ParamSet, Value};
 use crate::output::{FileSet, Pending};
 use crate::table::{exr_rgb, exr_text, npy};
@@ -350,6 +350,10 @@ fn channel_range(v: &[DVec3]) -> (f64, f64) {
         })
 }
 
+/// Rows of a LUT computed together: enough to share each direction's nodes across many rows and
+/// fill a dispatch, few enough for progress to move on a large table.
+const LUT_ROW_BATCH: usize = 32;
+
 /// E(μ, p) and E_avg(p) on `eval`; `progress` receives (rows done, rows).
 pub fn compute(
     eval: &Evaluator,
@@ -368,17 +372,25 @@ pub fn compute(
     let mut e = Vec::with_capacity(mus.len() * ps.len());
     let mut e_avg = Vec::with_capacity(ps.len());
     let mut max_error: f64 = 0.0;
-    for (k, &p) in ps.iter().enumerate() {
+    // Rows in batches: each batch shares its directions' nodes and its dispatches
+    // (integrate::albedo_rows); progress and Ctrl-C act between batches.
+    let mut done = 0;
+    for batch in ps.chunks(LUT_ROW_BATCH) {
         eval.check_cancelled()?;
-        let params = spec.params_at(p)?;
-        for pt in directional(eval, &params, &settings, &points)? {
-            max_error = max_error.max(pt.error.max_element());
-            e.push(pt.albedo);
+        let rows: Vec<ParamSet> = batch
+            .iter()
+            .map(|&p| spec.params_at(p))
+            .collect::<Result<_>>()?;
+        for (dir, h) in albedo_rows(eval, &rows, &settings, &points, spec.phi)? {
+            for pt in dir {
+                max_error = max_error.max(pt.error.max_element());
+                e.push(pt.albedo);
+            }
+            max_error = max_error.max(h.e_avg_error.max_element());
+            e_avg.push(h.e_avg);
         }
-        let h = hemispherical(eval, &params, &settings, spec.phi)?;
-        max_error = max_error.max(h.e_avg_error.max_element());
-        e_avg.push(h.e_avg);
-        progress(k as u64 + 1, ps.len() as u64);
+        done += batch.len();
+        progress(done as u64, ps.len() as u64);
     }
     Ok(LutSummary {
         mus,

@@ -290,13 +290,36 @@ impl Session {
         crate::bench::measure(&self.evaluator(), params, grid, repeats).lobe()
     }
 
+    /// [`Session::bench_table`], optionally under the white furnace.
+    pub fn bench_table_with(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        repeats: usize,
+    ) -> Result<crate::bench::Throughput> {
+        crate::bench::measure_table(&self.evaluator(), params, white_furnace, grid, repeats).lobe()
+    }
+
     /// Throughput of directional-albedo integration on this session's backend.
     pub fn bench_albedo(
         &self,
         params: &ParamSet,
+        white_furnace: bool,
         repeats: usize,
     ) -> Result<crate::bench::Throughput> {
-        crate::bench::measure_albedo(&self.evaluator(), params, repeats).lobe()
+        crate::bench::measure_albedo(&self.evaluator(), params, white_furnace, repeats).lobe()
+    }
+
+    /// Throughput of an albedo look-up table ([`crate::bench::lut_spec`]) on this session's
+    /// backend.
+    pub fn bench_lut(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        repeats: usize,
+    ) -> Result<crate::bench::Throughput> {
+        crate::bench::measure_lut(&self.evaluator(), params, white_furnace, repeats).lobe()
     }
 }
 

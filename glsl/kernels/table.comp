@@ -3,19 +3,78 @@
 // A lobe table as the outer product of a list of light directions and a list of view
 // directions: cell = i * n_wo + o. The host lays the grid's angles out into the two lists, so the
 // same kernel serves the full and the isotropic grid.
-#include "kernels/eval.glsl"
+//
+// Shaped for CPU drivers (lavapipe) without costing a GPU anything: a load or store whose index
+// varies across invocations becomes a loop over the SIMD lanes there, so
+// - the parameter block is read once per invocation, before the loop;
+// - one invocation makes EVALS_PER_INVOCATION consecutive cells (a multiple of 4) with one
+//   division, stepping o and wrapping to the next i, and fetches wi only when i changes;
+// - with TEXEL_DIRECTIONS the direction lists are read through uniform texel buffers
+//   (bindings 4 and 5, the same lists), which such a driver gathers cheaply;
+// - four cells go out as three vec4 stores.
+// Cells past the chunk's end (in the last invocations) are evaluated with i clamped to the last
+// row and written to the output buffer's padding, which the host sizes for whole invocations;
+// so the kernel has no bounds branch.
+#include "common.glsl"
+#include "model.glsl"
 
+layout(local_size_x_id = 1) in;
+// Evaluations per invocation: a multiple of 4 (the host picks 8 on a CPU driver, 4 on a GPU).
+layout(constant_id = 2) const uint EVALS_PER_INVOCATION = 8u;
+// Read the direction lists through the texel buffers of bindings 4 and 5 instead of the storage
+// buffers of bindings 1 and 2 (the host turns it on where the lists fit maxTexelBufferElements).
+layout(constant_id = 20) const bool TEXEL_DIRECTIONS = false;
+
+layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
 layout(std430, set = 0, binding = 1) readonly buffer LightDirs { vec4 wi_list[]; };
 layout(std430, set = 0, binding = 2) readonly buffer ViewDirs { vec4 wo_list[]; };
+// RGB triples, cell after cell from the chunk's first cell, as vec4s (4 cells = 3 vec4s).
+layout(std430, set = 0, binding = 3) writeonly buffer Output { vec4 f_out[]; };
+layout(set = 0, binding = 4) uniform samplerBuffer wi_texels;
+layout(set = 0, binding = 5) uniform samplerBuffer wo_texels;
+
+// first: the chunk's first cell (a multiple of EVALS_PER_INVOCATION); count: cells in the
+// chunk; n_wo, n_wi: the lists' lengths. Twin of TablePush (src/gpu/pipeline.rs).
+layout(push_constant) uniform Chunk { uint first; uint count; uint n_wo; uint n_wi; } chunk;
+
+// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
+vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
+    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
+    return MODEL_EVAL(p, wi, wo);
+}
+
+vec3 light_dir(uint i) {
+    if (TEXEL_DIRECTIONS) return texelFetch(wi_texels, int(i)).xyz;
+    return wi_list[i].xyz;
+}
+
+vec3 view_dir(uint o) {
+    if (TEXEL_DIRECTIONS) return texelFetch(wo_texels, int(o)).xyz;
+    return wo_list[o].xyz;
+}
 
 void main() {
-    uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
-    for (uint k = 0u; k < EVALS_PER_INVOCATION; ++k) {
-        uint local_index = base + k;
-        if (local_index >= chunk.count) return;
-        uint cell = chunk.first + local_index;
-        uint i = cell / chunk.n_wo;
-        uint o = cell - i * chunk.n_wo;
-        store(local_index, brdf(params[0], wi_list[i].xyz, wo_list[o].xyz));
+    MODEL_PARAMS p = params[0];
+    uint local0 = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
+    uint cell = chunk.first + local0;
+    uint i = cell / chunk.n_wo;
+    uint o = cell - i * chunk.n_wo;
+    uint last_i = chunk.n_wi - 1u;
+    vec3 wi = light_dir(min(i, last_i));
+    uint out_index = 3u * (local0 / 4u);
+    for (uint q = 0u; q < EVALS_PER_INVOCATION / 4u; ++q) {
+        vec3 f[4];
+        for (uint r = 0u; r < 4u; ++r) {
+            f[r] = brdf(p, wi, view_dir(o));
+            if (++o == chunk.n_wo) {
+                o = 0u;
+                ++i;
+                wi = light_dir(min(i, last_i));
+            }
+        }
+        f_out[out_index + 0u] = vec4(f[0], f[1].r);
+        f_out[out_index + 1u] = vec4(f[1].gb, f[2].rg);
+        f_out[out_index + 2u] = vec4(f[2].b, f[3]);
+        out_index += 3u;
     }
 }

@@ -2,23 +2,57 @@
 
 use super::{bar, open_session, BackendArg, BackendArgs, TableFormat};
 use anyhow::{anyhow, Result};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use lobe::grid::Grid;
 use lobe::ParamSet;
 use std::io::Write;
 
+/// What `lobe bench` times.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchTask {
+    /// A lobe table on the --res grid, output discarded.
+    Table,
+    /// Directional albedo at 32 view directions by Gauss-Legendre nodes.
+    Albedo,
+    /// An albedo look-up table: the model's default axis, 32 x 32 cells, the peak rule at 32768
+    /// nodes per direction (as `lobe albedo --lut --samples 32768`, no file written).
+    Lut,
+}
+
 #[derive(Args)]
 pub struct BenchArgs {
-    /// Models to measure (default: all), comma-separated.
-    #[arg(long, value_delimiter = ',')]
+    /// Models to measure (default: all), comma-separated; each at its defaults, then --material
+    /// and --set.
+    #[arg(long, value_delimiter = ',', conflicts_with = "model")]
     models: Vec<String>,
+    /// One model to measure (the same as --models MODEL).
+    #[arg(long)]
+    model: Option<String>,
+    /// Set a parameter, KEY=VALUE; rgb values as r,g,b or one number. Repeatable; applied after
+    /// --material, to every model measured.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Start every model measured from a material preset: tin, gold, glazed_ceramic, granite.
+    #[arg(long)]
+    material: Option<String>,
+    /// Replace every Fresnel factor of a specular lobe by 1 in every task.
+    #[arg(long)]
+    white_furnace: bool,
     /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI of each timed table.
     #[arg(long, default_value = "128,128,256")]
     res: String,
     /// Timed runs per measurement (the median is reported), after one warm-up run.
     #[arg(long, default_value_t = 5)]
     repeats: usize,
-    /// Time lobe tables only, not albedo integration.
+    /// What to time, comma-separated.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "table,albedo"
+    )]
+    tasks: Vec<BenchTask>,
+    /// Time lobe tables only, not albedo integration (drops `albedo` from --tasks).
     #[arg(long)]
     no_albedo: bool,
     /// Backends to measure, comma-separated.
@@ -33,10 +67,22 @@ pub struct BenchArgs {
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
-    let models = super::models_or_all(&a.models)?;
+    let names: Vec<String> = a.model.iter().cloned().chain(a.models.clone()).collect();
+    let models = super::models_or_all(&names)?;
+    // Every parameter set is resolved before anything is timed, so a bad --set fails at once.
+    let sets: Vec<ParamSet> = models
+        .iter()
+        .map(|m| super::resolve(m.name(), a.material.as_deref(), &a.sets))
+        .collect::<Result<_>>()?;
     let grid = Grid::parse("isotropic", &a.res).map_err(|e| anyhow!("--res: {e}"))?;
     super::check_held_cells("--res", &grid)?;
     super::check_repeats("--repeats", a.repeats)?;
+    let tasks: Vec<BenchTask> = a
+        .tasks
+        .iter()
+        .copied()
+        .filter(|t| !(a.no_albedo && *t == BenchTask::Albedo))
+        .collect();
     let mut rows = Vec::new();
     for backend in &a.backend {
         // One session per backend measured, each opened as the backend flags of any command.
@@ -45,15 +91,24 @@ pub fn run(a: BenchArgs) -> Result<()> {
             device: a.device.clone(),
         })?;
         let name = session.backend_name();
-        let progress = bar(models.len() as u64, "{msg} [{bar:30}] {pos}/{len}");
-        for m in &models {
-            progress.set_message(format!("bench {} on {name}", m.name()));
-            let params = ParamSet::defaults(*m);
-            rows.push(session.bench_table(&params, &grid, a.repeats)?);
-            if !a.no_albedo {
-                rows.push(session.bench_albedo(&params, a.repeats)?);
+        let progress = bar(
+            (sets.len() * tasks.len()) as u64,
+            "{msg} [{bar:30}] {pos}/{len}",
+        );
+        for params in &sets {
+            for task in &tasks {
+                progress.set_message(format!(
+                    "bench {} {task:?} on {name}",
+                    params.model().name()
+                ));
+                let wf = a.white_furnace;
+                rows.push(match task {
+                    BenchTask::Table => session.bench_table_with(params, wf, &grid, a.repeats)?,
+                    BenchTask::Albedo => session.bench_albedo(params, wf, a.repeats)?,
+                    BenchTask::Lut => session.bench_lut(params, wf, a.repeats)?,
+                });
+                progress.inc(1);
             }
-            progress.inc(1);
         }
         progress.finish_and_clear();
     }
@@ -78,12 +133,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
             writeln!(
                 out,
                 "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
-                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its coarse check)",
+                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its coarse check); \
+                 lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
                 a.repeats,
                 grid.cells().unwrap_or(0),
                 lobe::bench::ALBEDO_DIRECTIONS,
                 lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-                    + lobe::bench::ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len()
+                    + lobe::bench::ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len(),
+                lobe::bench::LUT_RES,
+                lobe::bench::LUT_RES,
+                lobe::bench::LUT_SAMPLES
             )?;
             writeln!(
                 out,

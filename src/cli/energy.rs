@@ -5,7 +5,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use lobe::energy;
 use lobe::integrate::Method;
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 
 /// The most sweep values: each is a full albedo job for every model, and 1024 points resolve the
 /// parameter axis far finer than any LUT the project ships.
@@ -23,7 +23,7 @@ pub struct EnergyArgs {
     /// Integrator (see `lobe albedo --help`).
     #[arg(long, value_enum, default_value_t = MethodArg::Peak)]
     method: MethodArg,
-    /// Quadrature nodes per view direction (default: the method's).
+    /// Quadrature nodes per view direction (default: 32768 for peak, else the method's).
     #[arg(long)]
     samples: Option<usize>,
     #[command(flatten)]
@@ -44,26 +44,54 @@ pub fn run(a: EnergyArgs) -> Result<()> {
             a.sweep
         );
     }
-    let samples = a.samples.unwrap_or(method.default_samples());
+    let samples = a.samples.unwrap_or(match method {
+        Method::Peak => energy::DEFAULT_PEAK_SAMPLES,
+        m => m.default_samples(),
+    });
     let models = super::models_or_all(&a.models)?;
     let bar = indicatif::ProgressBar::new(0);
+    // Without a terminal the bar is hidden: say how far it got on stderr, one line per model.
+    let plain = !std::io::stderr().is_terminal();
     let session = open_albedo_session(&a.backend, method)?;
-    let rows = energy::report(
+    let start = std::time::Instant::now();
+    let mut out = super::stdout();
+    // Table and CSV lines go out as they are known; JSON is one document, written at the end.
+    match a.format {
+        TableFormat::Table => write!(out, "{}", energy::table_header())?,
+        TableFormat::Csv => write!(out, "{}", energy::CSV_HEADER)?,
+        TableFormat::Json => {}
+    }
+    out.flush()?;
+    let mut last_model = String::new();
+    let rows = energy::report_each(
         &session.evaluator(),
         &models,
         a.sweep,
         method,
         samples,
-        &mut |done, total| {
+        &mut |row, done, total| {
             bar.set_length(total);
             bar.set_position(done);
+            match a.format {
+                TableFormat::Table => bar.suspend(|| write!(out, "{}", energy::table_line(row)))?,
+                TableFormat::Csv => bar.suspend(|| write!(out, "{}", energy::csv_line(row)))?,
+                TableFormat::Json => {}
+            }
+            out.flush()?;
+            if plain && (row.model != last_model || done == total) {
+                eprintln!(
+                    "lobe energy: {done}/{total} cases ({}), {:.1} s",
+                    row.model,
+                    start.elapsed().as_secs_f64()
+                );
+                last_model = row.model.clone();
+            }
+            Ok(())
         },
     )?;
     bar.finish_and_clear();
-    let mut out = super::stdout();
     match a.format {
         TableFormat::Table => {
-            write!(out, "{}", energy::format_table(&rows))?;
             writeln!(
                 out,
                 "white configuration: colours at 1, specular lobes alone under the white furnace, smooth_layered diffuse = 1 - R0; gain: E > 1 + {} beyond its error estimate; loss = 1 - E_avg; method {} ({} nodes per direction)",
@@ -72,7 +100,7 @@ pub fn run(a: EnergyArgs) -> Result<()> {
                 samples
             )?;
         }
-        TableFormat::Csv => write!(out, "{}", energy::format_csv(&rows))?,
+        TableFormat::Csv => {}
         TableFormat::Json => writeln!(
             out,
             "{}",

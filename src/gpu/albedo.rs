@@ -27,6 +27,21 @@ pub struct AlbedoPush {
     pub node_stride: u32,
 }
 
+/// One (parameter set, view direction) of an albedo dispatch; the std430 twin of `Entry` in
+/// `glsl/kernels/albedo.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct AlbedoEntry {
+    /// ωo, the unit direction to the viewer.
+    pub wo: [f32; 3],
+    /// Which parameter block evaluates it.
+    pub param_index: u32,
+    /// Which node list it sums (0 when every entry shares one).
+    pub node_list: u32,
+    /// Padding to the std430 size of 32 bytes; always 0.
+    pub pad: [u32; 3],
+}
+
 impl Gpu {
     /// E(ωo) = Σ_k w_k f(ωi_k, ωo) for each `wo[o]` (xyz; w unused), the nodes given as
     /// (ωi.xyz, w): one list of `n_nodes` shared by every ωo, or with `per_wo` one list of
@@ -43,6 +58,27 @@ impl Gpu {
         n_nodes: usize,
         per_wo: bool,
     ) -> Result<Vec<[f64; 3]>> {
+        let blocks = [block.to_vec()];
+        let mut rows =
+            self.albedo_rows(model, &blocks, white_furnace, wo, nodes, n_nodes, per_wo)?;
+        Ok(rows.pop().unwrap_or_default())
+    }
+
+    /// [`Gpu::albedo`] for several parameter sets of one model at once (`blocks`, std430
+    /// parameter blocks): row r of the result holds E of `blocks[r]` at every ωo. The nodes are
+    /// uploaded once and serve every row; the (row, ωo) entries go out in as few dispatches as
+    /// the device's workgroup count allows.
+    #[allow(clippy::too_many_arguments)]
+    pub fn albedo_rows(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        white_furnace: bool,
+        wo: &[[f32; 4]],
+        nodes: &[[f32; 4]],
+        n_nodes: usize,
+        per_wo: bool,
+    ) -> Result<Vec<Vec<[f64; 3]>>> {
         let expected = if per_wo { n_nodes * wo.len() } else { n_nodes };
         if nodes.len() != expected {
             return Err(GpuError::Limit(format!(
@@ -51,13 +87,22 @@ impl Gpu {
                 wo.len()
             )));
         }
-        if wo.is_empty() || n_nodes == 0 {
-            return Ok(vec![[0.0; 3]; wo.len()]);
+        if wo.is_empty() || n_nodes == 0 || blocks.is_empty() {
+            return Ok(vec![vec![[0.0; 3]; wo.len()]; blocks.len()]);
         }
-        let pipe = self.pipeline(Kernel::Albedo, model, white_furnace, false)?;
         let limits = &self.dev.limits;
         let max_groups = limits.max_compute_work_group_count[0] as u64;
         let range = limits.max_storage_buffer_range as u64;
+        let node_bytes = 16 * nodes.len() as u64;
+        if node_bytes > range {
+            return Err(GpuError::Limit(format!(
+                "albedo: {} nodes need {node_bytes} bytes, over this device's storage buffer range of {range}; use fewer nodes per direction",
+                nodes.len()
+            )));
+        }
+        let texel_nodes =
+            self.dev.is_cpu() && nodes.len() as u64 <= limits.max_texel_buffer_elements as u64;
+        let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
         // The span per workgroup: NODES_PER_INVOCATION per invocation, more if one direction
         // would otherwise need more workgroups than one dispatch may have.
         let mut span = (LOCAL_SIZE * NODES_PER_INVOCATION) as u64;
@@ -66,46 +111,36 @@ impl Gpu {
             span = n.div_ceil(max_groups).div_ceil(LOCAL_SIZE as u64) * LOCAL_SIZE as u64;
         }
         let groups_per_wo = n.div_ceil(span);
-        let node_bytes = 16 * n;
-        if node_bytes > range {
-            return Err(GpuError::Limit(format!(
-                "albedo: {n_nodes} nodes per direction need {node_bytes} bytes, over this device's storage buffer range of {range}; use fewer nodes per direction"
-            )));
-        }
-        // Directions per dispatch: bounded by the workgroup count, and with per-direction nodes
-        // by the buffer range and a memory budget (crate::gpu::CHUNK_OUTPUT_BYTES).
-        let mut wo_per_chunk = (max_groups / groups_per_wo).max(1);
-        if per_wo {
-            wo_per_chunk =
-                wo_per_chunk.min((super::CHUNK_OUTPUT_BYTES.min(range) / node_bytes).max(1));
-        }
-        let wo_per_chunk = wo_per_chunk.min(wo.len() as u64) as usize;
+        // Entries (row, ωo), row-major, in chunks the workgroup count allows.
+        let entries: Vec<AlbedoEntry> = (0..blocks.len())
+            .flat_map(|r| {
+                wo.iter().enumerate().map(move |(o, w)| AlbedoEntry {
+                    wo: [w[0], w[1], w[2]],
+                    param_index: r as u32,
+                    node_list: if per_wo { o as u32 } else { 0 },
+                    pad: [0; 3],
+                })
+            })
+            .collect();
+        let per_chunk = ((max_groups / groups_per_wo).max(1) as usize).min(entries.len());
         let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as u64;
 
-        let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
-        param_buf.write(block);
-        let node_count = if per_wo {
-            n_nodes * wo_per_chunk
-        } else {
-            n_nodes
-        };
-        let mut node_buf = Buffer::new(&self.dev, 16 * node_count as u64, "albedo node")?;
-        if !per_wo {
-            node_buf.write(bytemuck::cast_slice(nodes));
-        }
-        let mut wo_buf = Buffer::new(&self.dev, 16 * wo_per_chunk as u64, "view direction")?;
-        let groups_max = groups_per_wo * wo_per_chunk as u64;
-        let out_buf = Buffer::new(&self.dev, 12 * groups_max, "albedo partial sum")?;
-        let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &node_buf, &wo_buf, &out_buf])?;
-        let mut out = Vec::with_capacity(wo.len());
-        for (c, part) in wo.chunks(wo_per_chunk).enumerate() {
-            wo_buf.write(bytemuck::cast_slice(part));
-            if per_wo {
-                let first = c * wo_per_chunk * n_nodes;
-                node_buf.write(bytemuck::cast_slice(
-                    &nodes[first..first + part.len() * n_nodes],
-                ));
-            }
+        let params: Vec<u8> = blocks.concat();
+        let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
+        param_buf.write(&params);
+        let mut node_buf = Buffer::new(&self.dev, node_bytes, "albedo node")?;
+        node_buf.write(bytemuck::cast_slice(nodes));
+        let entry_bytes = std::mem::size_of::<AlbedoEntry>() as u64;
+        let mut entry_buf = Buffer::new(&self.dev, entry_bytes * per_chunk as u64, "albedo entry")?;
+        let groups_max = groups_per_wo * per_chunk as u64;
+        let out_buf = Buffer::output(&self.dev, 12 * groups_max, "albedo partial sum")?;
+        let dispatcher = Dispatcher::new(
+            &pipe,
+            &[&param_buf, &node_buf, &entry_buf, &out_buf, &node_buf],
+        )?;
+        let mut sums = Vec::with_capacity(entries.len());
+        for part in entries.chunks(per_chunk) {
+            entry_buf.write(bytemuck::cast_slice(part));
             let groups = groups_per_wo * part.len() as u64;
             let push = AlbedoPush {
                 nodes_per_group: span as u32,
@@ -123,10 +158,10 @@ impl Gpu {
                         *s += partials[3 * g + ch] as f64;
                     }
                 }
-                out.push(sum);
+                sums.push(sum);
             }
         }
-        Ok(out)
+        Ok(sums.chunks(wo.len()).map(<[_]>::to_vec).collect())
     }
 }
 
@@ -134,6 +169,13 @@ impl Gpu {
 mod tests {
     use super::*;
     use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn albedo_entry_has_its_std430_size() {
+        assert_eq!(size_of::<AlbedoEntry>(), 32);
+        assert_eq!(offset_of!(AlbedoEntry, param_index), 12);
+        assert_eq!(offset_of!(AlbedoEntry, node_list), 16);
+    }
 
     #[test]
     fn albedo_push_shares_the_dispatch_count_slot() {

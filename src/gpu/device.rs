@@ -66,6 +66,8 @@ pub struct Device {
     /// Warnings and errors the validation layer reported on this device (shared: the messenger
     /// holds a pointer to it, taken with `Arc::as_ptr`, which moving the `Arc` leaves valid).
     validation_messages: Arc<AtomicUsize>,
+    /// Set when a submission timed out: it may still run, so nothing it could touch is freed.
+    hung: std::sync::atomic::AtomicBool,
 }
 
 fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
@@ -217,6 +219,7 @@ impl Device {
                     queue_lock: Mutex::new(()),
                     inject_device_lost: opts.inject_device_lost,
                     validation_messages,
+                    hung: Default::default(),
                 })
             }
             Err(e) => {
@@ -279,23 +282,30 @@ impl Device {
         self.device_type == vk::PhysicalDeviceType::CPU
     }
 
-    /// Index of a memory type with all of `flags` among `type_bits`.
-    pub(crate) fn memory_type(
-        &self,
-        type_bits: u32,
-        flags: vk::MemoryPropertyFlags,
-    ) -> Option<u32> {
-        (0..self.memory.memory_type_count).find(|&i| {
-            type_bits & (1 << i) != 0
-                && self.memory.memory_types[i as usize]
-                    .property_flags
-                    .contains(flags)
-        })
+    /// Records that a submission timed out and may still run: from then on the device takes no
+    /// more work, and buffers, dispatchers, pipelines and the device itself are leaked when
+    /// dropped instead of being freed under it.
+    pub fn mark_hung(&self) {
+        self.hung.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether a submission timed out on this device ([`Device::mark_hung`]).
+    pub fn is_hung(&self) -> bool {
+        self.hung.load(Ordering::SeqCst)
+    }
+
+    /// [`GpuError::Hung`] once the device is hung.
+    pub(crate) fn refuse_if_hung(&self) -> Option<GpuError> {
+        self.is_hung().then_some(GpuError::Hung)
     }
 }
 
 impl Drop for Device {
     fn drop(&mut self) {
+        if self.is_hung() {
+            // Work may still run on it: waiting could block for ever, destroying is undefined.
+            return;
+        }
         // SAFETY: every object created from the device is owned by something that borrows it and has
         // been dropped already; release in reverse order of creation.
         unsafe {

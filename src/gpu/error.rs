@@ -33,13 +33,17 @@ pub enum GpuError {
     #[error("the Vulkan device was lost while {0}; the driver or GPU reset. Rerun, pick another device, or use the CPU backend")]
     DeviceLost(String),
     /// A submission did not finish within the per-chunk time limit.
-    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung. Use smaller work or the CPU backend")]
+    #[error("the GPU did not finish {what} within {seconds} s; the device may be hung, so its memory was left allocated rather than freed under running work. Use smaller work or the CPU backend")]
     Timeout {
         /// The label of the pipeline that was running.
         what: String,
         /// The time limit, seconds.
         seconds: u64,
     },
+    /// A submission on this device timed out earlier: it may still run, so the device takes no
+    /// more work.
+    #[error("the Vulkan device timed out on an earlier submission and takes no more work; restart, or use the CPU backend")]
+    Hung,
     /// Any other failed Vulkan call.
     #[error("Vulkan call failed while {what}: {result}")]
     Vk {

@@ -49,8 +49,8 @@ pub struct GpuPair {
 }
 
 /// What tells pipelines apart: the kernel, the model (with its component choices), and the
-/// white-furnace and fast-pow specialization constants.
-type PipelineKey = (Kernel, Model, bool, bool);
+/// white-furnace, fast-pow and texel-directions specialization constants.
+type PipelineKey = (Kernel, Model, bool, bool, bool);
 
 /// The specialization switches of a table pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -104,7 +104,19 @@ impl Gpu {
         white_furnace: bool,
         fast_pow: bool,
     ) -> Result<Arc<Pipeline>> {
-        let key = (kernel, model, white_furnace, fast_pow);
+        self.pipeline_with(kernel, model, white_furnace, fast_pow, false)
+    }
+
+    /// [`Gpu::pipeline`] with the table kernel's TEXEL_DIRECTIONS choice.
+    fn pipeline_with(
+        &self,
+        kernel: Kernel,
+        model: Model,
+        white_furnace: bool,
+        fast_pow: bool,
+        texel_directions: bool,
+    ) -> Result<Arc<Pipeline>> {
+        let key = (kernel, model, white_furnace, fast_pow, texel_directions);
         let mut cache = lock(&self.pipelines);
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
@@ -115,6 +127,7 @@ impl Gpu {
             model,
             white_furnace,
             fast_pow,
+            texel_directions,
         )?);
         if let Some(log) = &self.log {
             log(&format!(
@@ -174,7 +187,7 @@ impl Gpu {
             (chunk * std::mem::size_of::<GpuPair>()) as u64,
             "direction pair",
         )?;
-        let out_buf = Buffer::new(&self.dev, (chunk * 12) as u64, "output")?;
+        let out_buf = Buffer::output(&self.dev, (chunk * 12) as u64, "output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pair_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pairs.len());
         for (k, part) in pairs.chunks(chunk).enumerate() {
@@ -183,7 +196,7 @@ impl Gpu {
                 first: (k * chunk) as u32,
                 count: part.len() as u32,
                 n_wo: 0,
-                pad: 0,
+                n_wi: 0,
             };
             dispatcher.run_one(&push)?;
             out.extend(
@@ -219,29 +232,113 @@ impl Gpu {
             ))
             .into());
         }
-        let pipe = self.pipeline(Kernel::Table, model, white_furnace, fast_pow)?;
-        let chunk = self.max_chunk(&pipe, 0).min(cells.max(1));
+        if wi.is_empty() || wo.is_empty() {
+            return Ok(());
+        }
+        let choice = table_choice(
+            self.dev.is_cpu(),
+            self.dev.limits.max_texel_buffer_elements as u64,
+            wi.len() as u64,
+            wo.len() as u64,
+        );
+        let pipe = self.pipeline_with(
+            Kernel::Table,
+            model,
+            white_furnace,
+            fast_pow,
+            choice.texel_directions,
+        )?;
+        // Whole invocations per chunk, so that every chunk but the last starts on an
+        // invocation's first cell (the kernel's `first` is a multiple of its evaluations).
+        let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
+        let by_bytes = (choice
+            .chunk_bytes
+            .min(self.dev.limits.max_storage_buffer_range as u64)
+            / 12
+            / per_group)
+            .max(1)
+            * per_group;
+        let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
+        let chunk = by_bytes
+            .min(by_dispatch)
+            .min(cells.div_ceil(per_group) * per_group);
         let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
         param_buf.write(block);
         let mut wi_buf = Buffer::new(&self.dev, (wi.len() * 16) as u64, "light direction")?;
         wi_buf.write(bytemuck::cast_slice(wi));
         let mut wo_buf = Buffer::new(&self.dev, (wo.len() * 16) as u64, "view direction")?;
         wo_buf.write(bytemuck::cast_slice(wo));
-        let out_buf = Buffer::new(&self.dev, chunk * 12, "output")?;
-        let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &wi_buf, &wo_buf, &out_buf])?;
-        let mut first = 0u64;
-        while first < cells {
-            let count = chunk.min(cells - first);
-            let push = ChunkPush {
-                first: first as u32,
-                count: count as u32,
-                n_wo: wo.len() as u32,
-                pad: 0,
-            };
-            dispatcher.run_one(&push)?;
-            sink(first, out_buf.read_f32(count as usize * 3))?;
-            first += count;
+        // Two output buffers, each with its own dispatcher: while the sink takes one chunk, the
+        // next one runs into the other buffer. Sized for whole invocations (the kernel writes the
+        // last invocation's cells past the chunk's end into the padding).
+        let outs = [
+            Buffer::output(&self.dev, chunk * 12, "output")?,
+            Buffer::output(&self.dev, chunk * 12, "output")?,
+        ];
+        let dispatchers = [
+            Dispatcher::new(
+                &pipe,
+                &[&param_buf, &wi_buf, &wo_buf, &outs[0], &wi_buf, &wo_buf],
+            )?,
+            Dispatcher::new(
+                &pipe,
+                &[&param_buf, &wi_buf, &wo_buf, &outs[1], &wi_buf, &wo_buf],
+            )?,
+        ];
+        let push_at = |first: u64| ChunkPush {
+            first: first as u32,
+            count: chunk.min(cells - first) as u32,
+            n_wo: wo.len() as u32,
+            n_wi: wi.len() as u32,
+        };
+        let firsts: Vec<u64> = (0..cells).step_by(chunk as usize).collect();
+        dispatchers[0].submit(&push_at(firsts[0]))?;
+        for (k, &first) in firsts.iter().enumerate() {
+            let slot = k % 2;
+            if let Some(&next) = firsts.get(k + 1) {
+                dispatchers[1 - slot].submit(&push_at(next))?;
+            }
+            dispatchers[slot].wait()?;
+            let count = chunk.min(cells - first) as usize;
+            sink(first, outs[slot].read_f32(count * 3))?;
         }
         Ok(())
+    }
+}
+
+/// How the table kernel runs on a device: the host's choices, made once per job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TableChoice {
+    /// Read the direction lists as texel buffers (TEXEL_DIRECTIONS).
+    pub texel_directions: bool,
+    /// Bytes of output per chunk.
+    pub chunk_bytes: u64,
+}
+
+/// Output bytes per chunk of a table on a CPU driver: small enough to stay in cache-friendly,
+/// already-touched pages (a buffer's first touch costs page faults), large enough to amortise a
+/// submit.
+pub const CPU_TABLE_CHUNK_BYTES: u64 = 4 << 20;
+
+/// The table kernel's choices for a device: on a CPU driver (`cpu_driver`) texel-buffer
+/// direction lists, where both lists fit `max_texel_elements`, and small chunks; on a GPU
+/// storage buffers (coalesced loads are as fast there) and [`CHUNK_OUTPUT_BYTES`] chunks (fewer
+/// submits).
+pub fn table_choice(
+    cpu_driver: bool,
+    max_texel_elements: u64,
+    n_wi: u64,
+    n_wo: u64,
+) -> TableChoice {
+    if cpu_driver {
+        TableChoice {
+            texel_directions: n_wi.max(n_wo) <= max_texel_elements,
+            chunk_bytes: CPU_TABLE_CHUNK_BYTES,
+        }
+    } else {
+        TableChoice {
+            texel_directions: false,
+            chunk_bytes: CHUNK_OUTPUT_BYTES,
+        }
     }
 }

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 /// Which kernel of `glsl/kernels/`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
-    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out).
+    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out, 4 and 5
+    /// wi and wo as texel buffers).
     Table,
     /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
     Pairs,
@@ -22,7 +23,8 @@ pub enum Kernel {
     /// 3 out); see glsl/kernels/preview.comp.
     Preview,
     /// Directional albedo as a workgroup reduction over quadrature nodes (bindings 0 params,
-    /// 1 nodes, 2 wo, 3 partial sums); see glsl/kernels/albedo.comp and src/gpu/albedo.rs.
+    /// 1 nodes, 2 entries, 3 partial sums, 4 the nodes as a texel buffer); see
+    /// glsl/kernels/albedo.comp and src/gpu/albedo.rs.
     Albedo,
 }
 
@@ -37,12 +39,17 @@ impl Kernel {
         }
     }
 
-    pub(crate) fn bindings(self) -> &'static [u32] {
+    /// The kernel's bindings, in the order its buffers are given to [`Dispatcher::new`].
+    pub(crate) fn bindings(self) -> &'static [(u32, vk::DescriptorType)] {
+        const S: vk::DescriptorType = vk::DescriptorType::STORAGE_BUFFER;
+        const T: vk::DescriptorType = vk::DescriptorType::UNIFORM_TEXEL_BUFFER;
         match self {
-            Kernel::Table => &[0, 1, 2, 3],
-            Kernel::Pairs => &[0, 1, 3],
-            Kernel::Preview => &[0, 1, 2, 3],
-            Kernel::Albedo => &[0, 1, 2, 3],
+            // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
+            Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T)],
+            Kernel::Pairs => &[(0, S), (1, S), (3, S)],
+            Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
+            // 4: the nodes again, as a texel buffer (TEXEL_NODES).
+            Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
         }
     }
 }
@@ -50,8 +57,28 @@ impl Kernel {
 /// Specialization constant id of FAST_POW (glsl/common.glsl).
 pub const FAST_POW_ID: u32 = 10;
 
+/// Specialization constant id of TEXEL_DIRECTIONS (glsl/kernels/table.comp) and TEXEL_NODES
+/// (glsl/kernels/albedo.comp): read a list through a texel buffer.
+pub const TEXEL_DIRECTIONS_ID: u32 = 20;
+
+/// The format of a direction list read as a texel buffer: one vec4 per direction.
+pub const TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
 /// Workgroup size. 64 suits lavapipe and is a multiple of every GPU's wave width.
 pub const LOCAL_SIZE: u32 = 64;
+
+/// Evaluations one invocation of `kernel` makes (specialization constant 2). On a CPU driver
+/// several per invocation amortise the invocation overhead: 8 for the table kernel, 4 for the
+/// others. On a GPU one per invocation keeps every lane busy, except in the table kernel, which
+/// writes 4 cells as 3 vec4 stores and so makes a multiple of 4.
+pub fn evals_per_invocation(kernel: Kernel, cpu_driver: bool) -> u32 {
+    match (kernel, cpu_driver) {
+        (Kernel::Table, true) => 8,
+        (Kernel::Table, false) => 4,
+        (_, true) => 4,
+        (_, false) => 1,
+    }
+}
 
 /// Push constants: see `Chunk` in `glsl/kernels/eval.glsl`.
 #[repr(C)]
@@ -63,8 +90,8 @@ pub struct ChunkPush {
     pub count: u32,
     /// Length of the wo list (the table kernel only; 0 elsewhere).
     pub n_wo: u32,
-    /// Padding to 16 bytes; always 0.
-    pub pad: u32,
+    /// Length of the wi list (the table kernel only; 0 elsewhere).
+    pub n_wi: u32,
 }
 
 /// One compute pipeline: a kernel specialised for one model, white furnace on or off, and
@@ -77,9 +104,12 @@ pub struct Pipeline {
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
-    /// Evaluations one invocation makes (specialization constant 2): 4 on a CPU driver, 1 on a
-    /// GPU.
+    /// Evaluations one invocation makes (specialization constant 2): see
+    /// [`evals_per_invocation`].
     pub evals_per_invocation: u32,
+    /// Whether the table kernel reads its direction lists as texel buffers
+    /// (TEXEL_DIRECTIONS).
+    pub texel_directions: bool,
     /// How long creating the pipeline took (the driver compiles the shader here).
     pub build_time: Duration,
     /// `kernel/model-label`, with " (white furnace)" where it applies; used in logs and errors.
@@ -97,6 +127,7 @@ impl Pipeline {
         model_kind: Model,
         white_furnace: bool,
         fast_pow: bool,
+        texel_directions: bool,
     ) -> Result<Pipeline> {
         let start = Instant::now();
         let model = model_kind.name();
@@ -109,9 +140,7 @@ impl Pipeline {
         let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
             GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
         })?;
-        // On a CPU driver several evaluations per invocation amortise the invocation overhead;
-        // on a GPU one per invocation keeps every lane busy.
-        let evals_per_invocation = if dev.is_cpu() { 4 } else { 1 };
+        let evals_per_invocation = evals_per_invocation(kernel, dev.is_cpu());
         let label = format!(
             "{}/{}{}",
             kernel.name(),
@@ -131,6 +160,7 @@ impl Pipeline {
             layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
             evals_per_invocation,
+            texel_directions,
             build_time: Duration::ZERO,
             label,
             gpu_ns: AtomicU64::new(0),
@@ -143,10 +173,10 @@ impl Pipeline {
             let bindings: Vec<_> = kernel
                 .bindings()
                 .iter()
-                .map(|&b| {
+                .map(|&(b, ty)| {
                     vk::DescriptorSetLayoutBinding::default()
                         .binding(b)
-                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .descriptor_type(ty)
                         .descriptor_count(1)
                         .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 })
@@ -179,6 +209,10 @@ impl Pipeline {
                 evals_per_invocation,
                 fast_pow as u32,
             ];
+            if matches!(kernel, Kernel::Table | Kernel::Albedo) {
+                ids.push(TEXEL_DIRECTIONS_ID);
+                spec_data.push(texel_directions as u32);
+            }
             for (k, v) in model_kind.spec_constants().into_iter().enumerate() {
                 ids.push(3 + k as u32);
                 spec_data.push(v);
@@ -220,6 +254,10 @@ impl Pipeline {
 
 impl Drop for Pipeline {
     fn drop(&mut self) {
+        if self.dev.is_hung() {
+            // A timed-out submission may still run this pipeline: leak it.
+            return;
+        }
         let d = &self.dev.device;
         // SAFETY: the device is idle after every dispatch; release in reverse order of creation.
         unsafe {
@@ -232,7 +270,7 @@ impl Drop for Pipeline {
 }
 
 /// How long one chunk may run before we call the device hung.
-const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
+pub const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A descriptor set bound to a job's buffers, a command buffer and a fence, reused per chunk.
 pub struct Dispatcher<'p> {
@@ -244,6 +282,10 @@ pub struct Dispatcher<'p> {
     fence: vk::Fence,
     /// Two timestamps around each dispatch; null where the queue has none.
     queries: vk::QueryPool,
+    /// Views of the buffers bound as texel buffers.
+    views: Vec<vk::BufferView>,
+    /// Whether a submission has not been waited for yet.
+    in_flight: std::cell::Cell<bool>,
 }
 
 impl<'p> Dispatcher<'p> {
@@ -267,13 +309,22 @@ impl<'p> Dispatcher<'p> {
             cmd: vk::CommandBuffer::null(),
             fence: vk::Fence::null(),
             queries: vk::QueryPool::null(),
+            views: Vec::new(),
+            in_flight: std::cell::Cell::new(false),
         };
         // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
         unsafe {
-            let sizes = [vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: bindings.len() as u32,
-            }];
+            let sizes: Vec<vk::DescriptorPoolSize> = [
+                vk::DescriptorType::STORAGE_BUFFER,
+                vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            ]
+            .into_iter()
+            .map(|ty| vk::DescriptorPoolSize {
+                ty,
+                descriptor_count: bindings.iter().filter(|b| b.1 == ty).count() as u32,
+            })
+            .filter(|p| p.descriptor_count > 0)
+            .collect();
             s.pool = d
                 .create_descriptor_pool(
                     &vk::DescriptorPoolCreateInfo::default()
@@ -300,15 +351,40 @@ impl<'p> Dispatcher<'p> {
                     }]
                 })
                 .collect();
+            // A texel buffer's view covers at most maxTexelBufferElements texels; the kernel
+            // reads through it only where the host found the list fits (TEXEL_DIRECTIONS).
+            let max_texels = pipe.dev.limits.max_texel_buffer_elements as u64;
+            let mut views: Vec<[vk::BufferView; 1]> = Vec::new();
+            for (&(_, ty), b) in bindings.iter().zip(buffers) {
+                if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                    let range = (b.size / 16).min(max_texels) * 16;
+                    let info = vk::BufferViewCreateInfo::default()
+                        .buffer(b.buffer)
+                        .format(TEXEL_FORMAT)
+                        .offset(0)
+                        .range(range);
+                    let view = d
+                        .create_buffer_view(&info, None)
+                        .ctx("creating a texel buffer view")?;
+                    s.views.push(view);
+                    views.push([view]);
+                } else {
+                    views.push([vk::BufferView::null()]);
+                }
+            }
             let writes: Vec<_> = bindings
                 .iter()
-                .zip(&infos)
-                .map(|(&b, info)| {
-                    vk::WriteDescriptorSet::default()
+                .zip(infos.iter().zip(&views))
+                .map(|(&(b, ty), (info, view))| {
+                    let w = vk::WriteDescriptorSet::default()
                         .dst_set(s.set)
                         .dst_binding(b)
-                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                        .buffer_info(info)
+                        .descriptor_type(ty);
+                    if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                        w.texel_buffer_view(view)
+                    } else {
+                        w.buffer_info(info)
+                    }
                 })
                 .collect();
             d.update_descriptor_sets(&writes, &[]);
@@ -345,7 +421,21 @@ impl<'p> Dispatcher<'p> {
 
     /// Dispatches one chunk and waits for it.
     pub fn run_one(&self, chunk: &ChunkPush) -> Result<()> {
+        self.submit(chunk)?;
+        self.wait()
+    }
+
+    /// Records and submits one chunk without waiting for it ([`Dispatcher::wait`] does): a
+    /// runner with two dispatchers reads one chunk back while the other runs.
+    pub fn submit(&self, chunk: &ChunkPush) -> Result<()> {
         let pipe = self.pipe;
+        if let Some(e) = pipe.dev.refuse_if_hung() {
+            return Err(e);
+        }
+        assert!(
+            !self.in_flight.get(),
+            "a dispatcher submits one chunk at a time"
+        );
         let d = &pipe.dev.device;
         let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as u64;
         let groups = (chunk.count as u64).div_ceil(per_group);
@@ -356,7 +446,7 @@ impl<'p> Dispatcher<'p> {
                 chunk.count
             )));
         }
-        // SAFETY: the command buffer is idle (we wait on the fence after each submit).
+        // SAFETY: the command buffer is idle (`in_flight` is false: its fence was waited on).
         unsafe {
             d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
                 .ctx("resetting a command buffer")?;
@@ -428,23 +518,48 @@ impl<'p> Dispatcher<'p> {
                 d.queue_submit(pipe.dev.queue, &submit, self.fence)
                     .ctx(&format!("submitting {}", pipe.label))?;
             }
-            let waited = if pipe.dev.inject_device_lost {
+        }
+        self.in_flight.set(true);
+        Ok(())
+    }
+
+    /// Waits for the submitted chunk, at most [`CHUNK_TIMEOUT`]. On a timeout the submission may
+    /// still run: the device is marked hung ([`Device::mark_hung`]) and from then on nothing
+    /// that work could touch (this dispatcher's fence and command pool, the job's buffers, the
+    /// device) is released: it is leaked instead.
+    pub fn wait(&self) -> Result<()> {
+        let pipe = self.pipe;
+        if !self.in_flight.get() {
+            return Ok(());
+        }
+        let d = &pipe.dev.device;
+        // SAFETY: the fence belongs to this dispatcher's last submission.
+        let waited = unsafe {
+            let w = d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64);
+            if pipe.dev.inject_device_lost {
                 // Let the real work finish, then report what a lost device reports.
-                d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64)
-                    .and(Err(vk::Result::ERROR_DEVICE_LOST))
+                w.and(Err(vk::Result::ERROR_DEVICE_LOST))
             } else {
-                d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64)
-            };
-            match waited {
-                Ok(()) => {
-                    self.record_gpu_time()?;
-                    Ok(())
-                }
-                Err(vk::Result::TIMEOUT) => Err(GpuError::Timeout {
+                w
+            }
+        };
+        match waited {
+            Ok(()) => {
+                self.in_flight.set(false);
+                self.record_gpu_time()?;
+                Ok(())
+            }
+            Err(vk::Result::TIMEOUT) => {
+                pipe.dev.mark_hung();
+                Err(GpuError::Timeout {
                     what: pipe.label.clone(),
                     seconds: CHUNK_TIMEOUT.as_secs(),
-                }),
-                Err(r) => Err(r).ctx(&format!("running {}", pipe.label)),
+                })
+            }
+            Err(r) => {
+                // A lost device runs nothing any more: the submission is over.
+                self.in_flight.set(false);
+                Err(r).ctx(&format!("running {}", pipe.label))
             }
         }
     }
@@ -486,8 +601,19 @@ impl<'p> Dispatcher<'p> {
 impl Drop for Dispatcher<'_> {
     fn drop(&mut self) {
         let d = &self.pipe.dev.device;
+        // A submission not waited for (an error elsewhere dropped us): wait, bounded.
+        if self.in_flight.get() && !self.pipe.dev.is_hung() && self.wait().is_err() {
+            self.in_flight.set(self.pipe.dev.is_hung());
+        }
+        if self.in_flight.get() || self.pipe.dev.is_hung() {
+            // The work may still run and use what we hold: leak it rather than free it.
+            return;
+        }
         // SAFETY: the fence was waited on; release in reverse order of creation.
         unsafe {
+            for &v in &self.views {
+                d.destroy_buffer_view(v, None);
+            }
             if self.queries != vk::QueryPool::null() {
                 d.destroy_query_pool(self.queries, None);
             }

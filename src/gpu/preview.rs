@@ -95,7 +95,7 @@ impl Gpu {
         let object_bytes: &[u8] = bytemuck::cast_slice(objects);
         let mut object_buf = Buffer::new(&self.dev, object_bytes.len() as u64, "preview object")?;
         object_buf.write(object_bytes);
-        let out_buf = Buffer::new(&self.dev, chunk * 12, "preview output")?;
+        let out_buf = Buffer::output(&self.dev, chunk * 12, "preview output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &scene_buf, &object_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pixels as usize);
         let mut first = 0u64;
@@ -105,7 +105,7 @@ impl Gpu {
                 first: first as u32,
                 count: count as u32,
                 n_wo: 0,
-                pad: 0,
+                n_wi: 0,
             })?;
             out.extend(
                 out_buf

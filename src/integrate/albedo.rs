@@ -1,7 +1,7 @@
 //! The albedo jobs: directional E(ωo) at given view directions and the hemispherical Ē with
 //! Kulla–Conty's E_avg, on a rule's table of directions or by the adaptive reference.
 
-use super::backend::rule_albedo;
+use super::backend::{rule_albedo, rule_albedo_rows};
 use super::gauss::{adaptive, gk15, gk15_combine, gk15_nodes, graded, Estimate};
 use super::reference::{reference_albedo, REFERENCE_RTOL};
 use super::{view_direction, Settings};
@@ -44,10 +44,7 @@ pub fn directional(
             );
         }
     }
-    let wo: Vec<DVec3> = points
-        .iter()
-        .map(|&(mu, phi)| view_direction(mu, phi))
-        .collect();
+    let wo = directions(points);
     let r = Reference::new(params, s.white_furnace);
     let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => rule_albedo(backend, params, s.white_furnace, rule, &wo)?,
@@ -64,7 +61,19 @@ pub fn directional(
                 .collect::<Result<_>>()?
         }
     };
-    Ok(points
+    Ok(point_albedos(&r, points, est))
+}
+
+fn directions(points: &[(f64, f64)]) -> Vec<DVec3> {
+    points
+        .iter()
+        .map(|&(mu, phi)| view_direction(mu, phi))
+        .collect()
+}
+
+/// Each point's estimate with its delta lobe added.
+fn point_albedos(r: &Reference, points: &[(f64, f64)], est: Vec<Estimate>) -> Vec<PointAlbedo> {
+    points
         .iter()
         .zip(est)
         .map(|(&(mu, phi), e)| {
@@ -78,7 +87,7 @@ pub fn directional(
                 samples: e.evals,
             }
         })
-        .collect())
+        .collect()
 }
 
 /// Hemispherical albedo and Kulla–Conty's E_avg.
@@ -121,6 +130,33 @@ fn mu_breaks() -> Vec<f64> {
 /// other one).
 const PHI_O_NODES: usize = 16;
 
+/// The μ nodes of the fixed outer rule, in the order gk15 visits them.
+fn outer_mus(breaks: &[f64]) -> Vec<f64> {
+    breaks
+        .windows(2)
+        .flat_map(|w| gk15_nodes(w[0], w[1]))
+        .collect()
+}
+
+/// The view azimuths of the outer rule: `phi` alone for an isotropic model.
+fn outer_phis(params: &ParamSet, phi: f64) -> Vec<f64> {
+    let mut v = vec![phi];
+    if !params.is_isotropic() {
+        v.extend((1..PHI_O_NODES).map(|l| phi + TAU * l as f64 / PHI_O_NODES as f64));
+    }
+    v
+}
+
+/// The view directions at which [`hemispherical`] evaluates E with a fixed rule, azimuth by
+/// azimuth, μ by μ.
+pub fn hemispherical_directions(params: &ParamSet, phi: f64) -> Vec<DVec3> {
+    let mus = outer_mus(&mu_breaks());
+    outer_phis(params, phi)
+        .iter()
+        .flat_map(|&p| mus.iter().map(move |&mu| view_direction(mu, p)))
+        .collect()
+}
+
 /// Ē and E_avg by Gauss–Kronrod 7/15 on the μ panels of `mu_breaks` (for `reference`: adaptive
 /// from those panels), the integrand 2μE(μ); anisotropic models add a trapezoid over φo
 /// (spectral for the smooth periodic E(μ, ·)), checked against its every-other-node half.
@@ -132,26 +168,9 @@ pub fn hemispherical(
     s: &Settings,
     phi: f64,
 ) -> Result<HemiAlbedo> {
-    let r = Reference::new(params, s.white_furnace);
-    let breaks = mu_breaks();
-    // The μ nodes of the fixed outer rule, in the order gk15 visits them.
-    let mus: Vec<f64> = breaks
-        .windows(2)
-        .flat_map(|w| gk15_nodes(w[0], w[1]))
-        .collect();
-    let phis: Vec<f64> = if params.is_isotropic() {
-        vec![phi]
-    } else {
-        let mut v = vec![phi];
-        v.extend((1..PHI_O_NODES).map(|l| phi + TAU * l as f64 / PHI_O_NODES as f64));
-        v
-    };
     let table: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => {
-            let wo: Vec<DVec3> = phis
-                .iter()
-                .flat_map(|&p| mus.iter().map(move |&mu| view_direction(mu, p)))
-                .collect();
+            let wo = hemispherical_directions(params, phi);
             rule_albedo(backend, params, s.white_furnace, rule, &wo)?
         }
         None => {
@@ -161,6 +180,73 @@ pub fn hemispherical(
             Vec::new()
         }
     };
+    hemispherical_from(backend, params, s, phi, table)
+}
+
+/// [`directional`] at `points` and [`hemispherical`] at `phi` for every parameter set of
+/// `rows` (one model: the rows of a LUT), the same values row by row. With a fixed rule every
+/// row's directions go to [`rule_albedo_rows`] at once: each direction's nodes are made once
+/// for all rows, and the GPU sums all rows in the same dispatches.
+pub fn albedo_rows(
+    backend: &Evaluator,
+    rows: &[ParamSet],
+    s: &Settings,
+    points: &[(f64, f64)],
+    phi: f64,
+) -> Result<Vec<(Vec<PointAlbedo>, HemiAlbedo)>> {
+    let rules: Vec<_> = rows.iter().map(|p| s.method.rule(s.samples, p)).collect();
+    let same = rows
+        .windows(2)
+        .all(|w| w[0].model() == w[1].model() && w[0].is_isotropic() == w[1].is_isotropic())
+        && rules.windows(2).all(|w| w[0] == w[1]);
+    let (Some(Some(rule)), true) = (rules.first(), same) else {
+        return rows
+            .iter()
+            .map(|p| {
+                backend.check_cancelled()?;
+                Ok((
+                    directional(backend, p, s, points)?,
+                    hemispherical(backend, p, s, phi)?,
+                ))
+            })
+            .collect();
+    };
+    for &(mu, _) in points {
+        if !(mu > 0.0 && mu <= 1.0) {
+            bail!(
+                "mu = {mu} is out of range; directional albedo needs mu = cos(theta_o) in (0, 1]"
+            );
+        }
+    }
+    let mut wo = directions(points);
+    wo.extend(hemispherical_directions(&rows[0], phi));
+    let est = rule_albedo_rows(backend, rows, s.white_furnace, *rule, &wo)?;
+    rows.iter()
+        .zip(est)
+        .map(|(p, mut e)| {
+            let hemi = e.split_off(points.len());
+            let r = Reference::new(p, s.white_furnace);
+            Ok((
+                point_albedos(&r, points, e),
+                hemispherical_from(backend, p, s, phi, hemi)?,
+            ))
+        })
+        .collect()
+}
+
+/// [`hemispherical`] from E at [`hemispherical_directions`] (`table`, empty for the adaptive
+/// reference, which then integrates here).
+fn hemispherical_from(
+    backend: &Evaluator,
+    params: &ParamSet,
+    s: &Settings,
+    phi: f64,
+    table: Vec<Estimate>,
+) -> Result<HemiAlbedo> {
+    let r = Reference::new(params, s.white_furnace);
+    let breaks = mu_breaks();
+    let mus = outer_mus(&breaks);
+    let phis = outer_phis(params, phi);
     // 2∫ E(μ, φo) μ dμ at azimuth index k.
     let e_avg_at = |k: usize| -> Estimate {
         let p = phis[k];

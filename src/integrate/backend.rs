@@ -65,6 +65,24 @@ pub fn rule_albedo(
         .collect())
 }
 
+/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the fine
+/// and the coarse rule's nodes (for the replicated importance rule, its replicates' nodes).
+pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
+    let count = |r: Rule| -> u64 {
+        if r.depends_on_wo() {
+            wo.par_iter().map(|&o| r.nodes(o).len() as u64).sum()
+        } else {
+            r.nodes(DVec3::Z).len() as u64 * wo.len() as u64
+        }
+    };
+    match rule {
+        Rule::Importance {
+            replicate: None, ..
+        } => count(rule),
+        _ => count(rule) + count(rule.coarse().0),
+    }
+}
+
 /// Nodes of ωo-dependent rules gathered for one GPU call: 4M nodes, 64 MiB as f32x4 (and 128 MiB
 /// as f64 while they are made).
 const GPU_NODE_BATCH: usize = 1 << 22;
@@ -162,4 +180,141 @@ fn gpu_sum(
         .zip(counts)
         .map(|(s, n)| (DVec3::from_array(s), n))
         .collect())
+}
+
+/// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
+/// directions with the same rule: each direction's nodes are made once and serve every row, and
+/// on the GPU every row goes out in the same dispatches. Row r of the result is
+/// `rule_albedo(backend, &rows[r], …)`. A rule that depends on the parameters (`importance`)
+/// or rows of different models are taken row by row.
+pub fn rule_albedo_rows(
+    backend: &Evaluator,
+    rows: &[ParamSet],
+    white_furnace: bool,
+    rule: Rule,
+    wo: &[DVec3],
+) -> Result<Vec<Vec<Estimate>>> {
+    let one_model = rows.windows(2).all(|w| w[0].model() == w[1].model());
+    if matches!(rule, Rule::Importance { .. }) || !one_model {
+        return rows
+            .iter()
+            .map(|p| rule_albedo(backend, p, white_furnace, rule, wo))
+            .collect();
+    }
+    let (coarse, factor) = rule.coarse();
+    let fine_e = sum_rule_rows(backend, rows, white_furnace, rule, wo)?;
+    let coarse_e = sum_rule_rows(backend, rows, white_furnace, coarse, wo)?;
+    Ok(fine_e
+        .into_iter()
+        .zip(coarse_e)
+        .map(|(fine, coarse)| {
+            fine.into_iter()
+                .zip(coarse)
+                .map(|((v, n), (c, _))| Estimate {
+                    value: v,
+                    error: factor * (v - c).abs(),
+                    evals: n,
+                })
+                .collect()
+        })
+        .collect())
+}
+
+/// [`sum_rule`] for every parameter set of `rows` (one model) at each ωo: row-major results.
+/// The nodes of a batch of directions are made once (in parallel) for all rows; the CPU then
+/// sums every (row, ωo) in parallel, the GPU in one reduction call per batch.
+pub fn sum_rule_rows(
+    backend: &Evaluator,
+    rows: &[ParamSet],
+    white_furnace: bool,
+    rule: Rule,
+    wo: &[DVec3],
+) -> Result<Vec<Vec<(DVec3, u64)>>> {
+    let Some(first) = rows.first() else {
+        return Ok(Vec::new());
+    };
+    let depends = rule.depends_on_wo();
+    let batch = match (depends, wo.first()) {
+        (true, Some(&o)) => (GPU_NODE_BATCH / rule.nodes(o).len().max(1)).max(1),
+        _ => wo.len().max(1),
+    };
+    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); rows.len()];
+    let shared = (!depends).then(|| rule.nodes(DVec3::Z));
+    let refs = match backend.backend() {
+        Backend::Cpu => {
+            first.model().require_reference("the CPU backend")?;
+            rows.iter()
+                .map(|p| Reference::new(p, white_furnace))
+                .collect()
+        }
+        Backend::Gpu(_) => Vec::new(),
+    };
+    for part in wo.chunks(batch) {
+        backend.check_cancelled()?;
+        let lists: Vec<Vec<Node>> = match &shared {
+            Some(_) => Vec::new(),
+            None => part.par_iter().map(|&o| rule.nodes(o)).collect(),
+        };
+        let list = |d: usize| -> &[Node] {
+            match &shared {
+                Some(n) => n,
+                None => &lists[d],
+            }
+        };
+        match backend.backend() {
+            Backend::Cpu => {
+                let sums: Vec<(DVec3, u64)> = (0..rows.len() * part.len())
+                    .into_par_iter()
+                    .map(|e| {
+                        let (r, d) = (e / part.len(), e % part.len());
+                        let (nodes, o, reference) = (list(d), part[d], &refs[r]);
+                        let sum = nodes
+                            .par_chunks(4096)
+                            .map(|c| {
+                                c.iter()
+                                    .map(|n| n.weight * reference.eval(n.wi, o))
+                                    .sum::<DVec3>()
+                            })
+                            .sum::<DVec3>();
+                        (sum, nodes.len() as u64)
+                    })
+                    .collect();
+                for (r, row) in sums.chunks(part.len()).enumerate() {
+                    out[r].extend_from_slice(row);
+                }
+            }
+            Backend::Gpu(gpu) => {
+                let f4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+                let wo4: Vec<[f32; 4]> = part.iter().map(|&o| f4(o, 0.0)).collect();
+                let n = (0..if depends { part.len() } else { 1 })
+                    .map(|d| list(d).len())
+                    .max()
+                    .unwrap_or(0);
+                let mut flat = Vec::with_capacity(n * lists.len().max(1));
+                for d in 0..if depends { part.len() } else { 1 } {
+                    flat.extend(list(d).iter().map(|x| f4(x.wi, x.weight)));
+                    // Padding nodes weigh nothing.
+                    flat.resize(flat.len() + n - list(d).len(), [0.0, 0.0, 1.0, 0.0]);
+                }
+                let blocks: Vec<Vec<u8>> = rows.iter().map(|p| Brdf::new(p).gpu_block()).collect();
+                let sums = gpu.albedo_rows(
+                    first.model(),
+                    &blocks,
+                    white_furnace,
+                    &wo4,
+                    &flat,
+                    n,
+                    depends,
+                )?;
+                for (r, row) in sums.into_iter().enumerate() {
+                    out[r].extend(
+                        row.into_iter()
+                            .enumerate()
+                            .map(|(d, s)| (DVec3::from_array(s), list(d).len() as u64)),
+                    );
+                }
+            }
+        }
+    }
+    Ok(out)
 }

@@ -37,8 +37,10 @@ mod report;
 mod rules;
 mod vcavity;
 
-pub use albedo::{directional, hemispherical, HemiAlbedo, PointAlbedo};
-pub use backend::{rule_albedo, sum_rule};
+pub use albedo::{
+    albedo_rows, directional, hemispherical, hemispherical_directions, HemiAlbedo, PointAlbedo,
+};
+pub use backend::{rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rule_rows};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};

@@ -1,0 +1,102 @@
+//! The table kernel (glsl/kernels/table.comp) is shaped for throughput: several cells per
+//! invocation, a wrap from one light direction to the next inside an invocation, texel-buffer
+//! direction lists on CPU drivers, vec4 stores, padded last invocations, double-buffered chunks.
+//! None of that may change a value: every cell must be bit-identical to evaluating its (ωi, ωo)
+//! pair alone, which the pairs kernel does (one pair per evaluation, the same `brdf()` on the
+//! same f32 directions).
+
+mod common;
+
+use lobe::gpu::{Gpu, GpuPair};
+use lobe::grid::Grid;
+use lobe::model::{Brdf, Model, ParamSet};
+use lobe::Evaluator;
+
+fn f32x3(v: glam::DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The table on `grid` by the table kernel, and cell by cell by the pairs kernel, as bits.
+fn both(gpu: &Gpu, params: &ParamSet, grid: &Grid) -> (Vec<u32>, Vec<u32>) {
+    let mut table = Vec::new();
+    Evaluator::gpu(gpu)
+        .eval_table(params, false, grid, &mut |first, v| {
+            assert_eq!(first as usize * 3, table.len(), "chunks arrive in order");
+            table.extend(v.iter().map(|x| x.to_bits()));
+            Ok(())
+        })
+        .expect("table");
+    let (wi, wo) = (grid.wi_list(), grid.wo_list());
+    let pairs: Vec<GpuPair> = wi
+        .iter()
+        .flat_map(|&i| {
+            wo.iter().map(move |&o| GpuPair {
+                wi: f32x3(i),
+                param_index: 0,
+                wo: f32x3(o),
+                pad: 0,
+            })
+        })
+        .collect();
+    let block = Brdf::new(params).gpu_block();
+    let single = gpu
+        .eval_pairs(params.model(), &[block], &pairs, false)
+        .expect("pairs");
+    let single = single.iter().flatten().map(|x| x.to_bits()).collect();
+    (table, single)
+}
+
+fn first_difference(a: &[u32], b: &[u32]) -> Option<usize> {
+    a.iter().zip(b).position(|(x, y)| x != y)
+}
+
+#[test]
+fn every_cell_equals_its_pair_evaluated_alone() {
+    let Some(dev) = common::gpu_device("every_cell_equals_its_pair_evaluated_alone") else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    // Odd list lengths: rows end inside an invocation and the last invocation is padded.
+    let grids = [
+        Grid::parse("isotropic", "7,5,9").unwrap(),
+        Grid::parse("full", "3,5,7,3").unwrap(),
+    ];
+    for model in Model::ALL {
+        let params = ParamSet::defaults(model);
+        for grid in &grids {
+            if grid.needs_isotropy() && !params.is_isotropic() {
+                continue;
+            }
+            let (table, single) = both(&gpu, &params, grid);
+            assert_eq!(table.len(), single.len());
+            assert_eq!(
+                first_difference(&table, &single),
+                None,
+                "{} on {grid:?}: a table cell differs from its pair",
+                model.name()
+            );
+        }
+    }
+    common::assert_validation_clean(&gpu, "every_cell_equals_its_pair_evaluated_alone");
+}
+
+#[test]
+fn a_table_of_several_chunks_equals_its_pairs() {
+    let Some(dev) = common::gpu_device("a_table_of_several_chunks_equals_its_pairs") else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    // 1.1e6 cells: 13 MB of output, several chunks on either device kind (4 MB on a CPU
+    // driver, lobe::gpu::CPU_TABLE_CHUNK_BYTES), so both output buffers take turns.
+    let grid = Grid::parse("isotropic", "67,63,263").unwrap();
+    let params = lobe::resolve_params(
+        "microfacet",
+        Some("gold"),
+        &["distribution=beckmann".into(), "fresnel=conductor".into()],
+    )
+    .unwrap();
+    let (table, single) = both(&gpu, &params, &grid);
+    assert_eq!(table.len(), single.len());
+    assert_eq!(first_difference(&table, &single), None);
+    common::assert_validation_clean(&gpu, "a_table_of_several_chunks_equals_its_pairs");
+}
