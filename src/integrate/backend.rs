@@ -79,7 +79,7 @@ pub fn rule_albedo(
 /// of ε in its components is ε/(2μo) in its direction. Over the built-in presets and GGX and
 /// Beckmann with α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was
 /// 0.8 at μo = 1 and 80 at μo = 0.02 (1.6/μo): K = 4 covers it with a margin of 2.5
-/// (tests/albedo.rs `gpu_error_estimates_bound_the_f32_rounding` checks it).
+/// (tests/engine_luts.rs `gpu_error_estimates_bound_the_f32_rounding` checks it).
 pub const GPU_ROUNDING_FACTOR: f64 = 4.0;
 
 /// The f32 rounding term of an estimate on `backend` (0 on the CPU, whose sums are f64): for a

@@ -462,9 +462,10 @@ pub fn c_header(spec: &EngineSpec, t: &EngineTable, eval: &Evaluator, exr_path: 
     );
     let _ = writeln!(
         out,
-        " * Source: {} {}{}, integrated by lobe's `{}` rule ({} nodes per direction) on {}.",
+        " * Source: {} {} ({} set per row){}, integrated by lobe's `{}` rule ({} nodes per direction) on {}.",
         s.params.model().name(),
         s.params.to_text(),
+        s.keys.join(","),
         if s.white_furnace {
             " (white furnace)"
         } else {
