@@ -228,6 +228,29 @@ impl LutSpec {
                 BadInput::new("keys", "the LUT axis needs at least one parameter key").into(),
             );
         }
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(BadInput::new(
+                "range",
+                format!("the LUT range LO,HI = {lo},{hi}: expected LO < HI"),
+            )
+            .into());
+        }
+        if self.mapping == Mapping::Log && lo <= 0.0 {
+            return Err(BadInput::new(
+                "mapping",
+                format!("the LUT range LO,HI = {lo},{hi} with the log mapping: LO must be > 0"),
+            )
+            .into());
+        }
+        if self.mapping == Mapping::Perceptual && lo < 0.0 {
+            return Err(BadInput::new(
+                "mapping",
+                format!(
+                    "the LUT range LO,HI = {lo},{hi} with the perceptual mapping (p = r^2): LO must be >= 0"
+                ),
+            )
+            .into());
+        }
         for key in &self.keys {
             let Some(spec) = model.params().iter().find(|s| s.key == key) else {
                 return Err(BadInput::new(
@@ -269,29 +292,6 @@ impl LutSpec {
                 )
                 .into());
             }
-        }
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(BadInput::new(
-                "range",
-                format!("the LUT range LO,HI = {lo},{hi}: expected LO < HI"),
-            )
-            .into());
-        }
-        if self.mapping == Mapping::Log && lo <= 0.0 {
-            return Err(BadInput::new(
-                "mapping",
-                format!("the LUT range LO,HI = {lo},{hi} with the log mapping: LO must be > 0"),
-            )
-            .into());
-        }
-        if self.mapping == Mapping::Perceptual && lo < 0.0 {
-            return Err(BadInput::new(
-                "mapping",
-                format!(
-                    "the LUT range LO,HI = {lo},{hi} with the perceptual mapping (p = r^2): LO must be >= 0"
-                ),
-            )
-            .into());
         }
         if let Some(m) = self.max_error {
             if !(m >= 0.0) {
