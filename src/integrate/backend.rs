@@ -68,7 +68,8 @@ pub fn rule_albedo(
         .collect())
 }
 
-/// The factor K of the GPU's f32 rounding bound K ε Σ|w f| / μo (see [`f32_rounding`]).
+/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that every GPU estimate of a fixed
+/// rule carries.
 ///
 /// The GPU evaluates f in f32 from nodes and a view direction rounded to f32, and sums in f32
 /// (16 terms per invocation, then a 64-wide tree: at most 22 roundings, 22 ε relative, in the
