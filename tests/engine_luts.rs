@@ -185,6 +185,23 @@ fn read_npy_f32(path: &Path) -> (Vec<usize>, Vec<f32>) {
     lobe::table::npy::read(path).expect("npy")
 }
 
+fn path(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// Runs the compiler `cc` (CI installs build-essential) and requires success.
+fn compiles(cc: &str, args: &[&str]) {
+    let out = Command::new(cc)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{cc}: {e} (install build-essential)"));
+    assert!(
+        out.status.success(),
+        "{cc}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 #[test]
 fn the_c_header_compiles_and_holds_the_npy_values() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -226,26 +243,13 @@ fn the_c_header_compiles_and_holds_the_npy_values() {
         let src = dir.path().join(format!("{stem}.c"));
         std::fs::write(&src, program).expect("write C");
         let bin = dir.path().join(stem);
-        let cc = Command::new("cc")
-            .args(["-std=c99", "-Wall", "-Werror", "-o"])
-            .arg(&bin)
-            .arg(&src)
-            .output()
-            .expect("cc (install build-essential)");
-        assert!(
-            cc.status.success(),
-            "cc: {}",
-            String::from_utf8_lossy(&cc.stderr)
+        compiles(
+            "cc",
+            &["-std=c99", "-Wall", "-Werror", "-o", path(&bin), path(&src)],
         );
-        let cxx = Command::new("c++")
-            .args(["-x", "c++", "-fsyntax-only", "-Wall", "-Werror"])
-            .arg(&src)
-            .output()
-            .expect("c++");
-        assert!(
-            cxx.status.success(),
-            "c++: {}",
-            String::from_utf8_lossy(&cxx.stderr)
+        compiles(
+            "c++",
+            &["-x", "c++", "-fsyntax-only", "-Wall", "-Werror", path(&src)],
         );
         let run = Command::new(&bin).output().expect("run the C program");
         let printed = String::from_utf8_lossy(&run.stdout);
