@@ -8,8 +8,9 @@
 //!   entry sits at grazing μ = 0 (where E is a limit) and a bilinear lookup at μ reads cell j at
 //!   u = μ.
 //! - p_k = map(t_k), t_k = (k + ½)/Np, with `map` one of [`Mapping`]: linear lo + (hi − lo)t,
-//!   log lo·(hi/lo)^t, or square lo + (hi − lo)t² (denser at lo: uniform in √p, like engines'
-//!   perceptual roughness).
+//!   log lo·(hi/lo)^t, square lo + (hi − lo)t² (denser at lo: uniform in √p), or perceptual
+//!   (lo + (hi − lo)t)², the engines' convention α = r² with lo and hi given in r (from 0: cell
+//!   centres never reach it).
 //!
 //! E includes the delta lobe (`smooth_layered`, `coupled`); E_avg is taken at the view azimuth
 //! φo of the spec (it equals the hemispherical albedo for an isotropic model).
@@ -35,6 +36,8 @@ use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+pub mod engine;
+
 /// How cell t ∈ (0, 1) of the parameter axis maps to a parameter value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mapping {
@@ -44,11 +47,19 @@ pub enum Mapping {
     Log,
     /// p = lo + (hi − lo)·t²: uniform in √p, denser at lo.
     Square,
+    /// p = r², r = lo + (hi − lo)·t (lo ≥ 0): real-time engines' perceptual roughness r with
+    /// α = r², lo and hi given in r.
+    Perceptual,
 }
 
 impl Mapping {
     /// Every mapping, in the order the CLI lists them.
-    pub const ALL: [Mapping; 3] = [Mapping::Linear, Mapping::Log, Mapping::Square];
+    pub const ALL: [Mapping; 4] = [
+        Mapping::Linear,
+        Mapping::Log,
+        Mapping::Square,
+        Mapping::Perceptual,
+    ];
 
     /// The name the CLI and the sidecar use.
     pub fn name(self) -> &'static str {
@@ -56,6 +67,7 @@ impl Mapping {
             Mapping::Linear => "linear",
             Mapping::Log => "log",
             Mapping::Square => "square",
+            Mapping::Perceptual => "perceptual",
         }
     }
 
@@ -78,6 +90,7 @@ impl Mapping {
             Mapping::Linear => "p = lo + (hi - lo) * t",
             Mapping::Log => "p = lo * (hi / lo) ** t",
             Mapping::Square => "p = lo + (hi - lo) * t**2",
+            Mapping::Perceptual => "p = r**2, r = lo + (hi - lo) * t",
         }
     }
 
@@ -87,6 +100,10 @@ impl Mapping {
             Mapping::Linear => lo + (hi - lo) * t,
             Mapping::Log => lo * (hi / lo).powf(t),
             Mapping::Square => lo + (hi - lo) * t * t,
+            Mapping::Perceptual => {
+                let r = lo + (hi - lo) * t;
+                r * r
+            }
         }
     }
 }
@@ -123,6 +140,30 @@ pub struct LutSpec {
     pub samples: usize,
     /// View azimuth φo in radians (matters for anisotropic models only).
     pub phi: f64,
+    /// Whether to compute E_avg(p) too (150 more view directions a row); without it
+    /// [`LutSummary::e_avg`] is empty.
+    pub with_avg: bool,
+    /// Refuse the table, writing nothing, when its largest error estimate exceeds this.
+    pub max_error: Option<f64>,
+}
+
+/// An error estimate above 2^-10, the spacing of half floats just below 1, makes a table
+/// coarser than the 16-bit texture an engine stores it in: `lobe albedo` warns about it.
+pub const LARGE_ERROR: f64 = 1.0 / 1024.0;
+
+/// Refuses a result whose largest error estimate `largest` exceeds `limit` (`--max-error`), with
+/// a [`BadInput`] tagged `max-error` that names both.
+pub fn check_max_error(largest: f64, limit: Option<f64>) -> Result<()> {
+    match limit {
+        Some(limit) if !(largest <= limit) => Err(BadInput::new(
+            "max-error",
+            format!(
+                "the largest error estimate {largest:.3e} exceeds the limit {limit:.3e}; nothing was written (use more --samples or another --method)"
+            ),
+        )
+        .into()),
+        _ => Ok(()),
+    }
 }
 
 /// Largest table side: a LUT is a lookup table, not a lobe table.
@@ -145,6 +186,8 @@ impl LutSpec {
             method: Method::Peak,
             samples: Method::Peak.default_samples(),
             phi: 0.0,
+            with_avg: true,
+            max_error: None,
         }
     }
 
@@ -185,6 +228,29 @@ impl LutSpec {
                 BadInput::new("keys", "the LUT axis needs at least one parameter key").into(),
             );
         }
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(BadInput::new(
+                "range",
+                format!("the LUT range LO,HI = {lo},{hi}: expected LO < HI"),
+            )
+            .into());
+        }
+        if self.mapping == Mapping::Log && lo <= 0.0 {
+            return Err(BadInput::new(
+                "mapping",
+                format!("the LUT range LO,HI = {lo},{hi} with the log mapping: LO must be > 0"),
+            )
+            .into());
+        }
+        if self.mapping == Mapping::Perceptual && lo < 0.0 {
+            return Err(BadInput::new(
+                "mapping",
+                format!(
+                    "the LUT range LO,HI = {lo},{hi} with the perceptual mapping (p = r^2): LO must be >= 0"
+                ),
+            )
+            .into());
+        }
         for key in &self.keys {
             let Some(spec) = model.params().iter().find(|s| s.key == key) else {
                 return Err(BadInput::new(
@@ -208,32 +274,33 @@ impl LutSpec {
                 )
                 .into());
             }
-            for v in [lo, hi] {
-                if spec.check(v).is_err() {
-                    return Err(BadInput::new(
-                        "range",
-                        format!(
-                            "the LUT range LO,HI = {lo},{hi}: {key} must lie in {}",
-                            spec.range_text()
-                        ),
-                    )
-                    .into());
-                }
+            // The ends may sit on the boundary of the key's range (alpha from 0): only the
+            // cell centres are evaluated, and they must be valid values.
+            let ends = [0.0, 1.0].map(|t| self.mapping.apply(lo, hi, t));
+            let n = self.n_p.max(1) as f64;
+            let inner = [0.5 / n, 1.0 - 0.5 / n].map(|t| self.mapping.apply(lo, hi, t));
+            let outside = ends.iter().any(|&v| !(v >= spec.min && v <= spec.max))
+                || inner.iter().any(|&v| spec.check(v).is_err());
+            if outside {
+                return Err(BadInput::new(
+                    "range",
+                    format!(
+                        "the LUT range LO,HI = {lo},{hi} ({}): {key} must lie in {} (the range's ends may touch its bounds, the cell centres may not)",
+                        self.mapping.formula(),
+                        spec.range_text()
+                    ),
+                )
+                .into());
             }
         }
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(BadInput::new(
-                "range",
-                format!("the LUT range LO,HI = {lo},{hi}: expected LO < HI"),
-            )
-            .into());
-        }
-        if self.mapping == Mapping::Log && lo <= 0.0 {
-            return Err(BadInput::new(
-                "mapping",
-                format!("the LUT range LO,HI = {lo},{hi} with the log mapping: LO must be > 0"),
-            )
-            .into());
+        if let Some(m) = self.max_error {
+            if !(m >= 0.0) {
+                return Err(BadInput::new(
+                    "max-error",
+                    format!("the error limit {m}: expected a number >= 0"),
+                )
+                .into());
+            }
         }
         for (name, n) in [("NMU", self.n_mu), ("NP", self.n_p)] {
             if n == 0 || n > MAX_RES {
@@ -386,8 +453,10 @@ pub fn compute(
                 max_error = max_error.max(pt.error.max_element());
                 e.push(pt.albedo);
             }
-            max_error = max_error.max(h.e_avg_error.max_element());
-            e_avg.push(h.e_avg);
+            if spec.with_avg {
+                max_error = max_error.max(h.e_avg_error.max_element());
+                e_avg.push(h.e_avg);
+            }
         }
         done += batch.len();
         progress(done as u64, ps.len() as u64);
@@ -439,17 +508,11 @@ pub fn write(
     let set = FileSet::new(&[&npy_path, &avg_path, exr_path, &json_path])?;
     let (npy_tmp, avg_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2], &set[3]);
     let mut lut = compute(eval, spec, progress)?;
+    check_max_error(lut.max_error, spec.max_error)?;
     let flat = |v: &[DVec3]| -> Vec<f32> {
         v.iter()
             .flat_map(|c| [c.x as f32, c.y as f32, c.z as f32])
             .collect()
-    };
-    let write_npy = |file: &Pending, shape: &[usize], values: &[f32], dest: &Path| {
-        let mut w = file.writer();
-        w.write_all(&npy::header(shape))
-            .and_then(|_| npy::write_f32(&mut w, values))
-            .map_err(|e| crate::output::encoder_error(dest, "npy", e))?;
-        w.finish()
     };
     write_npy(npy_tmp, &[spec.n_p, spec.n_mu, 3], &flat(&lut.e), &npy_path)?;
     write_npy(avg_tmp, &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
@@ -462,6 +525,15 @@ pub fn write(
     set.commit()?;
     lut.files = vec![exr_path.to_path_buf(), npy_path, avg_path, json_path];
     Ok(lut)
+}
+
+/// Writes `values` as an f32 `.npy` of `shape` to `file` (the pending file of `dest`).
+fn write_npy(file: &Pending, shape: &[usize], values: &[f32], dest: &Path) -> Result<()> {
+    let mut w = file.writer();
+    w.write_all(&npy::header(shape))
+        .and_then(|_| npy::write_f32(&mut w, values))
+        .map_err(|e| crate::output::encoder_error(dest, "npy", e))?;
+    w.finish()
 }
 
 fn file_name(p: &Path) -> String {
@@ -531,22 +603,11 @@ fn exr_layer(
     height: usize,
     values: &[DVec3],
 ) -> Layer<AnyChannels<FlatSamples>> {
-    let channel = |c: usize, n: &str| {
-        AnyChannel::new(
-            n,
-            FlatSamples::F32(values.iter().map(|v| v[c] as f32).collect()),
-        )
-    };
-    Layer::new(
-        (width, height),
-        LayerAttributes::named(name),
-        crate::output::EXR_ENCODING,
-        AnyChannels::sort(SmallVec::from_vec(vec![
-            channel(0, "R"),
-            channel(1, "G"),
-            channel(2, "B"),
-        ])),
-    )
+    let flat: Vec<f32> = values
+        .iter()
+        .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
+        .collect();
+    engine::exr_channels_layer(name, width, height, &["R", "G", "B"], &flat)
 }
 
 fn write_exr(out: &Pending, spec: &LutSpec, lut: &LutSummary) -> Result<()> {

@@ -231,7 +231,7 @@ fn bad_lut_input_is_refused_with_a_sentence_and_no_file() {
     let cases: [(&[&str], &str); 5] = [
         (&["--lut-param", "shine"], "--lut-param shine"),
         (
-            &["--lut-param", "roughness", "--lut-range", "0,1"],
+            &["--lut-param", "roughness", "--lut-range=-0.1,1"],
             "(0, 1]",
         ),
         (&["--lut-range", "0.5,0.1"], "LO < HI"),

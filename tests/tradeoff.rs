@@ -563,7 +563,8 @@ fn rule_ladders_dedupe_equal_rules() {
         peaks,
         [&Rule::Peak {
             order: 2,
-            v_cavity: false
+            v_cavity: false,
+            extra_levels: 0
         }]
     );
     assert!(v.iter().all(|x| x.method != Method::Reference));

@@ -6,7 +6,8 @@ use super::{open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, T
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::integrate::{Method, Settings};
-use lobe::lut::{self, LutSpec, Mapping};
+use lobe::lut::engine::{self, EngineKind, EngineSpec};
+use lobe::lut::{self, LutSpec, Mapping, LARGE_ERROR};
 use lobe::{ParamSet, Session};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -20,6 +21,9 @@ enum MappingArg {
     Log,
     /// lo + (hi - lo) t^2: denser at lo.
     Square,
+    /// (lo + (hi - lo) t)^2: engines' perceptual roughness r with alpha = r^2, LO,HI given in r
+    /// (LO may be 0).
+    Perceptual,
 }
 
 impl From<MappingArg> for Mapping {
@@ -28,6 +32,7 @@ impl From<MappingArg> for Mapping {
             MappingArg::Linear => Mapping::Linear,
             MappingArg::Log => Mapping::Log,
             MappingArg::Square => Mapping::Square,
+            MappingArg::Perceptual => Mapping::Perceptual,
         }
     }
 }
@@ -103,6 +108,40 @@ pub struct AlbedoArgs {
     /// square for roughness, else linear).
     #[arg(long = "lut-map", value_enum, requires = "lut")]
     lut_map: Option<MappingArg>,
+    /// With --lut: write a table a real-time engine loads instead (docs/luts.md), also as a C/C++
+    /// header PATH.h of half floats and floats. Each picks its model (--set applies on top) and
+    /// axis: perceptual roughness r in [0, 1] with alpha = r^2, except eon (its r, linear).
+    #[arg(long, value_enum, requires = "lut", conflicts_with_all = ["material", "white_furnace", "lut_param"])]
+    engine: Option<EngineArg>,
+    /// Fail, writing nothing, when the largest error estimate exceeds E (absolute). Without it an
+    /// estimate above 2^-10 (the step of half floats below 1) is only warned about.
+    #[arg(long, value_name = "E")]
+    max_error: Option<f64>,
+}
+
+/// The engine tables of --engine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum EngineArg {
+    /// Split-sum DFG of GGX, height-correlated Smith: R multiplies F0, G multiplies F90.
+    Dfg,
+    /// The same integrals as R = F90 part, G = E with F = 1 (for multiple-scattering
+    /// compensation: E = mix(R, G, F0)).
+    DfgMultiscatter,
+    /// Kulla-Conty's E(mu, alpha) with F = 1 and E_avg(alpha) of microfacet.
+    KullaConty,
+    /// EON's single-scattering albedo E_hat(mu, r) and its average.
+    Eon,
+}
+
+impl From<EngineArg> for EngineKind {
+    fn from(e: EngineArg) -> EngineKind {
+        match e {
+            EngineArg::Dfg => EngineKind::Dfg,
+            EngineArg::DfgMultiscatter => EngineKind::DfgMultiscatter,
+            EngineArg::KullaConty => EngineKind::KullaConty,
+            EngineArg::Eon => EngineKind::Eon,
+        }
+    }
 }
 
 pub fn run(a: AlbedoArgs) -> Result<()> {
@@ -114,8 +153,16 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
             lobe::scene::Outputs::ALBEDOS,
         );
     }
-    let params = a.model.params()?;
+    if let Some(m) = a.max_error {
+        if !(m >= 0.0) {
+            bail!("--max-error {m}: expected an absolute error >= 0");
+        }
+    }
     let method = Method::from(a.method);
+    if let (Some(kind), Some(path)) = (a.engine, &a.lut) {
+        return write_engine_lut(&a, kind.into(), method, path);
+    }
+    let params = a.model.params()?;
     if !a.phi_deg.is_finite() {
         bail!(
             "--phi-o-deg {}: expected a finite number of degrees",
@@ -170,6 +217,19 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     let report = session.albedo_report(&params, &settings, &points, phi);
     spinner.finish_and_clear();
     let report = report?;
+    let largest = report
+        .points
+        .iter()
+        .map(|p| p.error.max_element())
+        .chain([
+            report.hemispherical.error.max_element(),
+            report.hemispherical.e_avg_error.max_element(),
+        ])
+        .fold(0.0, f64::max);
+    with_flag(lut::check_max_error(largest, a.max_error), |_| {
+        a.max_error.map(|m| format!("--max-error {m}"))
+    })?;
+    warn_large(largest);
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
@@ -232,6 +292,7 @@ fn lut_spec(a: &AlbedoArgs, params: ParamSet, settings: Settings, phi: f64) -> R
     if let Some(m) = a.lut_map {
         spec.mapping = m.into();
     }
+    spec.max_error = a.max_error;
     with_flag(spec.validate(), |o| lut_flag(&spec, o))?;
     Ok(spec)
 }
@@ -245,6 +306,7 @@ fn lut_flag(spec: &LutSpec, option: &str) -> Option<String> {
         "mapping" => format!("--lut-map {} with {range}", spec.mapping.name()),
         "res" => format!("--lut-res {},{}", spec.n_mu, spec.n_p),
         "phi" => "--phi-o-deg".to_string(),
+        "max-error" => format!("--max-error {}", spec.max_error.unwrap_or(f64::NAN)),
         "path" => "--lut".to_string(),
         _ => return None,
     })
@@ -260,6 +322,7 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
         |o| lut_flag(spec, o),
     )?;
     progress.finish_and_clear();
+    warn_large(summary.max_error);
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
@@ -268,6 +331,108 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
             serde_json::to_string_pretty(&summary.to_json(spec))?
         )?,
         _ => summary.write_text(spec, &mut out)?,
+    }
+    Ok(())
+}
+
+/// Says on stderr that an error estimate is large ([`LARGE_ERROR`]).
+fn warn_large(largest: f64) {
+    if !(largest <= LARGE_ERROR) {
+        eprintln!(
+            "warning: the largest error estimate is {largest:.3e}, above {LARGE_ERROR:.3e} (the step of half floats below 1); use more --samples, another --method, or --max-error to refuse such results"
+        );
+    }
+}
+
+/// `lobe albedo --lut PATH.exr --engine KIND`: an engine table with its C/C++ header.
+fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Path) -> Result<()> {
+    let default_model = "cook_torrance";
+    if a.model.model != default_model && a.model.model != kind.model_name() {
+        bail!(
+            "--model {} with --engine {}: the table is made from {} (drop --model; --set changes its parameters)",
+            a.model.model,
+            kind.name(),
+            kind.model_name()
+        );
+    }
+    let mut spec = EngineSpec::new(kind, &a.model.sets)?;
+    spec.lut.method = method;
+    spec.lut.samples = a.samples.unwrap_or(method.default_samples());
+    spec.lut.max_error = a.max_error;
+    if let Some(r) = &a.lut_range {
+        (spec.lut.lo, spec.lut.hi) = parse_pair("--lut-range", r, "LO,HI (two numbers)")?;
+    }
+    if let Some(r) = &a.lut_res {
+        (spec.lut.n_mu, spec.lut.n_p) =
+            parse_pair("--lut-res", r, "NMU,NP (two positive integers)")?;
+    }
+    if let Some(m) = a.lut_map {
+        spec.lut.mapping = m.into();
+    }
+    with_flag(spec.lut.validate(), |o| lut_flag(&spec.lut, o))?;
+    let session = open_albedo_session(&a.backend, method)?;
+    let rows = (spec.lut.n_p * if kind.channels() == 2 { 2 } else { 1 }) as u64;
+    let progress = indicatif::ProgressBar::new(rows);
+    let table = with_flag(
+        engine::write_engine(&session.evaluator(), &spec, path, &mut |done, _| {
+            progress.set_position(done)
+        }),
+        |o| lut_flag(&spec.lut, o),
+    )?;
+    progress.finish_and_clear();
+    warn_large(table.max_error);
+    let ranges: Vec<(f64, f64)> = (0..table.channels).map(|c| table.range(c)).collect();
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        TableFormat::Json => {
+            let files: Vec<String> = table
+                .files
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect();
+            let v = serde_json::json!({
+                "files": files,
+                "engine": kind.name(),
+                "model": kind.model_name(),
+                "parameters": spec.lut.params.to_json(),
+                "range": [spec.lut.lo, spec.lut.hi],
+                "mapping": spec.lut.mapping.name(),
+                "res": [spec.lut.n_mu, spec.lut.n_p],
+                "method": method.name(),
+                "samples": spec.lut.samples,
+                "channel_ranges": ranges,
+                "max_error_estimate": table.max_error,
+                "seconds": table.seconds,
+            });
+            writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        }
+        _ => {
+            let text: Vec<String> = ranges
+                .iter()
+                .zip(["R", "G"])
+                .map(|((lo, hi), c)| format!("{c} in [{lo:.6}, {hi:.6}]"))
+                .collect();
+            writeln!(
+                out,
+                "{} table ({}) over mu ({} cells) x {} in [{}, {}] ({} cells, {}): {}, largest error estimate {:.2e}; {} {} nodes per direction; {:.2} s",
+                kind.name(),
+                kind.model_name(),
+                spec.lut.n_mu,
+                spec.lut.keys.join(","),
+                spec.lut.lo,
+                spec.lut.hi,
+                spec.lut.n_p,
+                spec.lut.mapping.name(),
+                text.join(", "),
+                table.max_error,
+                method.name(),
+                spec.lut.samples,
+                table.seconds
+            )?;
+            for f in &table.files {
+                writeln!(out, "wrote {}", f.display())?;
+            }
+        }
     }
     Ok(())
 }

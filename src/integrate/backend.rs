@@ -35,6 +35,7 @@ pub fn rule_albedo(
             })
             .collect::<Result<_>>()?;
         let r = REPLICATES as f64;
+        let rounding = f32_rounding(backend);
         return Ok((0..wo.len())
             .map(|o| {
                 let mean = reps.iter().map(|v| v[o].0).sum::<DVec3>() / r;
@@ -45,7 +46,7 @@ pub fn rule_albedo(
                     / (r - 1.0);
                 Estimate {
                     value: mean,
-                    error: REPLICATE_T * (var / r).powf(0.5),
+                    error: REPLICATE_T * (var / r).powf(0.5) + rounding(mean, wo[o]),
                     evals: reps.iter().map(|v| v[o].1).sum(),
                 }
             })
@@ -54,12 +55,14 @@ pub fn rule_albedo(
     let (coarse, factor) = rule.coarse();
     let fine_e = sum_rule(backend, params, white_furnace, rule, wo)?;
     let coarse_e = sum_rule(backend, params, white_furnace, coarse, wo)?;
+    let rounding = f32_rounding(backend);
     Ok(fine_e
         .into_iter()
         .zip(coarse_e)
-        .map(|((v, n), (c, _))| Estimate {
+        .zip(wo)
+        .map(|(((v, n), (c, _)), &o)| Estimate {
             value: v,
-            error: factor * (v - c).abs(),
+            error: factor * (v - c).abs() + rounding(v, o),
             evals: n,
         })
         .collect())
@@ -80,6 +83,35 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
             replicate: None, ..
         } => count(rule),
         _ => count(rule) + count(rule.coarse().0),
+    }
+}
+
+/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that every GPU estimate of a fixed
+/// rule carries.
+///
+/// The GPU evaluates f in f32 from nodes and a view direction rounded to f32, and sums in f32
+/// (16 terms per invocation, then a 64-wide tree: at most 22 roundings, 22 ε relative, in the
+/// worst case, ~√22 ε typically). The coarse rule shares those roundings, so |fine − coarse|
+/// misses them: at E(1) of GGX α = 0.3 under the white furnace the GPU is 6.5e-8 from the f64
+/// sum of the same rule while |fine − coarse| is 1.7e-8. The rounding of f grows at grazing
+/// view: h = ωi + ωo cancels to length 2μo about the mirror direction, so an absolute rounding
+/// of ε in its components is ε/(2μo) in its direction. Over the built-in presets and GGX and
+/// Beckmann with α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was
+/// 0.8 at μo = 1 and 80 at μo = 0.02 (1.6/μo): K = 4 covers it with a margin of 2.5
+/// (tests/engine_luts.rs `gpu_error_estimates_bound_the_f32_rounding` checks it).
+pub const GPU_ROUNDING_FACTOR: f64 = 4.0;
+
+/// The f32 rounding term of an estimate on `backend` (0 on the CPU, whose sums are f64): for a
+/// GPU sum of value v at view ωo, K ε |v| / μo with ε = 2^-23 and K = [`GPU_ROUNDING_FACTOR`].
+/// |v| = Σ|w f| because every rule's weights are positive and a BRDF is nonnegative.
+fn f32_rounding(backend: &Evaluator) -> impl Fn(DVec3, DVec3) -> DVec3 {
+    let on_gpu = matches!(backend.backend(), Backend::Gpu(_));
+    move |v: DVec3, wo: DVec3| {
+        if on_gpu {
+            v.abs() * (GPU_ROUNDING_FACTOR * f32::EPSILON as f64 / wo.z.max(f64::MIN_POSITIVE))
+        } else {
+            DVec3::ZERO
+        }
     }
 }
 
@@ -204,15 +236,17 @@ pub fn rule_albedo_rows(
     let (coarse, factor) = rule.coarse();
     let fine_e = sum_rule_rows(backend, rows, white_furnace, rule, wo)?;
     let coarse_e = sum_rule_rows(backend, rows, white_furnace, coarse, wo)?;
+    let rounding = f32_rounding(backend);
     Ok(fine_e
         .into_iter()
         .zip(coarse_e)
         .map(|(fine, coarse)| {
             fine.into_iter()
                 .zip(coarse)
-                .map(|((v, n), (c, _))| Estimate {
+                .zip(wo)
+                .map(|(((v, n), (c, _)), &o)| Estimate {
                     value: v,
-                    error: factor * (v - c).abs(),
+                    error: factor * (v - c).abs() + rounding(v, o),
                     evals: n,
                 })
                 .collect()

@@ -26,6 +26,8 @@
 //! resolution and the difference is reported (divided by 3 for the midpoint rule, whose h² order
 //! is known: Richardson); the adaptive reference reports Σ|K15 − G7| over its panels, which bounds
 //! the 7-point Gauss result and so, in practice, grossly over-bounds the 15-point Kronrod one.
+//! On the GPU, whose sums are f32, every estimate of a fixed rule also carries an f32 rounding
+//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the coarse rule's difference misses.
 
 mod albedo;
 mod backend;
@@ -40,7 +42,9 @@ mod vcavity;
 pub use albedo::{
     albedo_rows, directional, hemispherical, hemispherical_directions, HemiAlbedo, PointAlbedo,
 };
-pub use backend::{rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rule_rows};
+pub use backend::{
+    rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rule_rows, GPU_ROUNDING_FACTOR,
+};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};
@@ -143,6 +147,9 @@ impl Method {
             Method::Peak => Some(Rule::Peak {
                 order: (((samples as f64) / (30.0 * 22.0)).sqrt().round() as usize).max(2),
                 v_cavity: params.model().has_v_cavity_masking(),
+                extra_levels: params
+                    .sampling_lobes()
+                    .map_or(0, |l| peak::lobe_levels(l.exponents[0].max(l.exponents[1]))),
             }),
             Method::Reference => None,
         }

@@ -25,14 +25,14 @@ pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {
     if wo.z <= 0.0 {
         return Estimate::default();
     }
-    let first: DVec3 = peak_nodes(6, false, wo)
+    let first: DVec3 = peak_nodes(6, false, 0, wo)
         .iter()
         .map(|n| n.weight * r.eval(n.wi, wo))
         .sum();
     let tol = (rtol * first.abs().max_element()).max(f64::MIN_POSITIVE);
     let tol_inner = tol / 100.0;
     let phi_o = wo.y.atan2(wo.x);
-    let pb = peak_phi_breaks(wo.z);
+    let pb = peak_phi_breaks(wo.z, 0);
     let inner = |mu: f64| {
         let s = (1.0 - mu * mu).max(0.0).sqrt();
         let g = |dphi: f64| {
@@ -45,7 +45,7 @@ pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {
         };
         adaptive(&g, &pb, tol_inner, false)
     };
-    adaptive(&inner, &peak_mu_breaks(wo.z), tol, true)
+    adaptive(&inner, &peak_mu_breaks(wo.z, 0), tol, true)
 }
 
 /// Directional albedo (delta lobe excluded) by nested adaptive Gauss–Kronrod in the peak frame:
@@ -58,7 +58,7 @@ pub fn reference_albedo_mirror_frame(r: &Reference, wo: DVec3, rtol: f64) -> Est
         return Estimate::default();
     }
     let frame = PeakFrame::new(wo);
-    let first: DVec3 = peak_nodes(6, false, wo)
+    let first: DVec3 = peak_nodes(6, false, 0, wo)
         .iter()
         .map(|n| n.weight * r.eval(n.wi, wo))
         .sum();

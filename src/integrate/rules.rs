@@ -54,6 +54,9 @@ pub enum Rule {
         /// Split each μ line's Δφ panels at the V-cavity masking kinks
         /// ([`v_cavity_kinks`](super::v_cavity_kinks)).
         v_cavity: bool,
+        /// Grading levels towards the peak beyond the default nine, for lobes narrower than
+        /// Phong n = 8192 (see `Method::rule`).
+        extra_levels: u32,
     },
 }
 
@@ -92,10 +95,15 @@ impl Rule {
                 },
                 1.0,
             ),
-            Rule::Peak { order, v_cavity } => (
+            Rule::Peak {
+                order,
+                v_cavity,
+                extra_levels,
+            } => (
                 Rule::Peak {
                     order: (order * 3 / 4).clamp(1, order.saturating_sub(1).max(1)),
                     v_cavity,
+                    extra_levels,
                 },
                 1.0,
             ),
@@ -121,7 +129,11 @@ impl Rule {
                         .collect(),
                 }
             }
-            Rule::Peak { order, v_cavity } => peak_nodes(order, v_cavity, wo),
+            Rule::Peak {
+                order,
+                v_cavity,
+                extra_levels,
+            } => peak_nodes(order, v_cavity, extra_levels, wo),
         }
     }
 }
@@ -204,6 +216,7 @@ mod tests {
             Rule::Peak {
                 order: 6,
                 v_cavity: false,
+                extra_levels: 0,
             },
         ] {
             let s: f64 = rule.nodes(wo).iter().map(|n| n.weight).sum();

@@ -27,7 +27,6 @@ pub mod surface3d;
 
 use crate::input::BadInput;
 use crate::model::ParamSet;
-use crate::output::Pending;
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
