@@ -69,7 +69,7 @@ fn pair_and_chunk_blocks_match() {
         ("first".to_string(), offset_of!(ChunkPush, first) as u32),
         ("count".to_string(), offset_of!(ChunkPush, count) as u32),
         ("n_wo".to_string(), offset_of!(ChunkPush, n_wo) as u32),
-        ("pad".to_string(), offset_of!(ChunkPush, pad) as u32),
+        ("n_wi".to_string(), offset_of!(ChunkPush, n_wi) as u32),
     ];
     assert_eq!(chunk.members, expected);
 }
