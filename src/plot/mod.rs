@@ -637,7 +637,7 @@ const MODEL_STYLES: [(&str, usize); 10] = [
 ];
 
 /// The style of each subject. When every subject is a different model, each model keeps its
-/// place in [`MODEL_STYLES`] (a model registered at run time: the places after them), so that a
+/// place in `MODEL_STYLES` (a model registered at run time: the places after them), so that a
 /// model has the same look in every plot; otherwise (one model in several materials) the
 /// subjects take the styles in order.
 pub fn subject_styles(subjects: &[Subject]) -> Vec<SeriesStyle> {
