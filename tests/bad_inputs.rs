@@ -134,6 +134,7 @@ fn scene_cases() -> Vec<(&'static str, String, Vec<&'static str>, Vec<&'static s
         ("preview --scene with a scene without previews", BASE.to_string(), vec!["@preview"], vec!["asks for no previews"]),
         ("preview output not .png", with("[[previews]]\nmaterials = [\"gold\"]\noutput = \"p.jpg\"\n"), vec![], vec!["scene.toml:21:10", "must end in .png"]),
         ("preview cell of 0 pixels", with("[[previews]]\nmaterials = [\"gold\"]\ncell = 0\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:21:8", "cell size"]),
+        ("preview sheet too large", with("[[previews]]\nmaterials = [\"gold\"]\nmodels = [\"phong\", \"lambert\", \"blinn_phong\", \"oren_nayar\", \"cook_torrance\"]\ncell = 4096\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:", "a sheet is at most 67108864"]),
         ("preview of an unknown shape", with("[[previews]]\nmaterials = [\"gold\"]\nshape = \"cube\"\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:21:9", "unknown shape 'cube'"]),
         ("preview of an unknown model", with("[[previews]]\nmodels = [\"phong\", \"fong\"]\noutput = \"p.png\"\n"), vec![], vec!["scene.toml:20:20", "unknown model 'fong'"]),
         ("preview without lights", BASE.replace("[[lights]]\nposition = [0.0, 0.0, 1.0]\n", "") + "[[previews]]\nmaterials = [\"gold\"]\noutput = \"p.png\"\n", vec![], vec!["scene.toml:17:1", "needs lights"]),

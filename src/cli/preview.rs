@@ -9,9 +9,7 @@ use lobe::material;
 use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
 use std::path::{Path, PathBuf};
 
-/// The most pixels of a contact sheet's cells: 2^26 (an 8192 x 8192 sheet), about 1 GB with the
-/// linear radiance, the sRGB image and the encoders' buffers.
-const MAX_SHEET_PIXELS: u64 = 1 << 26;
+use lobe::preview::MAX_SHEET_PIXELS;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
 enum ShapeArg {

@@ -74,6 +74,10 @@ pub const FOV_Y_DEG: f64 = 45.0;
 /// Default cell size in pixels.
 pub const DEFAULT_CELL: u32 = 128;
 
+/// The most pixels of a contact sheet's cells: 2^26 (an 8192 x 8192 sheet), about 1 GB with the
+/// linear radiance, the sRGB image and the encoders' buffers.
+pub const MAX_SHEET_PIXELS: u64 = 1 << 26;
+
 /// The object drawn in every cell of the sheet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shape {

@@ -783,6 +783,18 @@ fn preview(
             }
         },
     };
+    let pixels = (rows.len() * models.len()) as u64 * u64::from(cell).pow(2);
+    if pixels > preview::MAX_SHEET_PIXELS {
+        return Err(loc.at(
+            p.span(),
+            format!(
+                "{} materials x {} models of {cell}x{cell} pixels is {pixels} pixels; a sheet is at most {} (use a smaller cell or fewer materials, models)",
+                rows.len(),
+                models.len(),
+                preview::MAX_SHEET_PIXELS
+            ),
+        ));
+    }
     let exposure = match &pf.exposure {
         None => 0.0,
         Some(e) if e.get_ref().is_finite() => *e.get_ref(),
