@@ -241,8 +241,11 @@ pub fn report_each(
         };
         let params: Vec<ParamSet> = group.iter().map(|c| c.2.clone()).collect();
         for ((m, case, white, wf), (dir, h)) in
-            group.iter().zip(albedo_rows(eval, &params, &s, &pts, 0.0)?)
+            group
+                .iter()
+                .zip(albedo_rows(eval, &params, &s, &pts, Some(0.0))?)
         {
+            let h = h.expect("asked for the hemispherical albedo");
             let row = summarise(m.name(), case, white, *wf, &dir, &h);
             rows.push(row);
             on_row(rows.last().unwrap(), rows.len() as u64, total)?;

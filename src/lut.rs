@@ -448,12 +448,14 @@ pub fn compute(
             .iter()
             .map(|&p| spec.params_at(p))
             .collect::<Result<_>>()?;
-        for (dir, h) in albedo_rows(eval, &rows, &settings, &points, spec.phi)? {
+        // E_avg only where the table has it (an engine DFG table does not).
+        let phi = spec.with_avg.then_some(spec.phi);
+        for (dir, h) in albedo_rows(eval, &rows, &settings, &points, phi)? {
             for pt in dir {
                 max_error = max_error.max(pt.error.max_element());
                 e.push(pt.albedo);
             }
-            if spec.with_avg {
+            if let Some(h) = h {
                 max_error = max_error.max(h.e_avg_error.max_element());
                 e_avg.push(h.e_avg);
             }

@@ -183,8 +183,8 @@ pub fn hemispherical(
     hemispherical_from(backend, params, s, phi, table)
 }
 
-/// [`directional`] at `points` and [`hemispherical`] at `phi` for every parameter set of
-/// `rows` (one model: the rows of a LUT), the same values row by row. With a fixed rule every
+/// [`directional`] at `points` and, when `phi` is given, [`hemispherical`] at it for every
+/// parameter set of `rows` (one model: the rows of a LUT), the same values row by row. With a fixed rule every
 /// row's directions go to [`rule_albedo_rows`] at once: each direction's nodes are made once
 /// for all rows, and the GPU sums all rows in the same dispatches.
 pub fn albedo_rows(
@@ -192,8 +192,8 @@ pub fn albedo_rows(
     rows: &[ParamSet],
     s: &Settings,
     points: &[(f64, f64)],
-    phi: f64,
-) -> Result<Vec<(Vec<PointAlbedo>, HemiAlbedo)>> {
+    phi: Option<f64>,
+) -> Result<Vec<(Vec<PointAlbedo>, Option<HemiAlbedo>)>> {
     let rules: Vec<_> = rows.iter().map(|p| s.method.rule(s.samples, p)).collect();
     let same = rows
         .windows(2)
@@ -206,7 +206,8 @@ pub fn albedo_rows(
                 backend.check_cancelled()?;
                 Ok((
                     directional(backend, p, s, points)?,
-                    hemispherical(backend, p, s, phi)?,
+                    phi.map(|phi| hemispherical(backend, p, s, phi))
+                        .transpose()?,
                 ))
             })
             .collect();
@@ -219,7 +220,9 @@ pub fn albedo_rows(
         }
     }
     let mut wo = directions(points);
-    wo.extend(hemispherical_directions(&rows[0], phi));
+    if let Some(phi) = phi {
+        wo.extend(hemispherical_directions(&rows[0], phi));
+    }
     let est = rule_albedo_rows(backend, rows, s.white_furnace, *rule, &wo)?;
     rows.iter()
         .zip(est)
@@ -228,7 +231,8 @@ pub fn albedo_rows(
             let r = Reference::new(p, s.white_furnace);
             Ok((
                 point_albedos(&r, points, e),
-                hemispherical_from(backend, p, s, phi, hemi)?,
+                phi.map(|phi| hemispherical_from(backend, p, s, phi, hemi))
+                    .transpose()?,
             ))
         })
         .collect()
