@@ -16,6 +16,7 @@
 //! linear RGB, without the cosine, and 0 whenever cosθi ≤ 0 or cosθo ≤ 0.
 
 pub mod bench;
+pub mod brdf;
 pub mod demo;
 pub mod energy;
 pub mod error;

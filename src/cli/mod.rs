@@ -144,8 +144,13 @@ pub fn resolve_all(
     material: Option<&str>,
     sets: &[String],
 ) -> Result<Vec<(String, ParamSet)>> {
-    let parsed: Vec<(&str, Vec<String>)> =
-        specs.iter().map(|s| split_spec(s)).collect::<Result<_>>()?;
+    let parsed: Vec<(&str, Vec<String>)> = specs
+        .iter()
+        .map(|s| {
+            let (name, own) = split_spec(s)?;
+            Ok((model_file(name)?, own))
+        })
+        .collect::<Result<_>>()?;
     let mut out = Vec::new();
     for (spec, (name, own)) in specs.iter().zip(&parsed) {
         let mut params = lobe::resolve_params(name, material, &[]).map_err(set_error)?;
@@ -211,6 +216,40 @@ pub fn resolve_all(
         }
     }
     Ok(out)
+}
+
+/// A model spec's name as a model name: a `.brdf` file is loaded (once per process: compiled
+/// and registered under a name from its stem, see [`lobe::brdf::load`]) and its model's name
+/// returned, with a note on stderr for each section it skips; any other name is returned as it
+/// is. `LOBE_BRDF_TIMEOUT=SECONDS` sets how long one chunk of a `.brdf` model's GPU work may
+/// take before it is stopped (default [`lobe::brdf::DEFAULT_CHUNK_TIMEOUT`]).
+pub fn model_file(name: &str) -> Result<&str> {
+    if !lobe::brdf::is_brdf_path(name) {
+        return Ok(name);
+    }
+    let mut options = lobe::brdf::LoadOptions::default();
+    if let Ok(text) = std::env::var("LOBE_BRDF_TIMEOUT") {
+        match text.trim().parse::<f64>() {
+            Ok(s) if s > 0.0 && s <= 86400.0 => {
+                options.chunk_timeout = std::time::Duration::from_secs_f64(s)
+            }
+            _ => bail!("LOBE_BRDF_TIMEOUT={text}: expected seconds, more than 0 and at most 86400"),
+        }
+    }
+    let loaded = lobe::brdf::load(std::path::Path::new(name.trim()), &options)?;
+    for note in &loaded.notes {
+        eprintln!("lobe: note: {note}");
+    }
+    Ok(loaded.model.name())
+}
+
+/// The names of a `--models` list with each `.brdf` file loaded ([`model_file`]) and replaced
+/// by its model's name.
+pub fn model_files(names: &[String]) -> Result<Vec<String>> {
+    names
+        .iter()
+        .map(|n| model_file(n).map(str::to_string))
+        .collect()
 }
 
 fn has_key(p: &ParamSet, key: &str) -> bool {
@@ -450,6 +489,9 @@ pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
             "rerun, pick another device with --device SUBSTRING, or use --backend cpu"
         }
         GpuError::Timeout { .. } => "ask for less work at once, or use --backend cpu",
+        GpuError::ModelTimeout { .. } => {
+            "for a .brdf model, LOBE_BRDF_TIMEOUT=SECONDS sets the limit (default 10)"
+        }
         GpuError::Limit(_) => {
             "ask for less work at once (fewer --samples, a smaller --res or --cell), or use --backend cpu"
         }
@@ -465,6 +507,10 @@ pub fn models_or_all(names: &[String]) -> Result<Vec<lobe::Model>> {
     }
     names
         .iter()
-        .map(|m| lobe::Model::from_name(m).with_context(|| format!("--models {m}")))
+        .map(|m| {
+            model_file(m)
+                .and_then(|name| Ok(lobe::Model::from_name(name)?))
+                .with_context(|| format!("--models {m}"))
+        })
         .collect()
 }

@@ -35,7 +35,7 @@ pub struct StabilityArgs {
 }
 
 pub fn run(a: StabilityArgs) -> Result<()> {
-    let models = stability::models_named(&a.models)?;
+    let models = stability::models_named(&super::model_files(&a.models)?)?;
     let progress = bar(models.len() as u64, "{msg} [{bar:30}] {pos}/{len}");
     let mut step = |label: &str| {
         progress.set_message(format!("stability {label}"));

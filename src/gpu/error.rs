@@ -40,6 +40,15 @@ pub enum GpuError {
         /// The time limit, seconds.
         seconds: u64,
     },
+    /// A submission with a model's own time limit ([`crate::model::Model::chunk_timeout`], set
+    /// for kernels compiled at run time) did not finish: its shader may never return.
+    #[error("the GPU work {what} did not finish within {seconds} s, the limit for one chunk of this model's work: its shader may never return (a loop without end) or be too slow for that limit; the device may be hung, so its memory was left allocated and it takes no more work")]
+    ModelTimeout {
+        /// The label of the pipeline that was running.
+        what: String,
+        /// The time limit, seconds.
+        seconds: f64,
+    },
     /// A submission on this device timed out earlier: it may still run, so the device takes no
     /// more work.
     #[error("the Vulkan device timed out on an earlier submission and takes no more work; restart, or use the CPU backend")]

@@ -116,6 +116,8 @@ pub struct Pipeline {
     pub label: String,
     /// GPU time of every dispatch so far, from timestamp queries (nanoseconds).
     pub gpu_ns: AtomicU64,
+    /// The model's own bound on each chunk's wait, if it has one (else [`CHUNK_TIMEOUT`]).
+    pub model_timeout: Option<Duration>,
 }
 
 impl Pipeline {
@@ -164,6 +166,7 @@ impl Pipeline {
             build_time: Duration::ZERO,
             label,
             gpu_ns: AtomicU64::new(0),
+            model_timeout: model_kind.chunk_timeout(),
         };
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
@@ -523,7 +526,7 @@ impl<'p> Dispatcher<'p> {
         Ok(())
     }
 
-    /// Waits for the submitted chunk, at most [`CHUNK_TIMEOUT`]. On a timeout the submission may
+    /// Waits for the submitted chunk, at most [`CHUNK_TIMEOUT`] (or the model's own limit). On a timeout the submission may
     /// still run: the device is marked hung ([`Device::mark_hung`]) and from then on nothing
     /// that work could touch (this dispatcher's fence and command pool, the job's buffers, the
     /// device) is released: it is leaked instead.
@@ -535,7 +538,8 @@ impl<'p> Dispatcher<'p> {
         let d = &pipe.dev.device;
         // SAFETY: the fence belongs to this dispatcher's last submission.
         let waited = unsafe {
-            let w = d.wait_for_fences(&[self.fence], true, CHUNK_TIMEOUT.as_nanos() as u64);
+            let timeout = pipe.model_timeout.unwrap_or(CHUNK_TIMEOUT);
+            let w = d.wait_for_fences(&[self.fence], true, timeout.as_nanos() as u64);
             if pipe.dev.inject_device_lost {
                 // Let the real work finish, then report what a lost device reports.
                 w.and(Err(vk::Result::ERROR_DEVICE_LOST))
@@ -551,6 +555,12 @@ impl<'p> Dispatcher<'p> {
             }
             Err(vk::Result::TIMEOUT) => {
                 pipe.dev.mark_hung();
+                if let Some(limit) = pipe.model_timeout {
+                    return Err(GpuError::ModelTimeout {
+                        what: pipe.label.clone(),
+                        seconds: limit.as_secs_f64(),
+                    });
+                }
                 Err(GpuError::Timeout {
                     what: pipe.label.clone(),
                     seconds: CHUNK_TIMEOUT.as_secs(),

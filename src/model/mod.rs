@@ -113,8 +113,21 @@ impl Model {
         } else {
             Err(runtime::NoReference {
                 model: self.name().to_string(),
+                why: match self {
+                    Model::Runtime(r) => r.no_reference_note().to_string(),
+                    _ => String::new(),
+                },
                 job: job.to_string(),
             })
+        }
+    }
+
+    /// The bound on each chunk's GPU wait that the model sets for itself (a model defined at
+    /// run time may: [`runtime::RuntimeModel::with_chunk_timeout`]).
+    pub fn chunk_timeout(self) -> Option<std::time::Duration> {
+        match self {
+            Model::Runtime(r) => r.chunk_timeout(),
+            _ => None,
         }
     }
 
@@ -198,6 +211,10 @@ impl ParamSet {
         for (key, name) in choices {
             set.values.insert(key, Value::Choice(name));
         }
+        // A model defined at run time may start a key from other values than its table's.
+        if let Model::Runtime(r) = model {
+            set.values.extend(r.defaults().iter().copied());
+        }
         set
     }
 
@@ -246,7 +263,8 @@ impl ParamSet {
         let shape_ok = match (spec.kind, value) {
             (ParamKind::Choice(options), Value::Choice(name)) => options.contains(&name),
             (ParamKind::Choice(_), _) | (_, Value::Choice(_)) => false,
-            (ParamKind::Scalar, Value::Three(_)) => false,
+            (ParamKind::Scalar | ParamKind::Flag, Value::Three(_)) => false,
+            (ParamKind::Flag, Value::One(v)) => v == 0.0 || v == 1.0,
             _ => true,
         };
         if !shape_ok {
@@ -254,6 +272,7 @@ impl ParamSet {
                 ParamKind::Choice(options) => format!("one of: {}", options.join(", ")),
                 ParamKind::Scalar => "a number".to_string(),
                 ParamKind::Rgb => "one number or r,g,b".to_string(),
+                ParamKind::Flag => params::FLAG_VALUES.to_string(),
             };
             return Err(ParamError::Malformed {
                 key: key.to_string(),

@@ -14,6 +14,8 @@ pub enum ParamKind {
     Scalar,
     /// One of the listed option names (a model component).
     Choice(&'static [&'static str]),
+    /// A switch: 0 or 1 (`true` or `false` in text).
+    Flag,
 }
 
 /// One row of a model's parameter table.
@@ -146,10 +148,26 @@ impl ParamSpec {
         }
     }
 
+    /// A switch, off (0) or on (1) by `default`.
+    pub const fn flag(key: &'static str, default: bool, doc: &'static str) -> Self {
+        ParamSpec {
+            key,
+            kind: ParamKind::Flag,
+            min: 0.0,
+            min_exclusive: false,
+            max: 1.0,
+            default: default as u8 as f64,
+            doc,
+            floor: f64::NEG_INFINITY,
+        }
+    }
+
     /// The valid range as people write it: `[0, 1]`, `(0, 1]`.
     pub fn range_text(&self) -> String {
-        if let ParamKind::Choice(options) = self.kind {
-            return options.join(" | ");
+        match self.kind {
+            ParamKind::Choice(options) => return options.join(" | "),
+            ParamKind::Flag => return FLAG_VALUES.to_string(),
+            _ => {}
         }
         let open = if self.min_exclusive { "(" } else { "[" };
         format!("{open}{}, {}]", fmt_num(self.min), fmt_num(self.max))
@@ -178,6 +196,9 @@ impl ParamSpec {
         }
     }
 }
+
+/// What a [`ParamKind::Flag`] accepts, in words.
+pub const FLAG_VALUES: &str = "0 or 1 (false or true)";
 
 fn fmt_num(x: f64) -> String {
     if x == std::f64::consts::FRAC_PI_2 {
@@ -293,6 +314,17 @@ impl Value {
                     text: text.to_string(),
                     expected: format!("one of: {}", options.join(", ")),
                 });
+        }
+        if spec.kind == ParamKind::Flag {
+            return match (text, text.parse::<f64>()) {
+                ("false", _) | (_, Ok(0.0)) => Ok(Value::One(0.0)),
+                ("true", _) | (_, Ok(1.0)) => Ok(Value::One(1.0)),
+                _ => Err(ParamError::Malformed {
+                    key: spec.key.to_string(),
+                    text: text.to_string(),
+                    expected: FLAG_VALUES.to_string(),
+                }),
+            };
         }
         let expected = match spec.kind {
             ParamKind::Rgb => "one number or three comma-separated numbers (r,g,b)",

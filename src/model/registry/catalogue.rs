@@ -6,12 +6,13 @@ use crate::model::{Model, ParamKind};
 use serde_json::{json, Value};
 use std::fmt::Write;
 
-/// "rgb", "scalar" or "choice".
+/// "rgb", "scalar", "choice" or "flag".
 fn kind_name(kind: &ParamKind) -> &'static str {
     match kind {
         ParamKind::Rgb => "rgb",
         ParamKind::Scalar => "scalar",
         ParamKind::Choice(_) => "choice",
+        ParamKind::Flag => "flag",
     }
 }
 
@@ -56,6 +57,7 @@ pub fn text() -> String {
                 ParamKind::Rgb => "rgb",
                 ParamKind::Choice(_) => "one of",
                 ParamKind::Scalar => "",
+                ParamKind::Flag => "flag",
             };
             let _ = writeln!(
                 out,

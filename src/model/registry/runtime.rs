@@ -10,11 +10,12 @@
 use super::quadrature::no_lobes;
 use super::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use crate::lut::Mapping;
-use crate::model::params::{ParamError, ParamKind, ParamSpec};
+use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
 use crate::model::{Model, ParamSet};
 use glam::DVec3;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 /// An f64 reference: f(ωi, ωo) from the parameter values in table order (an rgb key gives three
 /// numbers, a scalar one).
@@ -26,10 +27,12 @@ pub const MAX_VALUES: usize = 20;
 
 /// What a job that needs the f64 reference says of a model that has none.
 #[derive(Debug, thiserror::Error)]
-#[error("model '{model}' has no f64 CPU reference (it was defined at run time without one), which {job} needs; evaluate it on the GPU backend")]
+#[error("model '{model}' has no f64 CPU reference ({why}), which {job} needs; evaluate it on the GPU backend")]
 pub struct NoReference {
     /// The model's name.
     pub model: String,
+    /// Why it has none, in words ([`RuntimeModel::with_no_reference_note`]).
+    pub why: String,
     /// What needed the reference.
     pub job: String,
 }
@@ -41,6 +44,9 @@ pub struct RuntimeModel {
     isotropic: bool,
     kernels: BTreeMap<String, &'static [u8]>,
     reference: Option<ReferenceFn>,
+    no_reference_note: &'static str,
+    chunk_timeout: Option<Duration>,
+    defaults: Vec<(&'static str, Value)>,
 }
 
 impl std::fmt::Debug for RuntimeModel {
@@ -210,6 +216,9 @@ impl RuntimeModel {
             isotropic,
             kernels: BTreeMap::new(),
             reference: None,
+            no_reference_note: "it was defined at run time without one",
+            chunk_timeout: None,
+            defaults: Vec::new(),
         })
     }
 
@@ -226,6 +235,66 @@ impl RuntimeModel {
     /// Adds the f64 reference.
     pub fn with_reference(mut self, reference: ReferenceFn) -> RuntimeModel {
         self.reference = Some(reference);
+        self
+    }
+
+    /// Starts `key` from `value` instead of its table default (an rgb key from three different
+    /// channels, say); refused where the table would refuse the value.
+    pub fn with_default(mut self, key: &str, value: Value) -> Result<RuntimeModel, ParamError> {
+        let spec = self
+            .info
+            .params
+            .iter()
+            .find(|s| s.key == key)
+            .ok_or_else(|| ParamError::UnknownKey {
+                key: key.to_string(),
+                model: self.info.name.to_string(),
+                list: self
+                    .info
+                    .params
+                    .iter()
+                    .map(|s| s.key)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?;
+        let shape_ok = match (spec.kind, value) {
+            (ParamKind::Rgb, Value::One(_) | Value::Three(_))
+            | (ParamKind::Scalar, Value::One(_)) => true,
+            (ParamKind::Flag, Value::One(v)) => v == 0.0 || v == 1.0,
+            _ => false,
+        };
+        if !shape_ok {
+            return Err(ParamError::Malformed {
+                key: key.to_string(),
+                text: value.to_string(),
+                expected: format!("a value of its kind ({})", spec.range_text()),
+            });
+        }
+        for v in value.numbers() {
+            spec.check(v)?;
+        }
+        self.defaults.retain(|(k, _)| *k != spec.key);
+        self.defaults.push((spec.key, value));
+        Ok(self)
+    }
+
+    /// The defaults set by [`RuntimeModel::with_default`], which replace the table's.
+    pub fn defaults(&self) -> &[(&'static str, Value)] {
+        &self.defaults
+    }
+
+    /// Says, in the refusal of a job that needs the f64 reference, why the model has none
+    /// (default: "it was defined at run time without one").
+    pub fn with_no_reference_note(mut self, note: &str) -> RuntimeModel {
+        self.no_reference_note = leak(note);
+        self
+    }
+
+    /// Bounds the wait for each chunk of GPU work with this model's kernels (default: the
+    /// crate's [`crate::gpu::pipeline::CHUNK_TIMEOUT`]): a kernel from an untrusted source that never
+    /// returns is then stopped with [`crate::gpu::GpuError::ModelTimeout`] after `timeout`.
+    pub fn with_chunk_timeout(mut self, timeout: Duration) -> RuntimeModel {
+        self.chunk_timeout = Some(timeout);
         self
     }
 
@@ -261,6 +330,16 @@ impl RuntimeModel {
     /// The f64 reference, if any.
     pub fn reference(&self) -> Option<&ReferenceFn> {
         self.reference.as_ref()
+    }
+
+    /// Why the model has no f64 reference, in words.
+    pub fn no_reference_note(&self) -> &'static str {
+        self.no_reference_note
+    }
+
+    /// The bound on each chunk's GPU wait, if the model has its own.
+    pub fn chunk_timeout(&self) -> Option<Duration> {
+        self.chunk_timeout
     }
 }
 

@@ -1,0 +1,586 @@
+//! The four kernels for a `.brdf` file, compiled at run time with glslang.
+//!
+//! Each kernel of `glsl/kernels/` (embedded here as text) is compiled as build.rs compiles it for
+//! a built-in model, with the virtual include `model.glsl` resolved to a parameter struct and a
+//! prototype of the model function, and the file's shader appended after the kernel:
+//!
+//! ```text
+//! preamble   #define PI lobe_PI, #define params lobe_params, …   every global name of lobe's
+//!                                                                kernels, prefixed
+//! kernel     glsl/kernels/<kernel>.comp (common.glsl, eval.glsl; model.glsl = struct + prototype)
+//! tail       #undef of each of those names and of the kernel's own macros
+//!            float rough; bool useX; vec3 kd;   one global per parameter (#line: its line)
+//!            the shader section                 (#line: its first line in the file)
+//!            lobe_model(): copies the block into those globals, calls BRDF(L, V, N, X, Y)
+//! ```
+//!
+//! So the file's shader sees a clean namespace: its own `const float PI`, helpers named like
+//! lobe's, and its parameters as plain globals (BRDF Explorer makes them uniforms), while lobe's
+//! names, renamed with the `lobe_` prefix, cannot clash with them. The shader's macros cannot
+//! reach the kernel either, since the kernel comes first. `#line` directives name the file with a
+//! tag that [`map_log`] replaces, so every compiler message points at the `.brdf` file's line.
+//! The desktop GLSL 4.50 of the kernels keeps old-style implicit int→float conversions
+//! (`1/PI`, `max(0, x)`, `clamp(1-u, 0, 1)`).
+
+use super::parse::{BrdfFile, ParamType};
+use super::BrdfError;
+use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
+use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderSource, ShaderStage};
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::sync::{Mutex, OnceLock};
+
+/// The prefix of every name lobe adds to a `.brdf` shader's program; parameter names may not
+/// start with it.
+pub const RESERVED: &str = "lobe_";
+
+/// The kernels, by the names [`crate::gpu::pipeline::Kernel::name`] looks them up with.
+pub const KERNELS: &[(&str, &str)] = &[
+    ("pairs", include_str!("../../glsl/kernels/pairs.comp")),
+    ("table", include_str!("../../glsl/kernels/table.comp")),
+    ("albedo", include_str!("../../glsl/kernels/albedo.comp")),
+    ("preview", include_str!("../../glsl/kernels/preview.comp")),
+];
+
+/// The files the kernels include (besides the generated `model.glsl`).
+const INCLUDES: &[(&str, &str)] = &[
+    ("common.glsl", include_str!("../../glsl/common.glsl")),
+    (
+        "kernels/eval.glsl",
+        include_str!("../../glsl/kernels/eval.glsl"),
+    ),
+];
+
+/// The names `#line` gives the file's text and lobe's glue, replaced in compiler messages.
+const FILE_TAG: &str = "lobe-brdf-file";
+const GLUE_TAG: &str = "lobe-brdf-glue";
+
+/// The struct and function the kernels reach the model through (`MODEL_PARAMS`, `MODEL_EVAL`).
+const PARAMS_STRUCT: &str = "lobe_Params";
+const MODEL_FN: &str = "lobe_model";
+
+/// What the file's shader must define, as messages say it.
+pub const SIGNATURE: &str = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)";
+
+/// Lobe's global names in the kernels and their includes: (names to rename, macros to undefine).
+fn kernel_names() -> &'static (BTreeSet<String>, BTreeSet<String>) {
+    static NAMES: OnceLock<(BTreeSet<String>, BTreeSet<String>)> = OnceLock::new();
+    NAMES.get_or_init(|| {
+        let (mut globals, mut macros) = (BTreeSet::new(), BTreeSet::new());
+        for (_, text) in KERNELS.iter().chain(INCLUDES) {
+            let (tokens, defined) = tokens(text);
+            globals.extend(declared(&tokens));
+            macros.extend(defined);
+        }
+        globals.remove("main");
+        macros.insert("MODEL_PARAMS".into());
+        macros.insert("MODEL_EVAL".into());
+        (globals, macros)
+    })
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tok<'a> {
+    Ident(&'a str),
+    Punct(u8),
+}
+
+/// The tokens of GLSL text outside comments and preprocessor lines, and the macro names that
+/// `#define` lines define.
+fn tokens(text: &str) -> (Vec<Tok<'_>>, Vec<String>) {
+    let b = text.as_bytes();
+    let (mut out, mut macros) = (Vec::new(), Vec::new());
+    let mut i = 0;
+    let mut line_start = true;
+    while i < b.len() {
+        let c = b[i];
+        if c == b'\n' {
+            line_start = true;
+            i += 1;
+        } else if c.is_ascii_whitespace() {
+            i += 1;
+        } else if c == b'#' && line_start {
+            let end = text[i..].find('\n').map_or(b.len(), |e| i + e);
+            let mut words = text[i + 1..end].split_whitespace();
+            if words.next() == Some("define") {
+                if let Some(name) = words.next() {
+                    let name: String = name
+                        .chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                        .collect();
+                    macros.push(name);
+                }
+            }
+            i = end;
+        } else if text[i..].starts_with("//") {
+            i = text[i..].find('\n').map_or(b.len(), |e| i + e);
+        } else if text[i..].starts_with("/*") {
+            i = text[i + 2..].find("*/").map_or(b.len(), |e| i + 2 + e + 2);
+            line_start = false;
+        } else if c.is_ascii_alphabetic() || c == b'_' {
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
+                i += 1;
+            }
+            out.push(Tok::Ident(&text[start..i]));
+            line_start = false;
+        } else if c.is_ascii_digit() {
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'.') {
+                i += 1;
+            }
+            line_start = false;
+        } else {
+            out.push(Tok::Punct(c));
+            i += 1;
+            line_start = false;
+        }
+    }
+    (out, macros)
+}
+
+/// Qualifiers that can stand where a declared name would (`layout(...) in;`).
+const KEYWORDS: &[&str] = &[
+    "in",
+    "out",
+    "inout",
+    "uniform",
+    "buffer",
+    "shared",
+    "const",
+    "readonly",
+    "writeonly",
+    "coherent",
+    "volatile",
+    "restrict",
+    "struct",
+    "precision",
+    "highp",
+    "mediump",
+    "lowp",
+    "flat",
+    "smooth",
+    "layout",
+    "return",
+];
+
+/// The names declared at global scope: functions, constants, variables, structs, blocks and
+/// their instances, and the members of a block without an instance name (which are global).
+fn declared(tokens: &[Tok<'_>]) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut i = 0;
+    while i < tokens.len() {
+        let (mut brace, mut paren) = (0i32, 0i32);
+        let mut end = tokens.len();
+        for (j, t) in tokens.iter().enumerate().skip(i) {
+            match t {
+                Tok::Punct(b'{') => brace += 1,
+                Tok::Punct(b'(') => paren += 1,
+                Tok::Punct(b')') => paren -= 1,
+                Tok::Punct(b'}') => {
+                    brace -= 1;
+                    if brace == 0 && is_function(&tokens[i..j]) {
+                        end = j + 1;
+                        break;
+                    }
+                }
+                Tok::Punct(b';') if brace == 0 && paren == 0 => {
+                    end = j + 1;
+                    break;
+                }
+                _ => {}
+            }
+        }
+        statement(&tokens[i..end], &mut out);
+        i = end;
+    }
+    out
+}
+
+/// Whether a statement's first top-level `{` follows a `)`: a function definition.
+fn is_function(s: &[Tok<'_>]) -> bool {
+    let mut paren = 0;
+    for (k, t) in s.iter().enumerate() {
+        match t {
+            Tok::Punct(b'(') => paren += 1,
+            Tok::Punct(b')') => paren -= 1,
+            Tok::Punct(b'{') if paren == 0 => {
+                return k > 0 && s[k - 1] == Tok::Punct(b')');
+            }
+            _ => {}
+        }
+    }
+    false
+}
+
+fn statement(mut s: &[Tok<'_>], out: &mut BTreeSet<String>) {
+    // layout(...) qualifiers hold `name = value` pairs that declare nothing.
+    while let [Tok::Ident("layout"), Tok::Punct(b'('), rest @ ..] = s {
+        let close = rest.iter().position(|t| *t == Tok::Punct(b')'));
+        s = close.map_or(&[][..], |c| &rest[c + 1..]);
+    }
+    let open = s.iter().position(|t| *t == Tok::Punct(b'{'));
+    let head = &s[..open.unwrap_or(s.len())];
+    let block = head
+        .iter()
+        .any(|t| matches!(t, Tok::Ident("buffer" | "uniform" | "in" | "out")));
+    let close = s.iter().rposition(|t| *t == Tok::Punct(b'}'));
+    let instance_less = block && close.is_some_and(|c| s.get(c + 1) == Some(&Tok::Punct(b';')));
+    let (mut brace, mut paren, mut initializer) = (0, 0, false);
+    for (k, t) in s.iter().enumerate() {
+        match *t {
+            Tok::Punct(b'{') => brace += 1,
+            Tok::Punct(b'}') => brace -= 1,
+            Tok::Punct(b'(') => paren += 1,
+            Tok::Punct(b')') => paren -= 1,
+            Tok::Punct(b'=') if brace == 0 && paren == 0 => initializer = true,
+            Tok::Punct(b',' | b';') if brace == 0 && paren == 0 => initializer = false,
+            Tok::Ident(name) => {
+                let next = s.get(k + 1).copied();
+                let at_top = brace == 0 && paren == 0 && !initializer;
+                let declares = matches!(
+                    next,
+                    Some(Tok::Punct(b'(' | b'=' | b';' | b'[' | b',' | b'{'))
+                );
+                let member = instance_less
+                    && brace == 1
+                    && paren == 0
+                    && matches!(next, Some(Tok::Punct(b';' | b'[')));
+                if ((at_top && declares) || member) && !KEYWORDS.contains(&name) {
+                    out.insert(name.to_string());
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Whether the shader defines `BRDF` with five parameters and its body never names the fourth
+/// and fifth (X and Y, the tangents): false when it does, or when there is no such definition.
+pub fn unused_tangents(shader: &str) -> bool {
+    let (t, _) = tokens(shader);
+    let starts = (0..t.len().saturating_sub(1))
+        .filter(|&k| t[k] == Tok::Ident("BRDF") && t[k + 1] == Tok::Punct(b'('));
+    for start in starts {
+        // The parameter list: the last identifier before each ',' or the closing ')'.
+        let mut names = Vec::new();
+        let mut k = start + 2;
+        let mut last = None;
+        while let Some(&tok) = t.get(k) {
+            k += 1;
+            match tok {
+                Tok::Ident(n) => last = Some(n),
+                Tok::Punct(b',') => names.extend(last.take()),
+                Tok::Punct(b')') => {
+                    names.extend(last.take());
+                    break;
+                }
+                _ => {}
+            }
+        }
+        if names.len() != 5 || t.get(k) != Some(&Tok::Punct(b'{')) {
+            continue; // a prototype or a call
+        }
+        let mut depth = 0;
+        for &tok in &t[k..] {
+            match tok {
+                Tok::Punct(b'{') => depth += 1,
+                Tok::Punct(b'}') => {
+                    depth -= 1;
+                    if depth == 0 {
+                        return true;
+                    }
+                }
+                Tok::Ident(n) if n == names[3] || n == names[4] => return false,
+                _ => {}
+            }
+        }
+    }
+    false
+}
+
+/// The generated `model.glsl`: the parameter block's struct (members in the file's order, as
+/// [`crate::model::runtime::std430_layout`] lays them out) and the model function's prototype.
+fn model_glsl(file: &BrdfFile) -> String {
+    let mut s = format!(
+        "// The parameters of {}.\nstruct {PARAMS_STRUCT} {{\n",
+        file.file
+    );
+    for (k, p) in file.params.iter().enumerate() {
+        let ty = if matches!(p.kind, ParamType::Color { .. }) {
+            "vec3"
+        } else {
+            "float"
+        };
+        let _ = writeln!(s, "    {ty} {RESERVED}{k};  // {}", p.name);
+    }
+    if file.params.is_empty() {
+        // GLSL has no empty struct; the block is 4 bytes then (std430_layout's minimum).
+        let _ = writeln!(s, "    float {RESERVED}unused;");
+    }
+    let _ = writeln!(
+        s,
+        "}};\nvec3 {MODEL_FN}({PARAMS_STRUCT} p, vec3 wi, vec3 wo);"
+    );
+    s
+}
+
+/// What follows the kernel: lobe's names released, the parameters as globals, the shader, and
+/// the model function that calls the shader's BRDF.
+fn tail(file: &BrdfFile) -> String {
+    let (globals, macros) = kernel_names();
+    let mut s = String::from("\n");
+    for name in globals.iter().chain(macros) {
+        let _ = writeln!(s, "#undef {name}");
+    }
+    for p in &file.params {
+        let ty = match p.kind {
+            ParamType::Float { .. } => "float",
+            ParamType::Bool { .. } => "bool",
+            ParamType::Color { .. } => "vec3",
+        };
+        let _ = writeln!(s, "#line {} \"{FILE_TAG}\"\n{ty} {};", p.line, p.name);
+    }
+    let _ = write!(
+        s,
+        "#line {} \"{FILE_TAG}\"\n{}",
+        file.shader_line, file.shader
+    );
+    let _ = writeln!(
+        s,
+        "\n#line 1 \"{GLUE_TAG}\"\nvec3 {MODEL_FN}({PARAMS_STRUCT} {RESERVED}p, vec3 {RESERVED}wi, vec3 {RESERVED}wo) {{"
+    );
+    for (k, p) in file.params.iter().enumerate() {
+        let value = format!("{RESERVED}p.{RESERVED}{k}");
+        match p.kind {
+            ParamType::Bool { .. } => {
+                let _ = writeln!(s, "    {} = {value} != 0.0;", p.name);
+            }
+            _ => {
+                let _ = writeln!(s, "    {} = {value};", p.name);
+            }
+        }
+    }
+    // docs/design.md §2: L = ωi (to the light), V = ωo (to the viewer), the frame n, t, b.
+    let _ = writeln!(
+        s,
+        "    return BRDF({RESERVED}wi, {RESERVED}wo, vec3(0.0, 0.0, 1.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0));\n}}"
+    );
+    s
+}
+
+struct Includes<'a> {
+    model: &'a str,
+}
+
+impl IncludeHandler for Includes<'_> {
+    fn include(
+        &mut self,
+        _ty: IncludeType,
+        header_name: &str,
+        _includer_name: &str,
+        _depth: usize,
+    ) -> Option<IncludeResult> {
+        let data = if header_name == "model.glsl" {
+            self.model.to_string()
+        } else {
+            INCLUDES
+                .iter()
+                .find(|(n, _)| *n == header_name)?
+                .1
+                .to_string()
+        };
+        Some(IncludeResult {
+            name: header_name.to_string(),
+            data,
+        })
+    }
+}
+
+/// Compiles every kernel for `file`: (kernel name, SPIR-V bytes). A compiler message names the
+/// `.brdf` file and its line.
+pub fn compile(file: &BrdfFile) -> Result<Vec<(&'static str, Vec<u8>)>, BrdfError> {
+    // One compilation at a time: glslang's process-wide state is shared.
+    static LOCK: Mutex<()> = Mutex::new(());
+    let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let compiler = Compiler::acquire().ok_or_else(|| BrdfError::Compile {
+        file: file.file.clone(),
+        line: file.shader_line,
+        message: "the GLSL compiler (glslang) could not start".into(),
+    })?;
+    let options = CompilerOptions::default();
+    // The renames go right after `#version` (macros from glslang's preamble cannot be
+    // undefined), and `#line 2` keeps the kernel's own line numbers.
+    let (globals, _) = kernel_names();
+    let mut renames = String::new();
+    for n in globals {
+        let _ = writeln!(renames, "#define {n} {RESERVED}{n}");
+    }
+    let _ = writeln!(
+        renames,
+        "#define MODEL_PARAMS {PARAMS_STRUCT}\n#define MODEL_EVAL {MODEL_FN}\n#line 2"
+    );
+    let model = model_glsl(file);
+    let tail = tail(file);
+    let mut out = Vec::new();
+    for &(kernel, text) in KERNELS {
+        let (version, body) = text.split_once('\n').unwrap_or((text, ""));
+        let source = ShaderSource::from(format!("{version}\n{renames}{body}{tail}"));
+        let mut includes = Includes { model: &model };
+        let result = ShaderInput::new(
+            &source,
+            ShaderStage::Compute,
+            &options,
+            None,
+            Some(&mut includes),
+        )
+        .and_then(|input| glslang::Shader::new(compiler, input).parse())
+        .and_then(|shader| shader.compile());
+        match result {
+            Ok(words) => out.push((kernel, words.iter().flat_map(|w| w.to_le_bytes()).collect())),
+            Err(e) => {
+                let (line, message) = map_log(file, &e.to_string());
+                return Err(BrdfError::Compile {
+                    file: file.file.clone(),
+                    line,
+                    message,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// glslang's messages with the tags replaced: the first error's line in the file, and every
+/// error as `FILE:LINE: message`, one a line. A message in lobe's glue means the shader lacks
+/// the function lobe calls.
+fn map_log(file: &BrdfFile, log: &str) -> (usize, String) {
+    let mut first = None;
+    let mut lines = Vec::new();
+    for entry in log.lines().filter_map(|l| l.trim().strip_prefix("ERROR: ")) {
+        if let Some(rest) = entry.strip_prefix(&format!("{FILE_TAG}:")) {
+            let (n, text) = rest.split_once(':').unwrap_or(("", rest));
+            let n: usize = n.trim().parse().unwrap_or(file.shader_line);
+            first.get_or_insert(n);
+            let text = text.trim();
+            if text != "'' : compilation terminated" {
+                lines.push(format!("{}:{n}: {text}", file.file));
+            }
+        } else if let Some(rest) = entry.strip_prefix(&format!("{GLUE_TAG}:")) {
+            if rest.contains("compilation terminated") {
+                continue;
+            }
+            first.get_or_insert(file.shader_line.saturating_sub(1).max(1));
+            let text = rest.split_once(':').map_or(rest, |r| r.1).trim();
+            lines.push(format!(
+                "the shader section (line {}) must define {SIGNATURE}; calling it failed: {text}",
+                file.shader_line.saturating_sub(1).max(1)
+            ));
+        } else if !entry.contains("compilation errors") && !entry.contains("compilation terminated")
+        {
+            lines.push(format!("in lobe's kernel: {entry}"));
+        }
+    }
+    if lines.is_empty() {
+        lines.push(log.trim().to_string());
+    }
+    (first.unwrap_or(file.shader_line), lines.join("\n"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_kernels_global_names_are_found() {
+        let (globals, macros) = kernel_names();
+        for name in [
+            "PI",
+            "INV_PI",
+            "WHITE_FURNACE",
+            "FAST_POW",
+            "EVALS_PER_INVOCATION",
+            "ParamBlock",
+            "params",
+            "chunk",
+            "Chunk",
+            "brdf",
+            "store",
+            "sums",
+            "Entry",
+            "entries",
+            "Light",
+            "lights",
+            "ambient",
+            "camera",
+            "PHI",
+            "intersect",
+            "shade",
+            "light_dir",
+            "wi_texels",
+        ] {
+            assert!(globals.contains(name), "{name} not found in {globals:?}");
+        }
+        for not in [
+            "main",
+            "in",
+            "layout",
+            "vec3",
+            "first",
+            "count",
+            "position",
+            "set",
+            "binding",
+            "constant_id",
+            "std430",
+            "sqrt",
+            "p",
+            "wi",
+            "MODEL_PARAMS",
+        ] {
+            assert!(!globals.contains(not), "{not} taken for a global");
+        }
+        assert!(macros.contains("LOBE_COMMON_GLSL"), "{macros:?}");
+        assert!(globals.iter().all(|n| !n.starts_with(RESERVED)));
+    }
+
+    #[test]
+    fn tangent_use_is_seen() {
+        let iso = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(dot(N, L)); }";
+        assert!(unused_tangents(iso));
+        let aniso = "float f(vec3 a) { return a.x; }\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 T, vec3 B)\n{ return vec3(f(T)); }";
+        assert!(!unused_tangents(aniso));
+        assert!(!unused_tangents("vec3 BRDF(vec3 L, vec3 V, vec3 N);"));
+        assert!(!unused_tangents(
+            "vec3 brdf(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L; }"
+        ));
+    }
+
+    /// Every kernel of glsl/kernels/ is embedded, and every file they include is at hand.
+    #[test]
+    fn every_kernel_and_include_is_embedded() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("glsl/kernels");
+        let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| {
+                let p = e.ok()?.path();
+                (p.extension()? == "comp").then(|| p.file_stem()?.to_str().map(String::from))?
+            })
+            .collect();
+        on_disk.sort();
+        let mut embedded: Vec<String> = KERNELS.iter().map(|k| k.0.to_string()).collect();
+        embedded.sort();
+        assert_eq!(on_disk, embedded);
+        for (_, text) in KERNELS.iter().chain(INCLUDES) {
+            for line in text
+                .lines()
+                .filter(|l| l.trim_start().starts_with("#include"))
+            {
+                let name = line.split('"').nth(1).unwrap_or("");
+                assert!(
+                    name == "model.glsl" || INCLUDES.iter().any(|(n, _)| *n == name),
+                    "{name} is included but not embedded"
+                );
+            }
+        }
+    }
+}
