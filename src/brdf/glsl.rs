@@ -459,7 +459,8 @@ fn map_log(file: &BrdfFile, log: &str) -> (usize, String) {
     for entry in log.lines().filter_map(|l| l.trim().strip_prefix("ERROR: ")) {
         if let Some(rest) = entry.strip_prefix(&format!("{FILE_TAG}:")) {
             let (n, text) = rest.split_once(':').unwrap_or(("", rest));
-            let n: usize = n.trim().parse().unwrap_or(file.shader_line);
+            // A line the file sets itself with `#line` may be 0; files count from 1.
+            let n: usize = n.trim().parse().unwrap_or(file.shader_line).max(1);
             first.get_or_insert(n);
             let text = text.trim();
             if text != "'' : compilation terminated" {

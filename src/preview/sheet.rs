@@ -33,7 +33,16 @@ impl Sheet {
             .map(|&m| {
                 materials
                     .iter()
-                    .map(|name| material::preset(name, m))
+                    .map(|name| match material::preset(name, m) {
+                        // The lab materials know no model defined at run time (a .brdf file,
+                        // say): its column shows its own defaults in every row.
+                        Err(crate::model::ParamError::NoPreset { .. })
+                            if matches!(m, Model::Runtime(_)) =>
+                        {
+                            Ok(ParamSet::defaults(m))
+                        }
+                        r => r,
+                    })
                     .collect::<Result<Vec<_>, _>>()
             })
             .collect::<Result<Vec<_>, _>>()?;
