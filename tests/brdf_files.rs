@@ -235,6 +235,112 @@ fn the_ggx_file_equals_the_built_in_microfacet_model() {
     common::assert_validation_clean(&gpu, "ggx.brdf");
 }
 
+/// The albedo target of docs/design.md (§5): the peak rule's GPU albedo within 1e-6 of the f64
+/// reference.
+const ALBEDO_TARGET: f64 = 1e-6;
+
+#[test]
+fn the_ggx_files_albedo_meets_the_target_against_the_built_in_reference() {
+    let model = load("ggx.brdf");
+    let file = with(model, &["alpha=0.25"]);
+    let builtin = lobe::resolve_params(
+        "microfacet",
+        None,
+        &[
+            "masking=smith_separable".into(),
+            "alpha=0.25".into(),
+            "f0=1,0.78,0.34".into(),
+        ],
+    )
+    .unwrap();
+    let mus = [(0.2, 0.0), (0.6, 0.0), (1.0, 0.0)];
+    let reference = AlbedoSettings {
+        method: Method::Reference,
+        samples: 0,
+        white_furnace: false,
+    };
+    let want = Session::cpu()
+        .directional_albedo(&builtin, &reference, &mus)
+        .expect("reference albedo");
+    let Some(gpu) = gpu() else { return };
+    let peak = AlbedoSettings {
+        method: Method::Peak,
+        samples: 65536,
+        white_furnace: false,
+    };
+    let got = lobe::integrate::directional(&Evaluator::gpu(&gpu), &file, &peak, &mus)
+        .expect("gpu albedo");
+    for (g, w) in got.iter().zip(&want) {
+        for c in 0..3 {
+            let d = (g.albedo[c] - w.albedo[c]).abs();
+            assert!(
+                d <= ALBEDO_TARGET,
+                "mu {}: {} vs {} (difference {d:e})",
+                w.mu,
+                g.albedo[c],
+                w.albedo[c]
+            );
+        }
+    }
+}
+
+/// Relative difference allowed between f(L, V) and f(V, L) from one f32 formula: the same
+/// operations in another order, a few dozen roundings (the parity tolerance's base).
+const RECIPROCITY_REL: f64 = lobe::tolerance::RTOL_BASE;
+
+#[test]
+fn the_shipped_coated_plastic_file_is_reciprocal_and_conserves_energy() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/brdf/coated_plastic.brdf");
+    let model = brdf::load(&path, &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .model;
+    let Some(gpu) = gpu() else { return };
+    let e = Evaluator::gpu(&gpu);
+    let pairs = pairs();
+    let swapped: Vec<_> = pairs.iter().map(|&(a, b)| (b, a)).collect();
+    for sets in [&["roughness=0.35"][..], &["roughness=0.05", "ior=2.5"][..]] {
+        let p = with(model, sets);
+        let f = e.eval_pairs(&p, false, &pairs).unwrap();
+        let g = e.eval_pairs(&p, false, &swapped).unwrap();
+        for ((a, b), (wi, wo)) in f.iter().zip(&g).zip(&pairs) {
+            for c in 0..3 {
+                let tol = 1e-6 + RECIPROCITY_REL * a[c].abs();
+                assert!(
+                    (a[c] - b[c]).abs() <= tol,
+                    "{sets:?} wi {wi} wo {wo}: {a:?} vs {b:?}"
+                );
+            }
+        }
+    }
+    // With the coat off it is Lambert: base/π.
+    let f = e
+        .eval_pairs(&with(model, &["coat=0", "base=0.5"]), false, &pairs[..3])
+        .unwrap();
+    assert!(
+        f.iter()
+            .all(|v| (v[0] - 0.5 * FRAC_1_PI).abs() <= F32_REL * 0.5 * FRAC_1_PI),
+        "{f:?}"
+    );
+    // A white base under the strongest coat reflects less than it receives, at every μ.
+    let p = with(model, &["base=1", "roughness=1", "ior=2.5"]);
+    let peak = AlbedoSettings {
+        method: Method::Peak,
+        samples: 16384,
+        white_furnace: false,
+    };
+    let albedo =
+        lobe::integrate::directional(&e, &p, &peak, &[(0.1, 0.0), (0.5, 0.0), (1.0, 0.0)]).unwrap();
+    for a in &albedo {
+        assert!(
+            a.albedo.x > 0.0 && a.albedo.x < 1.0,
+            "mu {}: {:?}",
+            a.mu,
+            a.albedo
+        );
+    }
+    common::assert_validation_clean(&gpu, "coated_plastic.brdf");
+}
+
 #[test]
 fn the_anisotropic_file_equals_anisotropic_microfacet_and_is_not_taken_as_isotropic() {
     let model = load("anisotropic.brdf");
