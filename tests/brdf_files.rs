@@ -407,6 +407,21 @@ fn names_a_shader_shares_with_lobes_kernels_do_not_clash() {
     common::assert_validation_clean(&gpu, "names.brdf");
 }
 
+#[test]
+fn a_scene_takes_a_brdf_file_relative_to_itself() {
+    let scene_file = testdata("scene.toml");
+    let text = "[[materials]]\nname = \"rough\"\nmodel = \"ggx.brdf\"\nparams = { alpha = 0.5, f0 = [1, 1, 1] }\n[[albedos]]\nmaterial = \"rough\"\noutput = \"a.json\"\n";
+    let scene = lobe::scene::parse(text, scene_file.to_str().unwrap()).expect("scene");
+    let p = &scene.materials[0].params;
+    assert_eq!(p.model(), load("ggx.brdf"));
+    assert_eq!((p.scalar("alpha"), p.rgb("f0")), (0.5, DVec3::ONE));
+    // A file that is not there is named with the scene's line and column.
+    let e = lobe::scene::parse(&text.replace("ggx.brdf", "none.brdf"), "s.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("s.toml:3:") && e.contains("none.brdf"), "{e}");
+}
+
 fn error_of(text: &[u8]) -> BrdfError {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.brdf");

@@ -295,8 +295,7 @@ fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Materia
                 format!("material '{name}' is defined twice"),
             ));
         }
-        let model = Model::from_name(mf.model.get_ref())
-            .map_err(|e| loc.at(mf.model.span(), e.to_string()))?;
+        let model = model_named(loc, &mf.model)?;
         let mut params = match &mf.preset {
             Some(p) => {
                 material::preset(p.get_ref(), model).map_err(|e| loc.at(p.span(), e.to_string()))?
@@ -313,6 +312,21 @@ fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Materia
         });
     }
     Ok(materials)
+}
+
+/// A model by name, or a `.brdf` file (a path relative to the scene file's folder) loaded as
+/// one ([`crate::brdf::load`], with its default time limit).
+fn model_named(loc: &Locator, name: &Spanned<String>) -> Result<Model, SceneError> {
+    let text = name.get_ref();
+    if crate::brdf::is_brdf_path(text) {
+        let dir = std::path::Path::new(loc.file)
+            .parent()
+            .unwrap_or(std::path::Path::new(""));
+        return crate::brdf::load(&dir.join(text.trim()), &Default::default())
+            .map(|l| l.model)
+            .map_err(|e| loc.at(name.span(), e.to_string()));
+    }
+    Model::from_name(text).map_err(|e| loc.at(name.span(), e.to_string()))
 }
 
 /// One entry of a material's `params`: a number, [r, g, b], or a name (a choice such as a
@@ -730,8 +744,7 @@ fn preview(
             }
             let mut v: Vec<Model> = Vec::new();
             for s in list {
-                let m =
-                    Model::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?;
+                let m = model_named(loc, s)?;
                 if v.iter().any(|x| x.name() == m.name()) {
                     return Err(loc.at(
                         s.span(),
