@@ -122,12 +122,7 @@ fn the_lambert_file_is_albedo_over_pi_and_its_albedo_is_the_albedo() {
     let f = Evaluator::gpu(&gpu)
         .eval_pairs(&p, false, &pairs())
         .expect("gpu");
-    for v in &f {
-        for (c, rho) in [0.2, 0.4, 0.8].into_iter().enumerate() {
-            let want = rho * FRAC_1_PI;
-            assert!((v[c] - want).abs() <= F32_REL * want, "{v:?} vs {want}");
-        }
-    }
+    common::assert_rho_over_pi(&f, [0.2, 0.4, 0.8], F32_REL);
     // Below the horizon lobe's one-sided rule gives 0, whatever the file's formula.
     let below = Evaluator::gpu(&gpu)
         .eval_pairs(&p, false, &[(direction(30.0, 0.0), -DVec3::Z)])
@@ -556,6 +551,13 @@ fn lobe_cli(args: &[&str], env: &[(&str, &str)], limit: Duration) -> (i32, Strin
     )
 }
 
+/// `lobe eval` of `model` at normal incidence and view, with `extra` flags.
+fn eval_cli(model: &str, extra: &[&str]) -> (i32, String, String) {
+    let mut args = vec!["eval", "--model", model, "--wi", "0,0", "--wo", "0,0"];
+    args.extend_from_slice(extra);
+    lobe_cli(&args, &[], Duration::from_secs(120))
+}
+
 #[test]
 fn the_command_line_takes_a_brdf_file_as_a_model() {
     if std::env::var("LOBE_SKIP_GPU").is_ok_and(|v| v == "1") {
@@ -598,37 +600,13 @@ fn the_command_line_takes_a_brdf_file_as_a_model() {
     assert!((r - want).abs() <= 1e-5 * want, "{r} vs {want}");
 
     // A bad --set names the parameter and the file's range.
-    let (rc, _, err) = lobe_cli(
-        &[
-            "eval",
-            "--model",
-            "testdata/brdf/ggx.brdf",
-            "--set",
-            "alpha=2",
-        ],
-        &[],
-        limit,
-    );
+    let (rc, _, err) = eval_cli("testdata/brdf/ggx.brdf", &["--set", "alpha=2"]);
     assert!(
         rc == 1 && err.contains("'alpha' = 2") && err.contains("[0.001, 1]"),
         "{err}"
     );
     // The CPU backend says there is no f64 twin.
-    let (rc, _, err) = lobe_cli(
-        &[
-            "eval",
-            "--model",
-            "testdata/brdf/lambert.brdf",
-            "--backend",
-            "cpu",
-            "--wi",
-            "0,0",
-            "--wo",
-            "0,0",
-        ],
-        &[],
-        limit,
-    );
+    let (rc, _, err) = eval_cli("testdata/brdf/lambert.brdf", &["--backend", "cpu"]);
     assert!(rc == 1 && err.contains("no f64 twin"), "{err}");
     // The preview kernel: a sheet with the file's model in its own column.
     let dir = tempfile::tempdir().unwrap();
@@ -648,19 +626,7 @@ fn the_command_line_takes_a_brdf_file_as_a_model() {
     );
     assert!(rc == 0 && png.exists(), "{err}");
     // A compile error is shown at the file's line.
-    let (rc, _, err) = lobe_cli(
-        &[
-            "eval",
-            "--model",
-            "testdata/brdf/bad/typo.brdf",
-            "--wi",
-            "0,0",
-            "--wo",
-            "0,0",
-        ],
-        &[],
-        limit,
-    );
+    let (rc, _, err) = eval_cli("testdata/brdf/bad/typo.brdf", &[]);
     assert!(rc == 1 && err.contains("typo.brdf:10:"), "{err}");
 }
 

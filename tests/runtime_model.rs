@@ -75,12 +75,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
     let f = Evaluator::gpu(&gpu)
         .eval_pairs(&p, false, &pairs())
         .expect("gpu");
-    for v in &f {
-        for (c, rho) in [0.2, 0.4, 0.8].into_iter().enumerate() {
-            let want = rho * FRAC_1_PI;
-            assert!((v[c] - want).abs() <= F32_REL * want, "{v:?} vs {want}");
-        }
-    }
+    common::assert_rho_over_pi(&f, [0.2, 0.4, 0.8], F32_REL);
     // Its GPU albedo by a fixed rule works (no reference needed) and gives E = albedo.
     let s = AlbedoSettings {
         method: lobe::integrate::Method::Gauss,

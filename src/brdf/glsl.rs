@@ -18,7 +18,7 @@
 //! lobe's, and its parameters as plain globals (BRDF Explorer makes them uniforms), while lobe's
 //! names, renamed with the `lobe_` prefix, cannot clash with them. The shader's macros cannot
 //! reach the kernel either, since the kernel comes first. `#line` directives name the file with a
-//! tag that [`map_log`] replaces, so every compiler message points at the `.brdf` file's line.
+//! tag that the error mapping replaces, so every compiler message points at the `.brdf` file's line.
 //! The desktop GLSL 4.50 of the kernels keeps old-style implicit int→float conversions
 //! (`1/PI`, `max(0, x)`, `clamp(1-u, 0, 1)`).
 

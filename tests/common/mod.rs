@@ -57,3 +57,16 @@ impl Rng {
         (lo.ln() + (hi.ln() - lo.ln()) * self.uniform()).exp()
     }
 }
+
+/// Every value of `f` is ρ/π per channel within `rel` (relative): Lambert's closed form.
+pub fn assert_rho_over_pi(f: &[[f64; 3]], rho: [f64; 3], rel: f64) {
+    for v in f {
+        for (c, r) in rho.into_iter().enumerate() {
+            let want = r * std::f64::consts::FRAC_1_PI;
+            assert!(
+                (v[c] - want).abs() <= rel * want,
+                "{v:?} vs {want} (rho {rho:?})"
+            );
+        }
+    }
+}
