@@ -148,6 +148,7 @@ pub fn resolve_all(
         specs.iter().map(|s| split_spec(s)).collect::<Result<_>>()?;
     let mut out = Vec::new();
     for (spec, (name, own)) in specs.iter().zip(&parsed) {
+        let name = &merl_file(name)?;
         let mut params = lobe::resolve_params(name, material, &[]).map_err(set_error)?;
         for set in sets {
             let (key, _) = set
@@ -211,6 +212,25 @@ pub fn resolve_all(
         }
     }
     Ok(out)
+}
+
+/// A model spec naming a MERL file (`PATH.binary`) loads it as a model
+/// ([`lobe::merl::model::load`]) and gives the model's name, with a note on stderr the first
+/// time; any other spec comes back as it is.
+fn merl_file(spec: &str) -> Result<String> {
+    if !lobe::merl::model::is_merl_path(spec) {
+        return Ok(spec.to_string());
+    }
+    let loaded = lobe::merl::model::load(std::path::Path::new(spec))?;
+    if loaded.first {
+        eprintln!(
+            "lobe: loaded {spec} as model '{}' ({} of {} values missing, read as 0)",
+            loaded.model.name(),
+            loaded.missing,
+            3 * lobe::merl::BINS
+        );
+    }
+    Ok(loaded.model.name().to_string())
 }
 
 fn has_key(p: &ParamSet, key: &str) -> bool {
@@ -465,6 +485,9 @@ pub fn models_or_all(names: &[String]) -> Result<Vec<lobe::Model>> {
     }
     names
         .iter()
-        .map(|m| lobe::Model::from_name(m).with_context(|| format!("--models {m}")))
+        .map(|m| {
+            let name = merl_file(m).with_context(|| format!("--models {m}"))?;
+            lobe::Model::from_name(&name).with_context(|| format!("--models {m}"))
+        })
         .collect()
 }
