@@ -33,7 +33,16 @@ impl Sheet {
             .map(|&m| {
                 materials
                     .iter()
-                    .map(|name| material::preset(name, m))
+                    .map(|name| match material::preset(name, m) {
+                        // A model defined at run time (a measured file, say) that the lab's
+                        // materials do not describe is shown as given in every row.
+                        Err(crate::model::ParamError::NoPreset { .. })
+                            if matches!(m, Model::Runtime(_)) =>
+                        {
+                            Ok(crate::model::ParamSet::defaults(m))
+                        }
+                        other => other,
+                    })
                     .collect::<Result<Vec<_>, _>>()
             })
             .collect::<Result<Vec<_>, _>>()?;
