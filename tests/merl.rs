@@ -435,37 +435,21 @@ fn lobe() -> Command {
 #[test]
 fn the_command_line_writes_and_reads_merl_files() {
     let d = dir();
+    // Arguments split at spaces (the temporary folder's path has none).
+    let run = |line: String| {
+        lobe()
+            .args(line.split_whitespace())
+            .output()
+            .expect("lobe runs")
+    };
     let out = d.path().join("lambert_cli.binary");
-    let run = |args: &[&str]| lobe().args(args).output().expect("lobe runs");
-    let o = run(&[
-        "table",
-        "--grid",
-        "halfdiff",
-        "--format",
-        "merl",
-        "--model",
-        "lambert",
-        "--set",
-        "albedo=0.3",
-        "--backend",
-        "cpu",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let out = out.display();
+    let write = "table --grid halfdiff --format merl --backend cpu";
+    let o = run(format!("{write} --model lambert --set albedo=0.3 -o {out}"));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = run(&[
-        "eval",
-        "--model",
-        out.to_str().unwrap(),
-        "--backend",
-        "cpu",
-        "--wi",
-        "31.3,0",
-        "--wo",
-        "47.1,97",
-        "--format",
-        "json",
-    ]);
+    let o = run(format!(
+        "eval --model {out} --backend cpu --wi 31.3,0 --wo 47.1,97 --format json"
+    ));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -476,67 +460,36 @@ fn the_command_line_writes_and_reads_merl_files() {
     let want = format!("{}", 0.3 * std::f64::consts::FRAC_1_PI);
     assert!(text.contains(&want[..12]), "{text} lacks {want}");
 
+    let bad = d.path().join("refused.binary");
+    let bad = bad.display();
     for (args, says) in [
+        ("--grid isotropic --format merl", "give --grid halfdiff"),
+        ("--grid halfdiff --format merl --res 90,90,90", "90,90,180"),
         (
-            vec!["--grid", "isotropic", "--format", "merl"],
-            "give --grid halfdiff",
-        ),
-        (
-            vec![
-                "--grid", "halfdiff", "--format", "merl", "--res", "90,90,90",
-            ],
-            "90,90,180",
-        ),
-        (
-            vec![
-                "--grid",
-                "halfdiff",
-                "--format",
-                "merl",
-                "--model",
-                "ashikhmin_shirley",
-                "--set",
-                "nu=10",
-            ],
+            "--grid halfdiff --format merl --model ashikhmin_shirley --set nu=10",
             "anisotropic",
         ),
     ] {
-        let bad = d.path().join("refused.binary");
-        let mut all = vec!["table", "--backend", "cpu", "-o", bad.to_str().unwrap()];
-        all.extend(args);
-        let o = run(&all);
+        let o = run(format!("table --backend cpu -o {bad} {args}"));
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success() && err.contains(says), "{all:?}: {err}");
-        assert!(!bad.exists(), "{all:?} left a file");
+        assert!(!o.status.success() && err.contains(says), "{args}: {err}");
+        assert!(
+            !d.path().join("refused.binary").exists(),
+            "{args} left a file"
+        );
     }
-    let exr = d.path().join("t.exr");
-    let o = run(&[
-        "table",
-        "--grid",
-        "halfdiff",
-        "--format",
-        "merl",
-        "--backend",
-        "cpu",
-        "-o",
-        exr.to_str().unwrap(),
-    ]);
+    let o = run(format!("{write} -o {}", d.path().join("t.exr").display()));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("must end in .binary"),
         "{err}"
     );
-    let bad = d.path().join("bad.binary");
-    std::fs::write(&bad, header([90, 90, 180])).unwrap();
-    let o = run(&[
-        "eval",
-        "--model",
-        bad.to_str().unwrap(),
-        "--wi",
-        "10,0",
-        "--wo",
-        "20,0",
-    ]);
+    let short = d.path().join("bad.binary");
+    std::fs::write(&short, header([90, 90, 180])).unwrap();
+    let o = run(format!(
+        "eval --model {} --wi 10,0 --wo 20,0",
+        short.display()
+    ));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("bad.binary: truncated"),
