@@ -496,3 +496,25 @@ fn the_command_line_writes_and_reads_merl_files() {
         "{err}"
     );
 }
+
+/// A scene names a MERL file as a material's model, relative to the scene's folder, and sets its
+/// lookup like any parameter.
+#[test]
+fn a_scene_takes_a_merl_file_as_a_model() {
+    let d = dir();
+    let values = vec![0.1; 3 * BINS];
+    std::fs::write(d.path().join("scene_flat.binary"), merl::encode(&values)).unwrap();
+    let scene = d.path().join("s.toml");
+    let text = "name = \"s\"\n[[materials]]\nname = \"m\"\nmodel = \"scene_flat.binary\"\nparams = { lookup = \"trilinear\" }\n[[albedos]]\nmaterial = \"m\"\noutput = \"m.json\"\n";
+    std::fs::write(&scene, text).unwrap();
+    let s = lobe::scene::load(&scene).unwrap_or_else(|e| panic!("{e:#}"));
+    let p = &s.materials[0].params;
+    assert_eq!(p.model().name(), "scene_flat");
+    assert_eq!(p.get("lookup").to_string(), "trilinear");
+    std::fs::write(&scene, text.replace("scene_flat", "absent")).unwrap();
+    let e = format!("{:#}", lobe::scene::load(&scene).unwrap_err());
+    assert!(
+        e.contains("absent.binary: cannot read it") && e.contains(":4:"),
+        "{e}"
+    );
+}

@@ -280,6 +280,19 @@ fn lights(
     Ok(lights)
 }
 
+/// The model a scene names: a built-in or registered model, or a MERL file (`PATH.binary`,
+/// relative to the scene file's folder), loaded as a model.
+fn model_named(loc: &Locator, name: &str) -> Result<Model, String> {
+    if !crate::merl::model::is_merl_path(name) {
+        return Model::from_name(name).map_err(|e| e.to_string());
+    }
+    let folder = std::path::Path::new(loc.file)
+        .parent()
+        .unwrap_or(std::path::Path::new(""));
+    let loaded = crate::merl::model::load(&folder.join(name)).map_err(|e| format!("{e:#}"))?;
+    Ok(loaded.model)
+}
+
 /// `[[materials]]`, in file order; names are unique.
 fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Material>, SceneError> {
     let mut materials: Vec<Material> = Vec::new();
@@ -295,8 +308,7 @@ fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Materia
                 format!("material '{name}' is defined twice"),
             ));
         }
-        let model = Model::from_name(mf.model.get_ref())
-            .map_err(|e| loc.at(mf.model.span(), e.to_string()))?;
+        let model = model_named(loc, mf.model.get_ref()).map_err(|e| loc.at(mf.model.span(), e))?;
         let mut params = match &mf.preset {
             Some(p) => {
                 material::preset(p.get_ref(), model).map_err(|e| loc.at(p.span(), e.to_string()))?
@@ -730,8 +742,7 @@ fn preview(
             }
             let mut v: Vec<Model> = Vec::new();
             for s in list {
-                let m =
-                    Model::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?;
+                let m = model_named(loc, s.get_ref()).map_err(|e| loc.at(s.span(), e))?;
                 if v.iter().any(|x| x.name() == m.name()) {
                     return Err(loc.at(
                         s.span(),
