@@ -92,7 +92,7 @@ fn check_length(len: u64) -> Result<(), String> {
     let want = FILE_BYTES as u64;
     match len.cmp(&want) {
         std::cmp::Ordering::Less => Err(format!(
-            "truncated: {len} bytes, but {BINS} bins of 3 float64 after the header take {want}"
+            "truncated: {len} bytes, but the header and {BINS} bins of 3 float64 take {want}"
         )),
         std::cmp::Ordering::Greater => Err(format!(
             "oversized: {len} bytes, {} more than the {want} of a header and {BINS} bins of 3 float64",
