@@ -28,6 +28,7 @@ pub mod integrate;
 pub mod interrupt;
 pub mod lut;
 pub mod material;
+pub mod merl;
 pub mod model;
 pub mod output;
 pub mod pairs;

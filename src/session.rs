@@ -204,6 +204,18 @@ impl Session {
         crate::table::write_table(&self.evaluator(), &meta, exr_path, progress).lobe()
     }
 
+    /// Writes `params` as a MERL file at `path` ([`crate::merl::write`]); `progress` receives
+    /// (bins done, bins in all).
+    pub fn write_merl(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<()> {
+        crate::merl::write::write(&self.evaluator(), params, white_furnace, path, progress).lobe()
+    }
+
     /// Directional albedo E(ωo) at each (μo, φo).
     pub fn directional_albedo(
         &self,

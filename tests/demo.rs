@@ -220,7 +220,9 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
         .skip(1)
         .map(|r| &r[..r.find("</tr>").unwrap()])
         .collect();
-    assert_eq!(rows.len(), MATERIALS.len() * Model::ALL.len());
+    // ... and, in the measured section, gold cook_torrance again and its MERL file's two lookups.
+    assert_eq!(rows.len(), MATERIALS.len() * Model::ALL.len() + 3);
+    assert!(html.contains("gold_cook_torrance_merl (lookup=trilinear)"));
     for row in &rows {
         let file = row[1..].split('"').next().unwrap();
         let json: Value =
@@ -308,7 +310,7 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     // Every step is timed on the page.
     let steps = &html[html.find("id=\"steps\"").expect("steps table")..];
     let steps = &steps[..steps.find("</table>").unwrap()];
-    let mut names = vec!["tables", "albedo", "lut", "plots", "preview"];
+    let mut names = vec!["tables", "albedo", "lut", "plots", "preview", "measured"];
     if gpu {
         names.push("parity");
     }

@@ -138,7 +138,26 @@ fn bad_run_time_models_are_refused_with_a_sentence() {
     assert!(e.to_string().contains("a name no other model has"), "{e}");
     let e = RuntimeModel::new("has space", "", vec![], true).unwrap_err();
     assert!(e.to_string().contains("letters, digits"), "{e}");
-    let choice = ParamSpec::choice("kind", &["a", "b"], 0, "a choice");
-    let e = RuntimeModel::new("with_choice", "", vec![choice], true).unwrap_err();
-    assert!(e.to_string().contains("no choices"), "{e}");
+}
+
+/// A named choice of a run-time model reaches the kernels as its option's index, a `uint` in
+/// the std430 block after the numbers before it.
+#[test]
+fn a_choice_is_its_index_in_the_parameter_block() {
+    let params = vec![
+        ParamSpec::scalar("gain", 0.0, 2.0, 1.0, "a number"),
+        ParamSpec::choice("kind", &["a", "b", "c"], 0, "a choice"),
+    ];
+    let model = RuntimeModel::new("with_choice", "", params, true)
+        .unwrap()
+        .register()
+        .expect("a new name");
+    let mut p = ParamSet::defaults(model);
+    p.set_text("kind=c").expect("an option");
+    let block = lobe::model::Brdf::new(&p).gpu_block();
+    assert_eq!(block.len(), 8);
+    assert_eq!(&block[0..4], &1.0f32.to_le_bytes());
+    assert_eq!(&block[4..8], &2u32.to_le_bytes());
+    let e = p.set_text("kind=d").unwrap_err();
+    assert!(e.to_string().contains("one of: a, b, c"), "{e}");
 }

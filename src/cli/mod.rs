@@ -220,10 +220,13 @@ pub fn resolve_all(
 
 /// A model spec's name as a model name: a `.brdf` file is loaded (once per process: compiled
 /// and registered under a name from its stem, see [`lobe::brdf::load`]) and its model's name
-/// returned, with a note on stderr for each section it skips; any other name is returned as it
-/// is. `LOBE_BRDF_TIMEOUT=SECONDS` sets how long one chunk of a `.brdf` model's GPU work may
+/// returned, with a note on stderr for each section it skips; a MERL file (`PATH.binary`) is
+/// loaded as well ([`merl_file`]); any other name is returned as it is. `LOBE_BRDF_TIMEOUT=SECONDS` sets how long one chunk of a `.brdf` model's GPU work may
 /// take before it is stopped (default [`lobe::brdf::DEFAULT_CHUNK_TIMEOUT`]).
 pub fn model_file(name: &str) -> Result<&str> {
+    if lobe::merl::model::is_merl_path(name) {
+        return merl_file(name);
+    }
     if !lobe::brdf::is_brdf_path(name) {
         return Ok(name);
     }
@@ -243,13 +246,28 @@ pub fn model_file(name: &str) -> Result<&str> {
     Ok(loaded.model.name())
 }
 
-/// The names of a `--models` list with each `.brdf` file loaded ([`model_file`]) and replaced
+/// The names of a `--models` list with each model file (`.brdf`, MERL) loaded ([`model_file`]) and replaced
 /// by its model's name.
 pub fn model_files(names: &[String]) -> Result<Vec<String>> {
     names
         .iter()
         .map(|n| model_file(n).map(str::to_string))
         .collect()
+}
+
+/// A MERL file (`PATH.binary`) loaded as a model ([`lobe::merl::model::load`]): the model's
+/// name, with a note on stderr the first time.
+fn merl_file(spec: &str) -> Result<&'static str> {
+    let loaded = lobe::merl::model::load(std::path::Path::new(spec))?;
+    if loaded.first {
+        eprintln!(
+            "lobe: loaded {spec} as model '{}' ({} of {} values missing, read as 0)",
+            loaded.model.name(),
+            loaded.missing,
+            3 * lobe::merl::BINS
+        );
+    }
+    Ok(loaded.model.name())
 }
 
 fn has_key(p: &ParamSet, key: &str) -> bool {

@@ -30,6 +30,17 @@ impl GridArg {
     }
 }
 
+/// What -o holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FormatArg {
+    /// An EXR mosaic, with the .npy and .json beside it.
+    Exr,
+    /// A MERL BRDF database file (PATH.binary): f at the centres of MERL's 90 x 90 x 180
+    /// half/difference bins (theta_h warped as MERL's sqrt index), planar float64 over MERL's
+    /// channel scales; needs --grid halfdiff (--res, if given, 90,90,180) and an isotropic model.
+    Merl,
+}
+
 #[derive(Args)]
 pub struct TableArgs {
     #[command(flatten)]
@@ -41,9 +52,13 @@ pub struct TableArgs {
     grid: GridArg,
     /// Resolution: NTHETA_I,NPHI_I,NTHETA_O,NPHI_O (full), NTHETA_I,NTHETA_O,NDPHI (isotropic),
     /// NTHETA_H,NTHETA_D,NPHI_D or NTHETA_H,NPHI_H,NTHETA_D,NPHI_D (halfdiff).
-    #[arg(long, required_unless_present = "scene")]
+    #[arg(long, required_unless_present_any = ["scene", "format"])]
     res: Option<String>,
-    /// Output EXR path; the .npy and .json are written beside it.
+    /// File format of -o.
+    #[arg(long, value_enum, default_value_t = FormatArg::Exr)]
+    format: FormatArg,
+    /// Output EXR path; the .npy and .json are written beside it (PATH.binary with --format
+    /// merl).
     #[arg(
         short = 'o',
         long = "output",
@@ -71,6 +86,9 @@ pub fn run(a: TableArgs) -> Result<()> {
     }
     if a.output_dir.is_some() {
         bail!("--output-dir applies only with --scene; for one table give -o PATH.exr");
+    }
+    if a.format == FormatArg::Merl {
+        return run_merl(&a);
     }
     let (Some(res), Some(output)) = (&a.res, &a.output) else {
         bail!("give --res and -o PATH.exr, or --scene FILE");
@@ -114,6 +132,47 @@ pub fn run(a: TableArgs) -> Result<()> {
         session.backend_name(),
         npy.display(),
         json.display()
+    );
+    Ok(())
+}
+
+/// `--format merl`: the model at MERL's bin centres, as a MERL file.
+fn run_merl(a: &TableArgs) -> Result<()> {
+    let merl_res = "90,90,180";
+    if a.grid != GridArg::Halfdiff {
+        bail!(
+            "--format merl writes MERL's half/difference bins: give --grid halfdiff (not --grid {})",
+            a.grid.name()
+        );
+    }
+    if let Some(res) = &a.res {
+        if Grid::parse("halfdiff", res).ok() != Some(lobe::merl::write::GRID) {
+            bail!("--res {res}: a MERL file has {merl_res} bins (theta_h, theta_d, phi_d); give --res {merl_res} or leave it out");
+        }
+    }
+    let Some(output) = &a.output else {
+        bail!("give -o PATH.binary");
+    };
+    let params = a.model.params()?;
+    lobe::merl::write::check_request(&params, output).map_err(|e| match option_of(&e) {
+        Some("grid") => anyhow!("--format merl: {e:#}"),
+        Some("path") => e.context("-o"),
+        _ => e,
+    })?;
+    let session = open_session(&a.backend)?;
+    let bins = lobe::merl::BINS as u64;
+    let progress = bar(bins, "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}");
+    progress.set_message(format!("{} MERL file", params.model().name()));
+    let started = std::time::Instant::now();
+    session.write_merl(&params, a.model.white_furnace, output, &mut |done, _| {
+        progress.set_position(done)
+    })?;
+    progress.finish_and_clear();
+    eprintln!(
+        "lobe: wrote {} (MERL, {bins} bins, {:.2} s on {})",
+        output.display(),
+        started.elapsed().as_secs_f64(),
+        session.backend_name()
     );
     Ok(())
 }

@@ -12,10 +12,13 @@
 //!    heat map, and the E(μ) curves of every model for each material (these also give the largest
 //!    E(μ) on the page: energy gain);
 //! 5. **preview**: the contact sheet (rows materials, columns models) under the lab's lights;
-//! 6. **parity**: GPU (f32) against the f64 reference on a modest direction grid, per model, with
+//! 6. **measured**: gold under Cook–Torrance written as a MERL file by the f64 reference (in a
+//!    temporary folder: the file is 35 MB) and read back as a model ([`crate::merl`]), with its
+//!    albedo JSON for the nearest and the trilinear lookup;
+//! 7. **parity**: GPU (f32) against the f64 reference on a modest direction grid, per model, with
 //!    the parity test's tolerance model ([`crate::stability::parity_tolerance`]); not measured
 //!    with `--backend cpu`, where there is no GPU run to compare;
-//! 7. **page**: `index.html`, written last.
+//! 8. **page**: `index.html`, written last.
 //!
 //! Nothing is written into the output folder until every step has succeeded: the steps write into
 //! a staging folder beside it (`.lobe-demo-*`), which is then renamed onto the output folder when
@@ -238,6 +241,17 @@ pub struct AlbedoRow {
     pub max_e_mu: f64,
 }
 
+/// Gold under Cook–Torrance written as a MERL file and read back as a model (step 6).
+#[derive(Clone, Debug)]
+pub struct Measured {
+    /// The model the file became.
+    pub model: String,
+    /// Negative (missing) values in the file.
+    pub missing: usize,
+    /// Its albedo with the nearest and with the trilinear lookup.
+    pub rows: Vec<AlbedoRow>,
+}
+
 /// How far above 1 an albedo must lie to count as energy gain. E is a weighted sum of thousands
 /// of terms: a Lambertian of ρ = 1 (gold's red channel) lands at 1 ± 1e-13 in f64 and ± 1e-7
 /// through the GPU's f32 reduction, which is rounding, not gain. The smallest real gain among the
@@ -306,6 +320,8 @@ pub struct Report {
     pub albedo: Vec<AlbedoRow>,
     /// The albedo LUT of step 3.
     pub lut: LutInfo,
+    /// Gold under Cook–Torrance as a MERL file, read back.
+    pub measured: Measured,
     /// None with the CPU backend.
     pub parity: Option<Vec<ParityRow>>,
     /// Wall-clock time of the whole demo, in seconds.
@@ -459,6 +475,9 @@ pub fn run(
     let preview_size = steps.run("preview", models.len() as u64, |p| {
         steps::preview(eval, &demo, &mut files, p)
     })?;
+    let measured = steps.run("measured", 1 + 2, |p| {
+        steps::measured(eval, &demo, &mut files, p)
+    })?;
     let parity = match eval.as_gpu() {
         None => None,
         Some(_) => Some(steps.run("parity", models.len() as u64, |p| {
@@ -474,6 +493,7 @@ pub fn run(
         files,
         albedo,
         lut,
+        measured,
         parity,
         seconds: 0.0,
     };
@@ -488,7 +508,7 @@ pub fn run(
     Ok(report)
 }
 
-/// Step 7, the page, last, and the move into place. Its own time is not known while the page is
+/// Step 8, the page, last, and the move into place. Its own time is not known while the page is
 /// written: the page shows the steps before it, and the report (the terminal summary) adds it.
 fn publish(
     report: &mut Report,

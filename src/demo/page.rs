@@ -60,6 +60,52 @@ fn figure(out: &mut String, src: &str, size: (usize, usize), caption: &str) {
     );
 }
 
+/// The header row of an albedo table.
+const ALBEDO_HEADER: &str = "<tr><th>model</th><th>E(μ=0.1)</th><th>E(μ=0.5)</th><th>E(μ=1)</th><th>Ē</th><th>max E</th><th>1 − E<sub>avg</sub></th><th>err</th><th>data</th></tr>";
+
+/// One row of an albedo table (the columns of [`ALBEDO_HEADER`]).
+fn albedo_row(h: &mut String, a: &AlbedoRow) {
+    let loss = a.e_avg.map(|x| 1.0 - x);
+    let _ = write!(
+        h,
+        "<tr data-albedo=\"{}\" data-material=\"{}\" data-model=\"{}\"><td>{}</td>",
+        esc(&a.json),
+        esc(&a.material),
+        esc(&a.model),
+        esc(&a.model)
+    );
+    for (k, e) in a.e.iter().enumerate() {
+        let _ = write!(
+            h,
+            "<td class=\"rgb\" data-field=\"mu={}\">{}</td>",
+            ALBEDO_MU[k],
+            rgb_text(*e)
+        );
+    }
+    let _ = write!(
+        h,
+        "<td class=\"rgb\" data-field=\"hemispherical\">{}</td>",
+        rgb_text(a.hemispherical)
+    );
+    let _ = write!(
+        h,
+        "<td class=\"num{}\" data-field=\"max_e\" title=\"at μ = {:.3}\">{:.4}{}</td>",
+        if a.gains_energy() { " gain" } else { "" },
+        a.max_e_mu,
+        a.max_e,
+        if a.gains_energy() { " gain" } else { "" }
+    );
+    let _ = write!(
+        h,
+        "<td class=\"rgb loss\" data-field=\"loss\"{}>{}</td><td class=\"num\">{:.1e}</td><td><a href=\"{}\">json</a></td></tr>",
+        loss_style(loss),
+        rgb_text(loss),
+        a.error,
+        esc(&a.json)
+    );
+    let _ = writeln!(h);
+}
+
 /// The whole page: every section, with links to the files in the output folder.
 pub(super) fn page(
     r: &Report,
@@ -186,49 +232,11 @@ pub(super) fn page(
     for mat in &mats {
         let _ = writeln!(
             h,
-            "<h3>{}</h3><table class=\"albedo\"><tr><th>model</th><th>E(μ=0.1)</th><th>E(μ=0.5)</th><th>E(μ=1)</th><th>Ē</th><th>max E</th><th>1 − E<sub>avg</sub></th><th>err</th><th>data</th></tr>",
+            "<h3>{}</h3><table class=\"albedo\">{ALBEDO_HEADER}",
             esc(mat)
         );
         for a in r.albedo.iter().filter(|a| a.material == *mat) {
-            let loss = a.e_avg.map(|x| 1.0 - x);
-            let _ = write!(
-                h,
-                "<tr data-albedo=\"{}\" data-material=\"{}\" data-model=\"{}\"><td>{}</td>",
-                esc(&a.json),
-                esc(&a.material),
-                esc(&a.model),
-                esc(&a.model)
-            );
-            for (k, e) in a.e.iter().enumerate() {
-                let _ = write!(
-                    h,
-                    "<td class=\"rgb\" data-field=\"mu={}\">{}</td>",
-                    ALBEDO_MU[k],
-                    rgb_text(*e)
-                );
-            }
-            let _ = write!(
-                h,
-                "<td class=\"rgb\" data-field=\"hemispherical\">{}</td>",
-                rgb_text(a.hemispherical)
-            );
-            let _ = write!(
-                h,
-                "<td class=\"num{}\" data-field=\"max_e\" title=\"at μ = {:.3}\">{:.4}{}</td>",
-                if a.gains_energy() { " gain" } else { "" },
-                a.max_e_mu,
-                a.max_e,
-                if a.gains_energy() { " gain" } else { "" }
-            );
-            let _ = write!(
-                h,
-                "<td class=\"rgb loss\" data-field=\"loss\"{}>{}</td><td class=\"num\">{:.1e}</td><td><a href=\"{}\">json</a></td></tr>",
-                loss_style(loss),
-                rgb_text(loss),
-                a.error,
-                esc(&a.json)
-            );
-            let _ = writeln!(h);
+            albedo_row(&mut h, a);
         }
         let _ = writeln!(h, "</table>");
     }
@@ -240,6 +248,24 @@ pub(super) fn page(
             &pl.caption,
         );
     }
+
+    let m = &r.measured;
+    let _ = writeln!(h, "<h2 id=\"measured\">Measured data in MERL's format</h2>");
+    let _ = writeln!(
+        h,
+        "<p>Gold under Cook–Torrance written as a file of the MERL BRDF database's format (<code>lobe table --material gold --model cook_torrance --grid halfdiff --format merl -o {name}.binary</code>, by the f64 reference: f at the centre of each of MERL's 90 × 90 × 180 half/difference bins; {bytes} bytes, too large to keep, so it is made in a temporary folder and removed), then read back as the model <code>{name}</code> (<code>--model {name}.binary</code>; {missing} values missing) and integrated as above. The nearest-bin lookup is MERL's reader's; <code>lookup=trilinear</code> interpolates between bin centres. The file's rows differ from the analytic one by what MERL's bins (1° in θd and φd, square-root spaced in θh) lose of the lobe.</p><table class=\"albedo\" id=\"measured-albedo\">{ALBEDO_HEADER}",
+        name = esc(&m.model),
+        bytes = crate::merl::FILE_BYTES,
+        missing = m.missing,
+    );
+    let analytic = r
+        .albedo
+        .iter()
+        .filter(|a| a.material == "gold" && a.model == "cook_torrance");
+    for a in analytic.chain(&m.rows) {
+        albedo_row(&mut h, a);
+    }
+    let _ = writeln!(h, "</table>");
 
     let _ = writeln!(h, "<h2>Albedo LUT</h2>");
     let _ = writeln!(

@@ -5,11 +5,13 @@
 use super::lut_picture::draw_lut;
 use super::parity::parity_of;
 use super::{
-    AlbedoRow, LutInfo, ParityRow, PlannedPlot, PreviewSizes, Progress, Settings, ALBEDO_MU,
+    AlbedoRow, LutInfo, Measured, ParityRow, PlannedPlot, PreviewSizes, Progress, Settings,
+    ALBEDO_MU,
 };
 use crate::eval::Evaluator;
 use crate::integrate::{albedo_report, Method, Settings as AlbedoSettings};
 use crate::material;
+use crate::merl;
 use crate::model::{Model, ParamSet};
 use crate::output::StagingFolder;
 use crate::plot::{self, Plotted};
@@ -18,6 +20,7 @@ use crate::table::{write_table, TableMeta};
 use anyhow::{Context, Result};
 use glam::DVec3;
 use std::path::Path;
+use std::sync::Mutex;
 
 /// What every step reads.
 pub(super) struct Demo<'a> {
@@ -83,6 +86,57 @@ pub(super) fn tables(
     ))
 }
 
+/// `lobe albedo`'s default integrator with the demo's sample count.
+fn albedo_settings(d: &Demo) -> AlbedoSettings {
+    AlbedoSettings {
+        method: Method::Peak,
+        samples: d.settings.albedo_samples,
+        white_furnace: false,
+    }
+}
+
+/// The albedo report of `params` written to `rel` (a JSON file), as a page row under `material`.
+fn albedo_row(
+    eval: &Evaluator,
+    d: &Demo,
+    material: &str,
+    params: &ParamSet,
+    rel: String,
+    files: &mut Vec<String>,
+) -> Result<AlbedoRow> {
+    let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&m| (m, 0.0)).collect();
+    let report = albedo_report(eval, params, &albedo_settings(d), &points, 0.0)
+        .with_context(|| format!("albedo of {material} {}", params.model().name()))?;
+    let json = report.to_json(params, false, d.backend);
+    std::fs::write(
+        d.staging.path(&rel),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )
+    .with_context(|| format!("writing {rel}"))?;
+    files.push(rel.clone());
+    let h = &report.hemispherical;
+    let error = report
+        .points
+        .iter()
+        .map(|q| q.error.max_element())
+        .fold(h.error.max_element(), f64::max);
+    let e = [0, 1, 2].map(|k| report.points[k].albedo.to_array());
+    let (max_e, max_e_mu) = (0..3)
+        .map(|k| (e[k].into_iter().fold(f64::MIN, f64::max), ALBEDO_MU[k]))
+        .fold((f64::MIN, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+    Ok(AlbedoRow {
+        material: material.to_string(),
+        model: params.model().name().to_string(),
+        json: rel,
+        e,
+        hemispherical: h.albedo.to_array(),
+        e_avg: h.e_avg.to_array(),
+        error,
+        max_e,
+        max_e_mu,
+    })
+}
+
 /// Step 2, albedo: a JSON file per material × model, with `lobe albedo`'s default integrator.
 pub(super) fn albedo(
     eval: &Evaluator,
@@ -90,48 +144,13 @@ pub(super) fn albedo(
     files: &mut Vec<String>,
     p: &mut dyn Progress,
 ) -> Result<(Vec<AlbedoRow>, String)> {
-    let albedo_settings = AlbedoSettings {
-        method: Method::Peak,
-        samples: d.settings.albedo_samples,
-        white_furnace: false,
-    };
-    let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&m| (m, 0.0)).collect();
     let mut rows = Vec::new();
     for mat in d.materials {
         for &model in d.models {
             eval.check_cancelled()?;
             let params = material::preset(mat, model)?;
-            let report = albedo_report(eval, &params, &albedo_settings, &points, 0.0)
-                .with_context(|| format!("albedo of {mat} {}", model.name()))?;
             let rel = format!("albedo/{mat}_{}.json", model.name());
-            let json = report.to_json(&params, false, d.backend);
-            std::fs::write(
-                d.staging.path(&rel),
-                serde_json::to_string_pretty(&json)? + "\n",
-            )
-            .with_context(|| format!("writing {rel}"))?;
-            files.push(rel.clone());
-            let h = &report.hemispherical;
-            let error = report
-                .points
-                .iter()
-                .map(|q| q.error.max_element())
-                .fold(h.error.max_element(), f64::max);
-            let e = [0, 1, 2].map(|k| report.points[k].albedo.to_array());
-            let (max_e, max_e_mu) = (0..3)
-                .map(|k| (e[k].into_iter().fold(f64::MIN, f64::max), ALBEDO_MU[k]))
-                .fold((f64::MIN, 0.0), |a, b| if b.0 > a.0 { b } else { a });
-            rows.push(AlbedoRow {
-                material: mat.to_string(),
-                model: model.name().to_string(),
-                json: rel,
-                e,
-                hemispherical: h.albedo.to_array(),
-                e_avg: h.e_avg.to_array(),
-                error,
-                max_e,
-                max_e_mu,
-            });
+            rows.push(albedo_row(eval, d, mat, &params, rel, files)?);
             p.advance(rows.len() as u64);
         }
     }
@@ -332,7 +351,68 @@ pub(super) fn preview(
     ))
 }
 
-/// Step 6, GPU against the f64 reference, per model (only on the GPU backend).
+/// The name of the demo's measured material: gold under Cook–Torrance as a MERL file.
+pub(super) const MEASURED_NAME: &str = "gold_cook_torrance_merl";
+
+/// Gold under Cook–Torrance written as a MERL file by the f64 reference (into a temporary folder,
+/// removed again: the file is 35 MB) and read back as a model, with its count of missing values.
+/// Once per process: run-time models stay registered, and the file is the same every time.
+fn measured_model(eval: &Evaluator) -> Result<(Model, usize)> {
+    static MODEL: Mutex<Option<(Model, usize)>> = Mutex::new(None);
+    let mut made = MODEL.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(m) = *made {
+        return Ok(m);
+    }
+    let cpu = match eval.cancel_token() {
+        Some(t) => Evaluator::cpu().with_cancel(t),
+        None => Evaluator::cpu(),
+    };
+    let dir = tempfile::tempdir().context("creating a temporary folder for the MERL file")?;
+    let path = dir.path().join(format!("{MEASURED_NAME}.binary"));
+    let gold = material::preset("gold", Model::CookTorrance)?;
+    merl::write::write(&cpu, &gold, false, &path, &mut |_, _| {})?;
+    let loaded = merl::model::load(&path)?;
+    *made = Some((loaded.model, loaded.missing));
+    Ok((loaded.model, loaded.missing))
+}
+
+/// Step 6, measured data: gold under Cook–Torrance as a MERL file read back as a model
+/// ([`measured_model`]), its albedo with each lookup, beside the analytic model's.
+pub(super) fn measured(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<(Measured, String)> {
+    let (model, missing) = measured_model(eval)?;
+    p.advance(1);
+    let mut rows = Vec::new();
+    for how in merl::lookup::LOOKUPS {
+        eval.check_cancelled()?;
+        let mut params = ParamSet::defaults(model);
+        params.set_text(&format!("lookup={how}"))?;
+        let rel = format!("albedo/{MEASURED_NAME}_{how}.json");
+        let mut row = albedo_row(eval, d, "gold", &params, rel, files)?;
+        row.model = format!("{} (lookup={how})", model.name());
+        rows.push(row);
+        p.advance(1 + rows.len() as u64);
+    }
+    let detail = format!(
+        "gold cook_torrance as a MERL file ({} bytes, {missing} values missing), read back; {} JSON files",
+        merl::FILE_BYTES,
+        rows.len()
+    );
+    Ok((
+        Measured {
+            model: model.name().to_string(),
+            missing,
+            rows,
+        },
+        detail,
+    ))
+}
+
+/// Step 7, GPU against the f64 reference, per model (only on the GPU backend).
 pub(super) fn parity(
     eval: &Evaluator,
     d: &Demo,

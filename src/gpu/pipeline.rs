@@ -54,6 +54,47 @@ impl Kernel {
     }
 }
 
+/// The binding of a model's data table (a measured BRDF's bins, read-only storage buffer) in
+/// every kernel of a model that has one ([`Model::data`]). Built-in models have none, and their
+/// pipelines' layouts do not have this binding.
+pub const MODEL_DATA_BINDING: u32 = 7;
+
+/// A model's data table on the device, with the device it lives on.
+struct ModelData {
+    /// Declared before `_dev`, so dropped first.
+    buffer: Buffer<'static>,
+    _dev: Arc<Device>,
+}
+
+// SAFETY: the buffer's mapping is written once, in `ModelData::new`, before the value is shared;
+// afterwards only kernels read the buffer, and the `Device` is `Send + Sync`.
+unsafe impl Send for ModelData {}
+// SAFETY: as for `Send`: no method writes through a shared `ModelData`.
+unsafe impl Sync for ModelData {}
+
+impl ModelData {
+    /// Uploads `bytes` to a new buffer on `dev`.
+    fn new(dev: &Arc<Device>, model: &str, bytes: &[u8]) -> Result<ModelData> {
+        let range = dev.limits.max_storage_buffer_range as u64;
+        if bytes.len() as u64 > range {
+            return Err(GpuError::Limit(format!(
+                "the data table of model {model} takes {} bytes, over this device's storage buffer range of {range}",
+                bytes.len()
+            )));
+        }
+        let mut buffer = Buffer::new(dev, bytes.len() as u64, "model data")?;
+        buffer.write(bytes);
+        // SAFETY: a `Buffer` uses its `&Device` only to reach the device (in `Drop`); the `Arc`
+        // kept beside it holds that `Device` at the same address until after `buffer` is
+        // dropped (fields drop in declaration order).
+        let buffer = unsafe { std::mem::transmute::<Buffer<'_>, Buffer<'static>>(buffer) };
+        Ok(ModelData {
+            buffer,
+            _dev: dev.clone(),
+        })
+    }
+}
+
 /// Specialization constant id of FAST_POW (glsl/common.glsl).
 pub const FAST_POW_ID: u32 = 10;
 
@@ -118,6 +159,8 @@ pub struct Pipeline {
     pub gpu_ns: AtomicU64,
     /// The model's own bound on each chunk's wait, if it has one (else [`CHUNK_TIMEOUT`]).
     pub model_timeout: Option<Duration>,
+    /// The model's data table, bound at [`MODEL_DATA_BINDING`] by every dispatcher.
+    data: Option<ModelData>,
 }
 
 impl Pipeline {
@@ -167,13 +210,17 @@ impl Pipeline {
             label,
             gpu_ns: AtomicU64::new(0),
             model_timeout: model_kind.chunk_timeout(),
+            data: None,
         };
+        if let Some(bytes) = model_kind.data() {
+            p.data = Some(ModelData::new(dev, model, bytes)?);
+        }
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
             p.module = d
                 .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
                 .ctx("creating a shader module")?;
-            let bindings: Vec<_> = kernel
+            let bindings: Vec<_> = p
                 .bindings()
                 .iter()
                 .map(|&(b, ty)| {
@@ -249,6 +296,15 @@ impl Pipeline {
         Ok(p)
     }
 
+    /// The kernel's bindings, and [`MODEL_DATA_BINDING`] where the model has a data table.
+    fn bindings(&self) -> Vec<(u32, vk::DescriptorType)> {
+        let data = self
+            .data
+            .as_ref()
+            .map(|_| (MODEL_DATA_BINDING, vk::DescriptorType::STORAGE_BUFFER));
+        self.kernel.bindings().iter().copied().chain(data).collect()
+    }
+
     /// Runs the kernel once per chunk over bound buffers (in binding order), waiting for each.
     pub fn dispatch(&self, buffers: &[&Buffer<'_>], chunks: &[ChunkPush]) -> Result<()> {
         Dispatcher::new(self, buffers)?.run(chunks)
@@ -293,16 +349,19 @@ pub struct Dispatcher<'p> {
 
 impl<'p> Dispatcher<'p> {
     /// Binds `buffers` to the kernel's bindings, in their order (panics on a wrong count: the
-    /// callers are this crate's own runners).
+    /// callers are this crate's own runners), and the model's data table to
+    /// [`MODEL_DATA_BINDING`] where it has one.
     pub fn new(pipe: &'p Pipeline, buffers: &[&Buffer<'_>]) -> Result<Dispatcher<'p>> {
-        let bindings = pipe.kernel.bindings();
         assert_eq!(
             buffers.len(),
-            bindings.len(),
+            pipe.kernel.bindings().len(),
             "kernel {} takes {} buffers",
             pipe.kernel.name(),
-            bindings.len()
+            pipe.kernel.bindings().len()
         );
+        let bindings = &pipe.bindings()[..];
+        let data = pipe.data.as_ref().map(|d| &d.buffer);
+        let buffers: &[&Buffer<'_>] = &buffers.iter().copied().chain(data).collect::<Vec<_>>();
         let d = &pipe.dev.device;
         let mut s = Dispatcher {
             pipe,

@@ -139,6 +139,16 @@ impl Model {
         }
     }
 
+    /// The data table this model's kernels read at
+    /// [`crate::gpu::pipeline::MODEL_DATA_BINDING`] (a measured BRDF's bins), if it has one;
+    /// built-in models have none.
+    pub fn data(self) -> Option<&'static [u8]> {
+        match self {
+            Model::Runtime(r) => r.data(),
+            _ => None,
+        }
+    }
+
     /// One line for `lobe models`.
     pub fn description(self) -> &'static str {
         self.info().description

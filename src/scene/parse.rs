@@ -314,8 +314,9 @@ fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Materia
     Ok(materials)
 }
 
-/// A model by name, or a `.brdf` file (a path relative to the scene file's folder) loaded as
-/// one ([`crate::brdf::load`], with its default time limit).
+/// A model by name, or a file loaded as one, its path relative to the scene file's folder: a
+/// `.brdf` file ([`crate::brdf::load`], with its default time limit) or a MERL file
+/// (`PATH.binary`, [`crate::merl::model::load`]).
 fn model_named(loc: &Locator, name: &Spanned<String>) -> Result<Model, SceneError> {
     let text = name.get_ref();
     if crate::brdf::is_brdf_path(text) {
@@ -325,6 +326,14 @@ fn model_named(loc: &Locator, name: &Spanned<String>) -> Result<Model, SceneErro
         return crate::brdf::load(&dir.join(text.trim()), &Default::default())
             .map(|l| l.model)
             .map_err(|e| loc.at(name.span(), e.to_string()));
+    }
+    if crate::merl::model::is_merl_path(text) {
+        let dir = std::path::Path::new(loc.file)
+            .parent()
+            .unwrap_or(std::path::Path::new(""));
+        return crate::merl::model::load(&dir.join(text.trim()))
+            .map(|l| l.model)
+            .map_err(|e| loc.at(name.span(), format!("{e:#}")));
     }
     Model::from_name(text).map_err(|e| loc.at(name.span(), e.to_string()))
 }

@@ -47,6 +47,7 @@ pub struct RuntimeModel {
     no_reference_note: &'static str,
     chunk_timeout: Option<Duration>,
     defaults: Vec<(&'static str, Value)>,
+    data: Option<&'static [u8]>,
 }
 
 impl std::fmt::Debug for RuntimeModel {
@@ -55,6 +56,7 @@ impl std::fmt::Debug for RuntimeModel {
             .field("name", &self.info.name)
             .field("kernels", &self.kernels.keys().collect::<Vec<_>>())
             .field("reference", &self.reference.is_some())
+            .field("data_bytes", &self.data.map(<[u8]>::len))
             .finish()
     }
 }
@@ -91,9 +93,9 @@ fn leak(s: &str) -> &'static str {
 }
 
 /// The std430 layout of a block holding the parameters in table order: a scalar is a `float`
-/// (4-byte aligned), an rgb key a `vec3` (16-byte aligned, 12 bytes); the block's size is rounded
-/// up to its largest alignment. A GLSL struct that declares the same members in the same order
-/// has exactly this layout.
+/// (4-byte aligned), a named choice a `uint` (the option's index, 4-byte aligned), an rgb key a
+/// `vec3` (16-byte aligned, 12 bytes); the block's size is rounded up to its largest alignment.
+/// A GLSL struct that declares the same members in the same order has exactly this layout.
 pub fn std430_layout(params: &[ParamSpec]) -> (Vec<(&'static str, usize)>, usize) {
     let mut offset = 0usize;
     let mut align = 4usize;
@@ -134,8 +136,9 @@ fn no_edges(_: Model) -> Vec<&'static [&'static str]> {
 static REGISTERED: Mutex<Vec<&'static RuntimeModel>> = Mutex::new(Vec::new());
 
 impl RuntimeModel {
-    /// A model named `name` with the parameter table `params` (numbers and rgb triples; named
-    /// choices select pipelines and exist for built-in models only).
+    /// A model named `name` with the parameter table `params`: numbers, rgb triples and named
+    /// choices (a choice reaches the kernels as its option's index in the parameter block, not as
+    /// a pipeline of its own).
     pub fn new(
         name: &str,
         description: &str,
@@ -156,17 +159,6 @@ impl RuntimeModel {
             .iter()
             .map(|p| if p.kind == ParamKind::Rgb { 3 } else { 1 })
             .sum();
-        if let Some(p) = params
-            .iter()
-            .find(|p| matches!(p.kind, ParamKind::Choice(_)))
-        {
-            return Err(ParamError::Malformed {
-                key: p.key.to_string(),
-                text: "a named choice".into(),
-                expected: "a number or an rgb triple (a model defined at run time has no choices)"
-                    .into(),
-            });
-        }
         if numbers > MAX_VALUES {
             return Err(ParamError::Malformed {
                 key: name.to_string(),
@@ -176,11 +168,12 @@ impl RuntimeModel {
         }
         let params: &'static [ParamSpec] = Box::leak(params.into_boxed_slice());
         let (layout, size) = std430_layout(params);
-        // The default LUT axis: the first scalar over its range, else the first rgb key grey.
+        // The default LUT axis: the first scalar over its range, else the first rgb key grey
+        // (a choice is no axis).
         let lut_axis = params
             .iter()
             .find(|p| p.kind == ParamKind::Scalar)
-            .or(params.first())
+            .or(params.iter().find(|p| p.kind == ParamKind::Rgb))
             .map(|p| LutAxis {
                 keys: Box::leak(vec![p.key].into_boxed_slice()),
                 lo: p.min,
@@ -219,6 +212,7 @@ impl RuntimeModel {
             no_reference_note: "it was defined at run time without one",
             chunk_timeout: None,
             defaults: Vec::new(),
+            data: None,
         })
     }
 
@@ -298,6 +292,14 @@ impl RuntimeModel {
         self
     }
 
+    /// Adds a data table the kernels read (a measured BRDF's bins, say): bound as one read-only
+    /// storage buffer at binding [`crate::gpu::pipeline::MODEL_DATA_BINDING`] of every kernel
+    /// of this model, uploaded once per pipeline.
+    pub fn with_data(mut self, data: Vec<u8>) -> RuntimeModel {
+        self.data = Some(Box::leak(data.into_boxed_slice()));
+        self
+    }
+
     /// Makes the model known to [`Model::from_name`] for the rest of the process and returns it.
     /// Refuses a name that a built-in or registered model already has.
     pub fn register(self) -> Result<Model, ParamError> {
@@ -341,6 +343,11 @@ impl RuntimeModel {
     pub fn chunk_timeout(&self) -> Option<Duration> {
         self.chunk_timeout
     }
+
+    /// The data table the kernels read, if the model has one ([`RuntimeModel::with_data`]).
+    pub fn data(&self) -> Option<&'static [u8]> {
+        self.data
+    }
 }
 
 /// The registered run-time models, in the order they were registered.
@@ -364,13 +371,18 @@ pub struct RuntimeBrdf {
 }
 
 impl RuntimeBrdf {
-    /// The values of `p` in table order.
+    /// The values of `p` in table order (a choice as its option's index).
     pub fn new(model: &'static RuntimeModel, p: &ParamSet) -> RuntimeBrdf {
         let mut values = [0.0; MAX_VALUES];
         let mut len = 0;
         for spec in model.info.params {
             let n = if spec.kind == ParamKind::Rgb { 3 } else { 1 };
-            values[len..len + n].copy_from_slice(&p.get(spec.key).rgb()[..n]);
+            match (spec.kind, p.get(spec.key)) {
+                (ParamKind::Choice(options), Value::Choice(name)) => {
+                    values[len] = options.iter().position(|o| *o == name).unwrap_or(0) as f64;
+                }
+                (_, v) => values[len..len + n].copy_from_slice(&v.rgb()[..n]),
+            }
             len += n;
         }
         RuntimeBrdf { model, values, len }
@@ -393,7 +405,10 @@ impl RuntimeBrdf {
         for (spec, &(_, offset)) in info.params.iter().zip(info.gpu_layout) {
             let n = if spec.kind == ParamKind::Rgb { 3 } else { 1 };
             for c in 0..n {
-                let bytes = (self.values[k + c] as f32).to_le_bytes();
+                let bytes = match spec.kind {
+                    ParamKind::Choice(_) => (self.values[k + c] as u32).to_le_bytes(),
+                    _ => (self.values[k + c] as f32).to_le_bytes(),
+                };
                 out[offset + 4 * c..offset + 4 * c + 4].copy_from_slice(&bytes);
             }
             k += n;
