@@ -206,25 +206,7 @@ fn isotropic(file: &BrdfFile) -> bool {
 /// The model name for `path`: its file stem with every character other than letters, digits,
 /// '_' and '-' made '_' (a '.' would read as MODEL.KEY in `--set`).
 pub fn stem_name(path: &Path) -> String {
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let name: String = stem
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if name.is_empty() {
-        "brdf".into()
-    } else {
-        name
-    }
+    crate::model::runtime::name_from_stem(path, "brdf")
 }
 
 /// The files loaded so far, by canonical path: loading a file again gives the same model.

@@ -16,7 +16,7 @@
 //! [`read`] loads a file, [`model::load`] makes it a model every command can use (its lookup and
 //! the f64 twin in [`lookup`]), and [`write::write`] writes any isotropic model in the format.
 
-pub mod lookup;
+pub use crate::model::merl as lookup;
 pub mod model;
 pub mod write;
 

@@ -41,25 +41,10 @@ pub struct Loaded {
 /// Files loaded so far, by canonical path: a file named twice is one model.
 static LOADED: Mutex<BTreeMap<PathBuf, (Model, usize)>> = Mutex::new(BTreeMap::new());
 
-/// The model name for a file: its stem, with any character other than a letter, a digit, `_`,
-/// `-` or `.` replaced by `_`.
+/// The model name for a file: its stem, with any character other than a letter, a digit, `_`
+/// or `-` replaced by `_` ([`crate::model::runtime::name_from_stem`]).
 pub fn model_name(path: &Path) -> String {
-    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("merl");
-    let name: String = stem
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if name.is_empty() {
-        "merl".into()
-    } else {
-        name
-    }
+    crate::model::runtime::name_from_stem(path, "merl")
 }
 
 /// Registers `table` as the model `name` (see the module's notes).

@@ -7,6 +7,7 @@ pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
 pub mod lambert;
+pub mod merl;
 pub mod microfacet;
 pub mod oren_nayar;
 pub mod params;

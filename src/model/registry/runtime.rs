@@ -438,3 +438,28 @@ mod tests {
         assert_eq!(size, crate::model::phong::INFO.gpu_size);
     }
 }
+
+/// A model name for a file that defines a model: its stem with every character other than
+/// letters, digits, `_` and `-` made `_` (a `.` would read as MODEL.KEY in `--set`), or
+/// `fallback` when nothing is left.
+pub fn name_from_stem(path: &std::path::Path, fallback: &str) -> String {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if name.is_empty() {
+        fallback.to_string()
+    } else {
+        name
+    }
+}

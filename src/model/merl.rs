@@ -1,8 +1,8 @@
-//! f of a MERL table at a pair, in f64: the twin of `glsl/brdf/merl.glsl`, line by line, with
+//! The `merl` lookup: f of a MERL table at a pair, in f64: the twin of `glsl/brdf/merl.glsl`, line by line, with
 //! libm's atan2 where the GLSL has `merl_angle`. The nearest-bin lookup is MERL's reader's.
 
-use super::{bin, MerlTable, BINS, DIMS};
 use crate::grid::pair_to_half_diff;
+use crate::merl::{bin, MerlTable, BINS, DIMS};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -126,7 +126,7 @@ mod tests {
             (89, 2, 7),
             (10, 60, 1),
         ] {
-            let [th, td, pd] = super::super::bin_centre(h, d, p);
+            let [th, td, pd] = crate::merl::bin_centre(h, d, p);
             let (wi, wo) = half_diff_to_pair(th, 0.0, td, pd);
             let want = DVec3::new(h as f64, d as f64, p as f64);
             assert_eq!(merl(&t, Lookup::Nearest, wi, wo), want, "bin {h} {d} {p}");
