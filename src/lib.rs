@@ -26,6 +26,7 @@ pub mod grid;
 pub mod input;
 pub mod integrate;
 pub mod interrupt;
+pub mod loss;
 pub mod lut;
 pub mod material;
 pub mod merl;
