@@ -11,6 +11,8 @@
 //! - [`slice`](mod@slice): the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
 //! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
 //! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn;
+//! - [`difference`]: two models overlaid in the plane of incidence and their relative difference
+//!   over the hemisphere (`lobe compare`, `lobe fit`);
 //! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
 //!
 //! Text is drawn with DejaVu Sans, embedded in the binary and registered with plotters' ab_glyph
@@ -19,6 +21,7 @@
 //! The plotted scalar is one channel of the RGB value ([`Channel`]); luminance by default.
 
 pub mod albedo;
+pub mod difference;
 pub mod hemisphere;
 pub mod pareto;
 pub mod polar;
@@ -1171,14 +1174,23 @@ pub(crate) fn render(
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
 ) -> Result<()> {
-    let format = Format::of(path)?;
-    let svg = draw_svg(size, draw)?;
-    let bytes = match format {
-        Format::Svg => svg.into_bytes(),
-        Format::Png => rasterise(&svg, size)?,
-    };
+    let bytes = render_bytes(Format::of(path)?, size, draw)?;
     crate::output::write_atomic(path, |w| {
         std::io::Write::write_all(w, &bytes).with_context(|| format!("writing {}", path.display()))
+    })
+}
+
+/// What `draw` draws on an SVG canvas of `size`, as the bytes of a file in `format` (see
+/// [`render`]), for a caller that writes several pictures as one transaction.
+pub(crate) fn render_bytes(
+    format: Format,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+) -> Result<Vec<u8>> {
+    let svg = draw_svg(size, draw)?;
+    Ok(match format {
+        Format::Svg => svg.into_bytes(),
+        Format::Png => rasterise(&svg, size)?,
     })
 }
 
