@@ -56,6 +56,10 @@ enum Command {
     /// Pictures of a model: in-plane polar plot, hemisphere heat map, theta_h x theta_d slice,
     /// 3D lobe or albedo curves, as PNG or SVG by the output's extension (fonts built in).
     Plot(cli::plot::PlotArgs),
+    /// Two models on the same bins: relative difference (RMS, largest and where), the
+    /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A
+    /// and B overlaid and their difference over the hemisphere.
+    Compare(cli::compare::CompareArgs),
 }
 
 /// The exit status after standard output was closed early (`lobe ... | head`): 128 + SIGPIPE,
@@ -111,6 +115,7 @@ fn main() {
         Command::Albedo(a) => cli::albedo::run(a),
         Command::Energy(a) => cli::energy::run(a),
         Command::Plot(a) => cli::plot::run(a),
+        Command::Compare(a) => cli::compare::run(a),
     };
     if let Err(e) = result {
         let io_kind = |c: &(dyn std::error::Error + 'static)| {

@@ -87,8 +87,8 @@ pub fn difference_data(
     let m = largest.max(MIN_HALF_RANGE);
     Ok(HemisphereData {
         title: format!(
-            "relative difference of B from A over every ωo for fixed ωi: A = {}, B = {}",
-            a.label, b.label
+            "relative difference (B − A) over every ωo for fixed ωi: {} against {}",
+            b.label, a.label
         ),
         panels,
         scale: super::Scale {
@@ -123,10 +123,7 @@ fn draw<DB: DrawingBackend>(
     common: &Common,
     opts: &HemisphereOptions,
 ) -> Result<()> {
-    let mut lines = vec![
-        format!("A = {}", a.describe()),
-        format!("B = {}", b.describe()),
-    ];
+    let mut lines = vec![a.describe(), b.describe()];
     let mut note = format!(
         "colour: (B − A) / max(|A|, |B|, {}) of {}; 0 where they agree, > 0 where B is brighter; \
          seen from above, +x right; × mirror direction, ○ ωi",
@@ -204,7 +201,7 @@ pub fn plot_paths(prefix: &Path, format: Format) -> (PathBuf, PathBuf) {
     (with("polar"), with("difference"))
 }
 
-/// Draws A and B overlaid in the plane of incidence and the relative difference of B from A
+/// Draws A and B overlaid (their labels say which is which: `lobe compare` uses `A: SPEC`) in the plane of incidence and the relative difference of B from A
 /// over the hemisphere (module docs), and writes them as `PREFIX_polar.EXT` and
 /// `PREFIX_difference.EXT` (see [`plot_paths`]) in one transaction: both files or neither.
 pub fn write_plots(
