@@ -194,6 +194,14 @@ pub fn run(a: CompareArgs) -> Result<()> {
     };
     if let Some(prefix) = &a.output {
         let (polar, difference) = compare::plot_paths(prefix, format);
+        let folder = lobe::output::folder_of(&polar);
+        if !folder.as_os_str().is_empty() && !folder.is_dir() {
+            bail!(
+                "-o {}: the folder {} does not exist",
+                prefix.display(),
+                folder.display()
+            );
+        }
         for p in [&polar, &difference] {
             lobe::output::check_destination(p).context("-o")?;
         }
@@ -342,7 +350,7 @@ fn print_table(
     )?;
     writeln!(
         out,
-        "relative difference |B - A| / max(|A|, |B|, {}): RMS {:.6}, max {:.6}",
+        "relative difference |B - A| / max(|A|, |B|, {}): RMS {:.4e}, max {:.4e}",
         lobe::loss::RELATIVE_FLOOR,
         r.relative_rms,
         r.relative_max
@@ -356,7 +364,7 @@ fn print_table(
     }
     let ch = |e: &lobe::loss::ChannelErrors| {
         format!(
-            "{:.6} (r {:.6}, g {:.6}, b {:.6})",
+            "{:.4e} (r {:.4e}, g {:.4e}, b {:.4e})",
             e.total, e.channel[0], e.channel[1], e.channel[2]
         )
     };
