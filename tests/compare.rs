@@ -303,7 +303,15 @@ fn the_command_line_reports_json_and_writes_both_plots() {
     let e = v["directional_albedo"][0]["a_minus_b"][0].as_f64().unwrap();
     assert!((e + 0.08).abs() < ALBEDO_TARGET, "{v}");
     assert_eq!(v["bins_compared"], 2000);
-    assert_eq!(files_in(&d), ["cmp_difference.png", "cmp_polar.png"]);
+    assert_eq!(
+        files_in(&d),
+        [
+            "cmp_difference.json",
+            "cmp_difference.png",
+            "cmp_polar.json",
+            "cmp_polar.png"
+        ]
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 

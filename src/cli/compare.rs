@@ -79,7 +79,8 @@ pub struct CompareArgs {
     #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
     format: ReportFormat,
     /// Write PREFIX_polar.png (A and B in the plane of incidence) and PREFIX_difference.png
-    /// ((B - A)/max(|A|, |B|, 1e-4) over the hemisphere), both or neither.
+    /// ((B - A)/max(|A|, |B|, 1e-4) over the hemisphere), each with the parameters of A and B
+    /// in a .json beside it; all four or none.
     #[arg(short = 'o', long = "output", value_name = "PREFIX")]
     output: Option<PathBuf>,
     /// Picture format of -o.

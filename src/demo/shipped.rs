@@ -156,8 +156,10 @@ pub(super) fn shipped(
         )
     };
     let plots = (rel(&plots.polar_path), rel(&plots.difference_path));
-    files.push(plots.0.clone());
-    files.push(plots.1.clone());
+    for f in [&plots.0, &plots.1] {
+        files.push(f.clone());
+        files.push(f.replace(".png", ".json"));
+    }
     p.advance(4);
     let detail = format!(
         "{BRDF_FILE} against microfacet: relative L2 {:.3}, log error {:.4}",

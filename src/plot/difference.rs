@@ -203,7 +203,8 @@ pub fn plot_paths(prefix: &Path, format: Format) -> (PathBuf, PathBuf) {
 
 /// Draws A and B overlaid (their labels say which is which: `lobe compare` uses `A: SPEC`) in the plane of incidence and the relative difference of B from A
 /// over the hemisphere (module docs), and writes them as `PREFIX_polar.EXT` and
-/// `PREFIX_difference.EXT` (see [`plot_paths`]) in one transaction: both files or neither.
+/// `PREFIX_difference.EXT` (see [`plot_paths`]), each with the full parameters of A and B in a
+/// `.json` beside it ([`super::params_json`]), in one transaction: all four files or none.
 pub fn write_plots(
     eval: &Evaluator,
     a: &Subject,
@@ -213,7 +214,16 @@ pub fn write_plots(
     format: Format,
 ) -> Result<Plots> {
     let (polar_path, difference_path) = plot_paths(prefix, format);
-    let set = FileSet::new(&[polar_path.as_path(), difference_path.as_path()])?;
+    let (polar_json, difference_json) = (
+        super::params_json_path(&polar_path),
+        super::params_json_path(&difference_path),
+    );
+    let set = FileSet::new(&[
+        polar_path.as_path(),
+        polar_json.as_path(),
+        difference_path.as_path(),
+        difference_json.as_path(),
+    ])?;
     let both = [a.clone(), b.clone()];
     let polar_opts = PolarOptions {
         theta_i_deg: opts.theta_i_deg.clone(),
@@ -233,7 +243,16 @@ pub fn write_plots(
     };
     let difference = difference_data(eval, a, b, &common, &hemi_opts)?;
     let difference_bytes = difference_picture(&difference, a, b, &common, &hemi_opts, format)?;
-    for (k, bytes) in [polar_bytes, difference_bytes].iter().enumerate() {
+    let json = |title: &str| -> Result<Vec<u8>> {
+        Ok((serde_json::to_string_pretty(&super::params_json(&both, title))? + "\n").into_bytes())
+    };
+    let contents = [
+        polar_bytes,
+        json(&polar.title)?,
+        difference_bytes,
+        json(&difference.title)?,
+    ];
+    for (k, bytes) in contents.iter().enumerate() {
         let mut w = set[k].writer();
         w.write_all(bytes)
             .with_context(|| format!("writing {}", set[k].dest().display()))?;

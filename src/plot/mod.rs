@@ -316,6 +316,17 @@ pub fn params_json_path(path: &Path) -> std::path::PathBuf {
 /// Writes every series' full parameter set (and the picture's title) as JSON to
 /// [`params_json_path`] of `path`: `{"title": …, "series": [{"label", "model", "params"}]}`.
 pub fn write_params_json(path: &Path, subjects: &[Subject], plotted: &Plotted) -> Result<()> {
+    let json = params_json(subjects, plotted.title());
+    let dest = params_json_path(path);
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    crate::output::write_atomic(&dest, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+            .with_context(|| format!("writing {}", dest.display()))
+    })
+}
+
+/// What [`write_params_json`] writes: `{"title": …, "series": [{"label", "model", "params"}]}`.
+pub fn params_json(subjects: &[Subject], title: &str) -> serde_json::Value {
     let series: Vec<serde_json::Value> = subjects
         .iter()
         .map(|s| {
@@ -326,13 +337,7 @@ pub fn write_params_json(path: &Path, subjects: &[Subject], plotted: &Plotted) -
             })
         })
         .collect();
-    let json = serde_json::json!({ "title": plotted.title(), "series": series });
-    let dest = params_json_path(path);
-    let text = serde_json::to_string_pretty(&json)? + "\n";
-    crate::output::write_atomic(&dest, |w| {
-        std::io::Write::write_all(w, text.as_bytes())
-            .with_context(|| format!("writing {}", dest.display()))
-    })
+    serde_json::json!({ "title": title, "series": series })
 }
 
 /// Settings every kind shares.
