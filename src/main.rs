@@ -56,6 +56,9 @@ enum Command {
     /// Pictures of a model: in-plane polar plot, hemisphere heat map, theta_h x theta_d slice,
     /// 3D lobe or albedo curves, as PNG or SVG by the output's extension (fonts built in).
     Plot(cli::plot::PlotArgs),
+    /// Fit the free parameters of a model to a target (a model, a .brdf file, a MERL file or a
+    /// lobe table) by the cosine-weighted log error, every round's candidates in one GPU dispatch.
+    Fit(cli::fit::FitArgs),
 }
 
 /// The exit status after standard output was closed early (`lobe ... | head`): 128 + SIGPIPE,
@@ -111,6 +114,7 @@ fn main() {
         Command::Albedo(a) => cli::albedo::run(a),
         Command::Energy(a) => cli::energy::run(a),
         Command::Plot(a) => cli::plot::run(a),
+        Command::Fit(a) => cli::fit::run(a),
     };
     if let Err(e) = result {
         let io_kind = |c: &(dyn std::error::Error + 'static)| {

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod demo;
 pub mod energy;
 pub mod eval;
+pub mod fit;
 pub mod models;
 pub mod plot;
 pub mod preview;
