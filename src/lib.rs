@@ -17,6 +17,7 @@
 
 pub mod bench;
 pub mod brdf;
+pub mod compare;
 pub mod demo;
 pub mod energy;
 pub mod error;

@@ -59,6 +59,10 @@ enum Command {
     /// Fit the free parameters of a model to a target (a model, a .brdf file, a MERL file or a
     /// lobe table) by the cosine-weighted log error, every round's candidates in one GPU dispatch.
     Fit(cli::fit::FitArgs),
+    /// Two models on the same bins: relative difference (RMS, largest and where), the
+    /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A
+    /// and B overlaid and their difference over the hemisphere.
+    Compare(cli::compare::CompareArgs),
 }
 
 /// The exit status after standard output was closed early (`lobe ... | head`): 128 + SIGPIPE,
@@ -115,6 +119,7 @@ fn main() {
         Command::Energy(a) => cli::energy::run(a),
         Command::Plot(a) => cli::plot::run(a),
         Command::Fit(a) => cli::fit::run(a),
+        Command::Compare(a) => cli::compare::run(a),
     };
     if let Err(e) = result {
         let io_kind = |c: &(dyn std::error::Error + 'static)| {

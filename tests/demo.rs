@@ -220,8 +220,13 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
         .skip(1)
         .map(|r| &r[..r.find("</tr>").unwrap()])
         .collect();
-    // ... and, in the measured section, gold cook_torrance again and its MERL file's two lookups.
-    assert_eq!(rows.len(), MATERIALS.len() * Model::ALL.len() + 3);
+    // ... and, in the measured section, gold cook_torrance again and its MERL file's two lookups;
+    // on the GPU, the shipped .brdf file and its nearest built-in model.
+    let shipped_rows = if gpu { 2 } else { 0 };
+    assert_eq!(
+        rows.len(),
+        MATERIALS.len() * Model::ALL.len() + 3 + shipped_rows
+    );
     assert!(html.contains("gold_cook_torrance_merl (lookup=trilinear)"));
     for row in &rows {
         let file = row[1..].split('"').next().unwrap();
@@ -310,7 +315,9 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     // Every step is timed on the page.
     let steps = &html[html.find("id=\"steps\"").expect("steps table")..];
     let steps = &steps[..steps.find("</table>").unwrap()];
-    let mut names = vec!["tables", "albedo", "lut", "plots", "preview", "measured"];
+    let mut names = vec![
+        "tables", "albedo", "lut", "plots", "preview", "measured", "brdf",
+    ];
     if gpu {
         names.push("parity");
     }
@@ -332,6 +339,24 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
         }
     } else {
         assert!(html.contains("id=\"parity-none\""));
+    }
+    // The shipped .brdf file against its nearest built-in model: numbers on the GPU (the two
+    // differ in the base's coupling, so relative L2 is well above 0 and below 1), a note on the
+    // CPU, where a .brdf shader has no twin.
+    if gpu {
+        let t = &html[html
+            .find("id=\"shipped-compare\"")
+            .expect("shipped compare")..];
+        let at = t.find("data-field=\"relative_l2\">").unwrap() + 25;
+        let text = &t[at..at + t[at..].find('<').unwrap()];
+        let l2: f64 = text
+            .parse()
+            .unwrap_or_else(|_| panic!("relative L2 '{text}'"));
+        assert!(l2 > 0.0 && l2 < 1.0, "relative L2 {l2}");
+        assert!(dir.join("brdf/coated_plastic.brdf").is_file());
+        assert!(html.contains("plots/coated_plastic_vs_microfacet_difference.png"));
+    } else {
+        assert!(html.contains("id=\"shipped-none\""));
     }
     // No staging folder left beside the output.
     let parent = dir.parent().unwrap();

@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::fit::{FitOptions, FitReport, Space, Target};
 use lobe::loss::LossKind;
+use lobe::plot::{Format, Subject};
 use std::io::Write;
 
 /// Output format of `lobe fit`.
@@ -69,6 +70,11 @@ pub struct FitArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = FitFormat::Table)]
     pub format: FitFormat,
+    /// Write PREFIX_polar.png (target and fit in the plane of incidence) and
+    /// PREFIX_difference.png (their relative difference over the hemisphere), each with a .json
+    /// of the parameters beside it. Needs a target that is a model or a MERL file.
+    #[arg(short = 'o', long = "output", value_name = "PREFIX")]
+    pub output: Option<std::path::PathBuf>,
     #[command(flatten)]
     pub backend: BackendArgs,
 }
@@ -111,6 +117,31 @@ pub fn run(a: FitArgs) -> Result<()> {
         starts: a.starts,
         max_iters: a.max_iters,
     };
+    let plot_target = match &a.output {
+        Some(prefix) => {
+            let (polar, difference) = lobe::compare::plot_paths(prefix, Format::Png);
+            let folder = lobe::output::folder_of(&polar);
+            if !folder.as_os_str().is_empty() && !folder.is_dir() {
+                anyhow::bail!(
+                    "-o {}: the folder {} does not exist",
+                    prefix.display(),
+                    folder.display()
+                );
+            }
+            for p in [&polar, &difference] {
+                lobe::output::check_destination(p).context("-o")?;
+            }
+            match lobe::fit::target_model(&target)? {
+                Some(p) => Some(p),
+                None => anyhow::bail!(
+                    "-o {}: the target {} is a table, which cannot be drawn as a model; fit without -o, or give the model or MERL file it came from",
+                    prefix.display(),
+                    a.target
+                ),
+            }
+        }
+        None => None,
+    };
     let session = open_session(&a.backend)?;
     let progress = bar(
         opts.max_iters,
@@ -141,6 +172,30 @@ pub fn run(a: FitArgs) -> Result<()> {
             serde_json::to_string_pretty(&report.to_json(&target))?
         )?,
         FitFormat::Table => print_table(&mut out, &report, &target)?,
+    }
+    out.flush()?;
+    if let (Some(prefix), Some(tp)) = (&a.output, plot_target) {
+        let target_subject = Subject {
+            label: format!("target: {}", a.target),
+            params: tp,
+        };
+        let fit_subject = Subject {
+            label: format!("fit: {}", report.params.model().name()),
+            params: report.params.clone(),
+        };
+        let plots = lobe::compare::write_plots(
+            &session.evaluator(),
+            &target_subject,
+            &fit_subject,
+            &lobe::compare::PlotOptions::default(),
+            prefix,
+            Format::Png,
+        )?;
+        eprintln!(
+            "lobe: wrote {} and {}",
+            plots.polar_path.display(),
+            plots.difference_path.display()
+        );
     }
     Ok(())
 }

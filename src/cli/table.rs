@@ -8,9 +8,9 @@ use lobe::grid::Grid;
 use lobe::input::option_of;
 use std::path::{Path, PathBuf};
 
-/// The table grids.
+/// The table grids (`lobe table --grid`, `lobe compare --grid`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum GridArg {
+pub enum GridArg {
     /// (theta_i, phi_i, theta_o, phi_o): any model.
     Full,
     /// (theta_i, theta_o, delta_phi in [0, 180 deg]): isotropic parameter sets.
@@ -21,7 +21,8 @@ enum GridArg {
 }
 
 impl GridArg {
-    fn name(self) -> &'static str {
+    /// The grid's name, as `--grid` and [`lobe::grid::Grid::parse`] spell it.
+    pub fn name(self) -> &'static str {
         match self {
             GridArg::Full => "full",
             GridArg::Isotropic => "isotropic",

@@ -15,10 +15,13 @@
 //! 6. **measured**: gold under Cook–Torrance written as a MERL file by the f64 reference (in a
 //!    temporary folder: the file is 35 MB) and read back as a model ([`crate::merl`]), with its
 //!    albedo JSON for the nearest and the trilinear lookup;
-//! 7. **parity**: GPU (f32) against the f64 reference on a modest direction grid, per model, with
+//! 7. **brdf**: the shipped BRDF Explorer file `data/brdf/coated_plastic.brdf` as a model, its
+//!    albedo, and a comparison with the nearest built-in configuration with its plots
+//!    ([`shipped`]; GPU only: a `.brdf` shader has no f64 twin);
+//! 8. **parity**: GPU (f32) against the f64 reference on a modest direction grid, per model, with
 //!    the parity test's tolerance model ([`crate::stability::parity_tolerance`]); not measured
 //!    with `--backend cpu`, where there is no GPU run to compare;
-//! 8. **page**: `index.html`, written last.
+//! 9. **page**: `index.html`, written last.
 //!
 //! Nothing is written into the output folder until every step has succeeded: the steps write into
 //! a staging folder beside it (`.lobe-demo-*`), which is then renamed onto the output folder when
@@ -35,6 +38,7 @@ mod lut_picture;
 mod page;
 mod parity;
 mod plan;
+pub mod shipped;
 mod steps;
 
 pub use page::rgb_text;
@@ -322,6 +326,9 @@ pub struct Report {
     pub lut: LutInfo,
     /// Gold under Cook–Torrance as a MERL file, read back.
     pub measured: Measured,
+    /// The shipped `.brdf` file against its nearest built-in model; None with the CPU backend
+    /// (a `.brdf` shader has no f64 twin).
+    pub shipped: Option<shipped::Shipped>,
     /// None with the CPU backend.
     pub parity: Option<Vec<ParityRow>>,
     /// Wall-clock time of the whole demo, in seconds.
@@ -478,6 +485,7 @@ pub fn run(
     let measured = steps.run("measured", 1 + 2, |p| {
         steps::measured(eval, &demo, &mut files, p)
     })?;
+    let shipped = steps.run("brdf", 4, |p| shipped::shipped(eval, &demo, &mut files, p))?;
     let parity = match eval.as_gpu() {
         None => None,
         Some(_) => Some(steps.run("parity", models.len() as u64, |p| {
@@ -494,6 +502,7 @@ pub fn run(
         albedo,
         lut,
         measured,
+        shipped,
         parity,
         seconds: 0.0,
     };

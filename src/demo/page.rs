@@ -7,7 +7,7 @@ use crate::stability::REL_FLOOR;
 use std::fmt::Write as _;
 
 /// HTML-escapes text.
-fn esc(s: &str) -> String {
+pub(super) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -49,7 +49,7 @@ code { background: #f4f4f4; padding: 0 0.25em; border-radius: 3px; }
 .note { background: #f7f7ff; border-left: 4px solid #99c; padding: 0.5em 1em; }
 ";
 
-fn figure(out: &mut String, src: &str, size: (usize, usize), caption: &str) {
+pub(super) fn figure(out: &mut String, src: &str, size: (usize, usize), caption: &str) {
     let _ = writeln!(
         out,
         "<figure><a href=\"{0}\"><img src=\"{0}\" width=\"{1}\" height=\"{2}\" alt=\"{3}\"></a><figcaption>{3}</figcaption></figure>",
@@ -61,10 +61,10 @@ fn figure(out: &mut String, src: &str, size: (usize, usize), caption: &str) {
 }
 
 /// The header row of an albedo table.
-const ALBEDO_HEADER: &str = "<tr><th>model</th><th>E(μ=0.1)</th><th>E(μ=0.5)</th><th>E(μ=1)</th><th>Ē</th><th>max E</th><th>1 − E<sub>avg</sub></th><th>err</th><th>data</th></tr>";
+pub(super) const ALBEDO_HEADER: &str = "<tr><th>model</th><th>E(μ=0.1)</th><th>E(μ=0.5)</th><th>E(μ=1)</th><th>Ē</th><th>max E</th><th>1 − E<sub>avg</sub></th><th>err</th><th>data</th></tr>";
 
 /// One row of an albedo table (the columns of [`ALBEDO_HEADER`]).
-fn albedo_row(h: &mut String, a: &AlbedoRow) {
+pub(super) fn albedo_row(h: &mut String, a: &AlbedoRow) {
     let loss = a.e_avg.map(|x| 1.0 - x);
     let _ = write!(
         h,
@@ -266,6 +266,8 @@ pub(super) fn page(
         albedo_row(&mut h, a);
     }
     let _ = writeln!(h, "</table>");
+
+    super::shipped::section(&mut h, r.shipped.as_ref());
 
     let _ = writeln!(h, "<h2>Albedo LUT</h2>");
     let _ = writeln!(

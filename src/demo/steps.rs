@@ -23,7 +23,7 @@ use std::path::Path;
 use std::sync::Mutex;
 
 /// What every step reads.
-pub(super) struct Demo<'a> {
+pub(crate) struct Demo<'a> {
     pub staging: &'a StagingFolder,
     pub settings: &'a Settings,
     pub backend: &'a str,
@@ -96,7 +96,7 @@ fn albedo_settings(d: &Demo) -> AlbedoSettings {
 }
 
 /// The albedo report of `params` written to `rel` (a JSON file), as a page row under `material`.
-fn albedo_row(
+pub(super) fn albedo_row(
     eval: &Evaluator,
     d: &Demo,
     material: &str,

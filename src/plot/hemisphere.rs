@@ -335,7 +335,10 @@ fn draw<DB: DrawingBackend>(
     Ok(())
 }
 
-fn draw_panel<DB: DrawingBackend>(
+/// Draws one heat map of `data` into `area`: the cells, the horizon and the rings at 30° and
+/// 60°, azimuth labels, the mirror direction (×) and the fixed direction (○); the caption names
+/// the subject when there are several.
+pub(crate) fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     ink: &mut Ink,
     panel: &HemispherePanel,

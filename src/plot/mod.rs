@@ -11,6 +11,8 @@
 //! - [`slice`](mod@slice): the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
 //! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
 //! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn;
+//! - [`difference`]: two models overlaid in the plane of incidence and their relative difference
+//!   over the hemisphere (`lobe compare`, `lobe fit`);
 //! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
 //!
 //! Text is drawn with DejaVu Sans, embedded in the binary and registered with plotters' ab_glyph
@@ -19,6 +21,7 @@
 //! The plotted scalar is one channel of the RGB value ([`Channel`]); luminance by default.
 
 pub mod albedo;
+pub mod difference;
 pub mod hemisphere;
 pub mod pareto;
 pub mod polar;
@@ -313,6 +316,17 @@ pub fn params_json_path(path: &Path) -> std::path::PathBuf {
 /// Writes every series' full parameter set (and the picture's title) as JSON to
 /// [`params_json_path`] of `path`: `{"title": …, "series": [{"label", "model", "params"}]}`.
 pub fn write_params_json(path: &Path, subjects: &[Subject], plotted: &Plotted) -> Result<()> {
+    let json = params_json(subjects, plotted.title());
+    let dest = params_json_path(path);
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    crate::output::write_atomic(&dest, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+            .with_context(|| format!("writing {}", dest.display()))
+    })
+}
+
+/// What [`write_params_json`] writes: `{"title": …, "series": [{"label", "model", "params"}]}`.
+pub fn params_json(subjects: &[Subject], title: &str) -> serde_json::Value {
     let series: Vec<serde_json::Value> = subjects
         .iter()
         .map(|s| {
@@ -323,13 +337,7 @@ pub fn write_params_json(path: &Path, subjects: &[Subject], plotted: &Plotted) -
             })
         })
         .collect();
-    let json = serde_json::json!({ "title": plotted.title(), "series": series });
-    let dest = params_json_path(path);
-    let text = serde_json::to_string_pretty(&json)? + "\n";
-    crate::output::write_atomic(&dest, |w| {
-        std::io::Write::write_all(w, text.as_bytes())
-            .with_context(|| format!("writing {}", dest.display()))
-    })
+    serde_json::json!({ "title": title, "series": series })
 }
 
 /// Settings every kind shares.
@@ -1171,14 +1179,23 @@ pub(crate) fn render(
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
 ) -> Result<()> {
-    let format = Format::of(path)?;
-    let svg = draw_svg(size, draw)?;
-    let bytes = match format {
-        Format::Svg => svg.into_bytes(),
-        Format::Png => rasterise(&svg, size)?,
-    };
+    let bytes = render_bytes(Format::of(path)?, size, draw)?;
     crate::output::write_atomic(path, |w| {
         std::io::Write::write_all(w, &bytes).with_context(|| format!("writing {}", path.display()))
+    })
+}
+
+/// What `draw` draws on an SVG canvas of `size`, as the bytes of a file in `format` (see
+/// [`render`]), for a caller that writes several pictures as one transaction.
+pub(crate) fn render_bytes(
+    format: Format,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+) -> Result<Vec<u8>> {
+    let svg = draw_svg(size, draw)?;
+    Ok(match format {
+        Format::Svg => svg.into_bytes(),
+        Format::Png => rasterise(&svg, size)?,
     })
 }
 

@@ -218,6 +218,20 @@ pub fn plot_polar(
     Ok(data)
 }
 
+/// The picture of `data` (made by [`polar_data`] from the same arguments) as the bytes of a
+/// `format` file.
+pub fn polar_picture(
+    data: &PolarData,
+    subjects: &[Subject],
+    common: &Common,
+    opts: &PolarOptions,
+    format: super::Format,
+) -> Result<Vec<u8>> {
+    super::render_bytes(format, common.size, |root, ink| {
+        draw(root, ink, data, subjects, common, opts)
+    })
+}
+
 /// How each curve is styled: colour by θi when one model is drawn, else the subject's style
 /// (colour and marker) with the line pattern by θi.
 fn style_of(
