@@ -56,6 +56,9 @@ enum Command {
     /// Pictures of a model: in-plane polar plot, hemisphere heat map, theta_h x theta_d slice,
     /// 3D lobe or albedo curves, as PNG or SVG by the output's extension (fonts built in).
     Plot(cli::plot::PlotArgs),
+    /// Fit the free parameters of a model to a target (a model, a .brdf file, a MERL file or a
+    /// lobe table) by the cosine-weighted log error, every round's candidates in one GPU dispatch.
+    Fit(cli::fit::FitArgs),
     /// Two models on the same bins: relative difference (RMS, largest and where), the
     /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A
     /// and B overlaid and their difference over the hemisphere.
@@ -115,6 +118,7 @@ fn main() {
         Command::Albedo(a) => cli::albedo::run(a),
         Command::Energy(a) => cli::energy::run(a),
         Command::Plot(a) => cli::plot::run(a),
+        Command::Fit(a) => cli::fit::run(a),
         Command::Compare(a) => cli::compare::run(a),
     };
     if let Err(e) = result {

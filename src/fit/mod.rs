@@ -1,0 +1,571 @@
+//! Fitting an analytic model's free parameters to a target: a model, a `.brdf` file, a MERL
+//! file or a lobe table (`lobe fit`).
+//!
+//! 1. The target becomes samples ([`target`]): direction pairs at MERL's half/difference bin
+//!    centres (or a table's own cells), its values there, each bin's cosθi and solid-angle
+//!    weight, missing data left out, and at most [`FitOptions::max_bins`] of them, an evenly
+//!    spaced deterministic subset.
+//! 2. The loss is one of [`crate::loss`]: by default the cosine-weighted log error
+//!    E = sqrt(Σ_c Σ_bins w [ln(1 + cosθi·f_target) − ln(1 + cosθi·f_fit)]² / (3 Σ w)),
+//!    or the relative L2 sqrt(Σ w |f_fit − f_target|² / Σ w |f_target|²).
+//! 3. The free keys span an unbounded vector z mapped into their ranges by a logistic function
+//!    ([`space`]); Nelder–Mead (argmin) runs from several Halton starts in lock-step
+//!    ([`batch`]), so each round's candidates of every start are evaluated together: one
+//!    dispatch of the pairs kernel on the GPU, or the f64 reference on the CPU.
+//! 4. The best start's parameters are the fit; the report adds each start's result, the
+//!    per-channel loss, and the directional albedo of target and fit side by side.
+
+pub mod batch;
+pub mod space;
+pub mod target;
+
+use crate::eval::{Backend, Evaluator};
+use crate::gpu::GpuPair;
+use crate::input::BadInput;
+use crate::integrate::{self, PointAlbedo};
+use crate::loss::{ChannelErrors, LossKind};
+use crate::model::{Brdf, ParamSet, Reference};
+use anyhow::{Context, Result};
+use argmin::core::observers::{Observe, ObserverMode};
+use argmin::core::{CostFunction, Executor, State, KV};
+use argmin::solver::neldermead::NelderMead;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+pub use space::Space;
+pub use target::{Samples, Target};
+
+/// The default sample size: 2^16 bins. A MERL file has ~900,000 valid bins above the horizon;
+/// 65,536 of them, evenly spread, hold the lobe's shape at every angle and keep a round of four
+/// starts at 262,144 evaluations.
+pub const DEFAULT_MAX_BINS: usize = 1 << 16;
+
+/// The default number of starts.
+pub const DEFAULT_STARTS: usize = 4;
+
+/// The default bound on Nelder–Mead iterations per start.
+pub const DEFAULT_MAX_ITERS: u64 = 400;
+
+/// A start stops once the standard deviation of the loss over its simplex falls below this:
+/// 1e-9 is far below any difference a plot or a parameter's third digit shows, and above the
+/// f32 noise of a GPU evaluation of the loss (~1e-7 relative of a loss that is itself small).
+pub const SD_TOLERANCE: f64 = 1e-9;
+
+/// Size of the starting simplex in z (the logistic coordinates): 1 moves a value from the middle
+/// of its range by about a quarter of it.
+const SIMPLEX_STEP: f64 = 1.0;
+
+/// Most starts: each is a thread and a block of parameters per round.
+pub const MAX_STARTS: usize = 64;
+
+/// View cosines μ = cosθo at which the report compares the directional albedo of target and fit.
+pub const ALBEDO_MUS: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
+
+/// What a fit needs besides the target and the model.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// The distance minimised.
+    pub loss: LossKind,
+    /// Most target bins used (0: all).
+    pub max_bins: usize,
+    /// Nelder–Mead runs, from the first Halton points of the box.
+    pub starts: usize,
+    /// Most iterations per start.
+    pub max_iters: u64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            loss: LossKind::default(),
+            max_bins: DEFAULT_MAX_BINS,
+            starts: DEFAULT_STARTS,
+            max_iters: DEFAULT_MAX_ITERS,
+        }
+    }
+}
+
+/// Where a fit stands after a round: given to the progress callback.
+#[derive(Clone, Copy, Debug)]
+pub struct FitProgress {
+    /// Rounds evaluated (one dispatch each).
+    pub rounds: u64,
+    /// The largest iteration count reached by a start.
+    pub iteration: u64,
+    /// The smallest loss seen so far.
+    pub best_loss: f64,
+}
+
+/// One start's run.
+#[derive(Clone, Debug)]
+pub struct StartReport {
+    /// Where it started.
+    pub start: ParamSet,
+    /// Where it ended.
+    pub params: ParamSet,
+    /// The loss there.
+    pub loss: f64,
+    /// Nelder–Mead iterations.
+    pub iterations: u64,
+    /// Why it stopped, in argmin's words.
+    pub stopped: String,
+}
+
+/// The directional albedo of target and fit at one view cosine.
+#[derive(Clone, Copy, Debug)]
+pub struct AlbedoPair {
+    /// μ = cosθo.
+    pub mu: f64,
+    /// The target's E(μ), where the target is a model (not a table).
+    pub target: Option<DVec3>,
+    /// The fit's E(μ).
+    pub fit: DVec3,
+}
+
+/// A fit's result.
+#[derive(Clone, Debug)]
+pub struct FitReport {
+    /// The fitted parameter set (the free keys fitted, every other as given).
+    pub params: ParamSet,
+    /// The free keys.
+    pub free: Vec<&'static str>,
+    /// The loss minimised.
+    pub loss_kind: LossKind,
+    /// Its value at the fit, over all channels and per channel.
+    pub loss: ChannelErrors,
+    /// Every start, in order.
+    pub starts: Vec<StartReport>,
+    /// Iterations over all starts.
+    pub iterations: u64,
+    /// Rounds: one batched evaluation (one GPU dispatch) each.
+    pub rounds: u64,
+    /// Candidate parameter sets evaluated.
+    pub evaluations: u64,
+    /// Seconds from the first sample to the fit (albedo excluded).
+    pub seconds: f64,
+    /// The samples' counts and grid.
+    pub samples: SampleCounts,
+    /// Directional albedo of target and fit at [`ALBEDO_MUS`].
+    pub albedo: Vec<AlbedoPair>,
+    /// The backend, in words.
+    pub backend: String,
+}
+
+/// How many bins a fit used, of how many.
+#[derive(Clone, Debug)]
+pub struct SampleCounts {
+    /// Bins used.
+    pub used: usize,
+    /// Valid bins (data, above the horizon) before sampling.
+    pub valid: usize,
+    /// Bins of the target's grid.
+    pub grid_bins: usize,
+    /// Bins without data.
+    pub missing: usize,
+    /// The grid, in words.
+    pub grid: String,
+}
+
+/// Evaluates candidate parameter sets at the samples' pairs and returns each one's loss.
+pub struct Objective<'a> {
+    eval: Evaluator<'a>,
+    samples: &'a Samples,
+    loss: LossKind,
+    /// Pairs for the GPU: candidate j's copy of the samples at [j·N, (j + 1)·N), param_index j.
+    gpu_pairs: Vec<GpuPair>,
+}
+
+impl<'a> Objective<'a> {
+    /// An objective for up to `batch` candidates at once.
+    pub fn new(
+        eval: Evaluator<'a>,
+        samples: &'a Samples,
+        loss: LossKind,
+        batch: usize,
+    ) -> Objective<'a> {
+        let gpu_pairs = if eval.is_gpu() {
+            (0..batch as u32)
+                .flat_map(|j| {
+                    samples.pairs.iter().map(move |(wi, wo)| GpuPair {
+                        wi: [wi.x as f32, wi.y as f32, wi.z as f32],
+                        param_index: j,
+                        wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+                        pad: 0,
+                    })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Objective {
+            eval,
+            samples,
+            loss,
+            gpu_pairs,
+        }
+    }
+
+    /// The fit's values at the samples for each parameter set (all of one model).
+    pub fn values(&self, sets: &[ParamSet]) -> Result<Vec<Vec<[f64; 3]>>> {
+        self.eval.check_cancelled()?;
+        let n = self.samples.pairs.len();
+        match self.eval.backend() {
+            Backend::Gpu(gpu) if sets.len() * n <= self.gpu_pairs.len() => {
+                let model = sets[0].model();
+                if sets.iter().any(|p| p.model() != model) {
+                    // Component choices differ (never in a fit: only numbers vary): one by one.
+                    return sets
+                        .iter()
+                        .map(|p| self.eval.eval_pairs(p, false, &self.samples.pairs))
+                        .collect();
+                }
+                let blocks: Vec<Vec<u8>> = sets.iter().map(|p| Brdf::new(p).gpu_block()).collect();
+                let out =
+                    gpu.eval_pairs(model, &blocks, &self.gpu_pairs[..sets.len() * n], false)?;
+                Ok(out
+                    .chunks(n)
+                    .map(|c| c.iter().map(|v| v.map(f64::from)).collect())
+                    .collect())
+            }
+            Backend::Gpu(_) => sets
+                .iter()
+                .map(|p| self.eval.eval_pairs(p, false, &self.samples.pairs))
+                .collect(),
+            Backend::Cpu => sets
+                .iter()
+                .map(|p| {
+                    p.model().require_reference("the CPU backend")?;
+                    let r = Reference::new(p, false);
+                    Ok(self
+                        .samples
+                        .pairs
+                        .par_iter()
+                        .map(|(wi, wo)| r.eval(*wi, *wo).to_array())
+                        .collect())
+                })
+                .collect(),
+        }
+    }
+
+    /// The loss of each parameter set against the target.
+    pub fn losses(&self, sets: &[ParamSet]) -> Result<Vec<ChannelErrors>> {
+        Ok(self
+            .values(sets)?
+            .iter()
+            .map(|v| self.loss.eval(&self.samples.bins, &self.samples.values, v))
+            .collect())
+    }
+}
+
+/// One start's problem for argmin: its costs go through the lock-step.
+struct StartProblem<'s, 'a> {
+    step: &'s batch::LockStep<'a>,
+    start: usize,
+    /// Cost calls so far, to tell the initial simplex from the iterations.
+    calls: AtomicUsize,
+    /// Calls of the initial simplex (dims + 1).
+    init_calls: usize,
+}
+
+impl CostFunction for StartProblem<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+
+    fn cost(&self, z: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+        let call = self.calls.fetch_add(1, Ordering::Relaxed);
+        match self.step.cost(self.start, z.clone()) {
+            Ok(v) => Ok(v),
+            // argmin's Nelder–Mead unwraps the costs of its initial simplex; an infinite loss
+            // there ends the run at its first iteration, which then reports the failure.
+            Err(_) if call < self.init_calls => Ok(f64::INFINITY),
+            Err(e) => Err(anyhow::anyhow!(e)),
+        }
+    }
+}
+
+/// Writes each iteration of one start into a shared counter.
+struct IterationCounter(Arc<AtomicU64>);
+
+impl<I: State> Observe<I> for IterationCounter {
+    fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), argmin::core::Error> {
+        self.0.store(state.get_iter(), Ordering::Relaxed);
+        Ok(())
+    }
+}
+
+/// Fits the free keys of `space` to `target` (module docs). `progress` is called after every
+/// round.
+pub fn fit(
+    eval: &Evaluator,
+    target: &Target,
+    space: &Space,
+    opts: &FitOptions,
+    progress: &(dyn Fn(FitProgress) + Sync),
+) -> Result<FitReport> {
+    if !(1..=MAX_STARTS).contains(&opts.starts) {
+        return Err(BadInput::new(
+            "starts",
+            format!(
+                "starts = {}: expected from 1 to {MAX_STARTS} Nelder-Mead runs",
+                opts.starts
+            ),
+        )
+        .into());
+    }
+    if opts.max_iters == 0 {
+        return Err(BadInput::new(
+            "max_iters",
+            "max_iters = 0: expected at least 1 Nelder-Mead iteration per start",
+        )
+        .into());
+    }
+    if !eval.is_gpu() {
+        space.base.model().require_reference("the CPU backend")?;
+    }
+    let t0 = Instant::now();
+    let samples = target::samples(target, eval, opts.max_bins)?;
+    let objective = Objective::new(*eval, &samples, opts.loss, opts.starts);
+    let best = Mutex::new(f64::INFINITY);
+    let iterations: Vec<Arc<AtomicU64>> = (0..opts.starts)
+        .map(|_| Arc::new(AtomicU64::new(0)))
+        .collect();
+    let rounds = AtomicU64::new(0);
+    let round_eval = |round: &[(usize, Vec<f64>)]| -> Result<Vec<f64>> {
+        let sets: Vec<Option<ParamSet>> = round.iter().map(|(_, z)| space.params(z).ok()).collect();
+        let valid: Vec<ParamSet> = sets.iter().flatten().cloned().collect();
+        let mut losses = objective.losses(&valid)?.into_iter();
+        let out: Vec<f64> = sets
+            .iter()
+            .map(|s| match s {
+                Some(_) => losses
+                    .next()
+                    .map(|e| e.total)
+                    .filter(|l| l.is_finite())
+                    .unwrap_or(f64::INFINITY),
+                None => f64::INFINITY,
+            })
+            .collect();
+        let mut b = best.lock().unwrap_or_else(|e| e.into_inner());
+        *b = out.iter().copied().fold(*b, f64::min);
+        let done = rounds.fetch_add(1, Ordering::Relaxed) + 1;
+        progress(FitProgress {
+            rounds: done,
+            iteration: iterations
+                .iter()
+                .map(|i| i.load(Ordering::Relaxed))
+                .max()
+                .unwrap_or(0),
+            best_loss: *b,
+        });
+        Ok(out)
+    };
+    let step = batch::LockStep::new(opts.starts, &round_eval);
+    let dims = space.dims();
+    let starts = space.starts(opts.starts);
+    let results: Vec<std::result::Result<(Vec<f64>, f64, u64, String), String>> =
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = starts
+                .iter()
+                .enumerate()
+                .map(|(k, z0)| {
+                    let step = &step;
+                    let counter = iterations[k].clone();
+                    scope.spawn(move || {
+                        let r = run_start(step, k, z0, dims, opts.max_iters, counter);
+                        step.finish(k);
+                        r
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| {
+                    h.join()
+                        .unwrap_or_else(|_| Err("a Nelder-Mead run panicked".to_string()))
+                })
+                .collect()
+        });
+    if let Some(e) = step.failure() {
+        // The first failure of a round (a lost device, Ctrl-C) ends the fit with its own error.
+        if eval.check_cancelled().is_err() {
+            eval.check_cancelled()?;
+        }
+        anyhow::bail!("fitting {}: {e}", space.base.model().name());
+    }
+    let mut reports = Vec::new();
+    for (k, r) in results.into_iter().enumerate() {
+        let (z, loss, iters, stopped) =
+            r.map_err(|e| anyhow::anyhow!("fitting {}: {e}", space.base.model().name()))?;
+        reports.push(StartReport {
+            start: space.params(&starts[k])?,
+            params: space.params(&z)?,
+            loss,
+            iterations: iters,
+            stopped,
+        });
+    }
+    let best_start = reports
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.loss.total_cmp(&b.1.loss))
+        .map(|(k, _)| k)
+        .unwrap_or(0);
+    let params = reports[best_start].params.clone();
+    let loss = objective.losses(std::slice::from_ref(&params))?[0];
+    let (rounds, evaluations) = step.counts();
+    let seconds = t0.elapsed().as_secs_f64();
+    let albedo = albedo_side_by_side(eval, target, &params)?;
+    Ok(FitReport {
+        free: space.keys.iter().map(|k| k.key).collect(),
+        loss_kind: opts.loss,
+        loss,
+        iterations: reports.iter().map(|s| s.iterations).sum(),
+        starts: reports,
+        rounds,
+        evaluations,
+        seconds,
+        samples: SampleCounts {
+            used: samples.pairs.len(),
+            valid: samples.valid,
+            grid_bins: samples.grid_bins,
+            missing: samples.missing,
+            grid: samples.grid.clone(),
+        },
+        albedo,
+        backend: eval.name(),
+        params,
+    })
+}
+
+use std::sync::Mutex;
+
+/// One Nelder–Mead run from `z0`: (best z, its loss, iterations, why it stopped).
+fn run_start(
+    step: &batch::LockStep,
+    start: usize,
+    z0: &[f64],
+    dims: usize,
+    max_iters: u64,
+    counter: Arc<AtomicU64>,
+) -> std::result::Result<(Vec<f64>, f64, u64, String), String> {
+    let mut simplex = vec![z0.to_vec()];
+    for d in 0..dims {
+        let mut z = z0.to_vec();
+        z[d] += SIMPLEX_STEP;
+        simplex.push(z);
+    }
+    let solver = NelderMead::new(simplex)
+        .with_sd_tolerance(SD_TOLERANCE)
+        .map_err(|e| e.to_string())?;
+    let problem = StartProblem {
+        step,
+        start,
+        calls: AtomicUsize::new(0),
+        init_calls: dims + 1,
+    };
+    let result = Executor::new(problem, solver)
+        .configure(|s| s.max_iters(max_iters))
+        .add_observer(IterationCounter(counter), ObserverMode::Always)
+        .run()
+        .map_err(|e| format!("{e:#}"))?;
+    let state = result.state();
+    let z = state
+        .get_best_param()
+        .cloned()
+        .unwrap_or_else(|| z0.to_vec());
+    Ok((
+        z,
+        state.get_best_cost(),
+        state.get_iter(),
+        state
+            .get_termination_reason()
+            .map_or_else(|| "not stopped".to_string(), |r| r.text().to_string()),
+    ))
+}
+
+/// The target's model, where it has one: a model target, or a MERL file as its lookup model.
+pub fn target_model(target: &Target) -> Result<Option<ParamSet>> {
+    match target {
+        Target::Model(p) => Ok(Some(p.clone())),
+        Target::Merl(path) => {
+            let loaded = crate::merl::model::load(path)?;
+            Ok(Some(ParamSet::defaults(loaded.model)))
+        }
+        Target::Table(_) => Ok(None),
+    }
+}
+
+/// E(μ) of target (where it is a model) and fit at [`ALBEDO_MUS`], φo = 0.
+fn albedo_side_by_side(
+    eval: &Evaluator,
+    target: &Target,
+    fit: &ParamSet,
+) -> Result<Vec<AlbedoPair>> {
+    let points: Vec<(f64, f64)> = ALBEDO_MUS.iter().map(|&m| (m, 0.0)).collect();
+    let settings = integrate::Settings::default();
+    let e = |p: &ParamSet| -> Result<Vec<PointAlbedo>> {
+        integrate::directional(eval, p, &settings, &points)
+            .with_context(|| format!("directional albedo of {}", p.model().name()))
+    };
+    let fit_e = e(fit)?;
+    let target_e = match target_model(target)? {
+        // A model without the f64 twin (a .brdf file) on the CPU backend has no albedo here.
+        Some(p) if eval.is_gpu() || p.model().has_reference() => Some(e(&p)?),
+        _ => None,
+    };
+    Ok(fit_e
+        .iter()
+        .enumerate()
+        .map(|(k, f)| AlbedoPair {
+            mu: f.mu,
+            target: target_e.as_ref().map(|t| t[k].albedo),
+            fit: f.albedo,
+        })
+        .collect())
+}
+
+impl FitReport {
+    /// The report as `lobe fit --format json` prints it; `parameters` is the object
+    /// `lobe albedo --format json` prints ([`ParamSet::to_json`]).
+    pub fn to_json(&self, target: &Target) -> serde_json::Value {
+        let rgb = |v: DVec3| serde_json::json!([v.x, v.y, v.z]);
+        serde_json::json!({
+            "model": self.params.model().name(),
+            "parameters": self.params.to_json(),
+            "free": self.free,
+            "target": target.describe(),
+            "loss": {
+                "kind": self.loss_kind.name(),
+                "total": self.loss.total,
+                "channel": self.loss.channel,
+            },
+            "albedo": self.albedo.iter().map(|a| serde_json::json!({
+                "mu": a.mu,
+                "target": a.target.map(rgb),
+                "fit": rgb(a.fit),
+            })).collect::<Vec<_>>(),
+            "iterations": self.iterations,
+            "rounds": self.rounds,
+            "evaluations": self.evaluations,
+            "seconds": self.seconds,
+            "samples": {
+                "used": self.samples.used,
+                "valid": self.samples.valid,
+                "missing": self.samples.missing,
+                "grid_bins": self.samples.grid_bins,
+                "grid": self.samples.grid,
+            },
+            "starts": self.starts.iter().map(|s| serde_json::json!({
+                "start": s.start.to_json(),
+                "parameters": s.params.to_json(),
+                "loss": s.loss,
+                "iterations": s.iterations,
+                "stopped": s.stopped,
+            })).collect::<Vec<_>>(),
+            "backend": self.backend,
+        })
+    }
+}

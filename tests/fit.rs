@@ -1,0 +1,209 @@
+//! `lobe fit`: known parameters recovered from targets made by a model (as a model and as its
+//! MERL file), the loss of a perfect fit, and refused input.
+
+use lobe::fit::{self, FitOptions, Objective, Samples, Space, Target};
+use lobe::loss::LossKind;
+use lobe::{ParamSet, Session, SessionOptions};
+use std::process::Command;
+
+/// The goal's bound on a recovered parameter: 1 % of the truth.
+const RECOVERY_TOLERANCE: f64 = 0.01;
+
+/// Bins per test fit: enough to pin four numbers, small enough for a test.
+const TEST_BINS: usize = 4096;
+
+fn ggx(alpha: f64, specular: [f64; 3]) -> ParamSet {
+    ParamSet::for_model("microfacet")
+        .and_then(|p| p.with_choice("distribution", "ggx"))
+        .and_then(|p| p.with("alpha", alpha))
+        .and_then(|p| p.with("specular", specular))
+        .unwrap()
+}
+
+fn space() -> Space {
+    let base = ParamSet::for_model("microfacet")
+        .and_then(|p| p.with_choice("distribution", "ggx"))
+        .unwrap();
+    Space::new(base, &["alpha".into(), "specular".into()], &[]).unwrap()
+}
+
+fn opts() -> FitOptions {
+    FitOptions {
+        max_bins: TEST_BINS,
+        ..FitOptions::default()
+    }
+}
+
+fn assert_recovered(report: &fit::FitReport, alpha: f64, specular: [f64; 3]) {
+    let got_alpha = report.params.scalar("alpha");
+    let got_spec = report.params.rgb("specular").to_array();
+    let rel = |a: f64, b: f64| (a - b).abs() / b;
+    assert!(
+        rel(got_alpha, alpha) < RECOVERY_TOLERANCE,
+        "alpha: truth {alpha}, fitted {got_alpha} (loss {:e})",
+        report.loss.total
+    );
+    for c in 0..3 {
+        assert!(
+            rel(got_spec[c], specular[c]) < RECOVERY_TOLERANCE,
+            "specular[{c}]: truth {}, fitted {} (loss {:e})",
+            specular[c],
+            got_spec[c],
+            report.loss.total
+        );
+    }
+}
+
+#[test]
+fn recovers_ggx_alpha_and_specular_from_a_model_target() {
+    let (alpha, specular) = (0.25, [0.9, 0.7, 0.4]);
+    let session = Session::cpu();
+    let target = Target::Model(ggx(alpha, specular));
+    let r = fit::fit(&session.evaluator(), &target, &space(), &opts(), &|_| {}).unwrap();
+    assert_recovered(&r, alpha, specular);
+    assert_eq!(r.samples.used, TEST_BINS);
+    assert!(r.evaluations > 0 && r.rounds > 0 && r.iterations > 0);
+}
+
+#[test]
+fn recovers_ggx_from_its_merl_file_on_the_gpu() {
+    let (alpha, specular) = (0.15, [0.95, 0.64, 0.3]);
+    let session = Session::open(SessionOptions {
+        validation: true,
+        ..SessionOptions::default()
+    })
+    .expect("this test needs a Vulkan device (lavapipe will do)");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gold_ggx.binary");
+    session
+        .write_merl(&ggx(alpha, specular), false, &path, &mut |_, _| {})
+        .unwrap();
+    let r = fit::fit(
+        &session.evaluator(),
+        &Target::Merl(path),
+        &space(),
+        &opts(),
+        &|_| {},
+    )
+    .unwrap();
+    assert_recovered(&r, alpha, specular);
+    // Four starts, so a round holds up to four candidates: fewer rounds than evaluations.
+    assert!(r.rounds < r.evaluations, "{} {}", r.rounds, r.evaluations);
+    assert_eq!(session.validation_messages(), 0);
+}
+
+#[test]
+fn a_perfect_fit_has_zero_loss() {
+    let truth = ggx(0.3, [0.8, 0.5, 0.2]);
+    let session = Session::cpu();
+    let eval = session.evaluator();
+    let samples: Samples =
+        fit::target::samples(&Target::Model(truth.clone()), &eval, TEST_BINS).unwrap();
+    for kind in [LossKind::CosineLog, LossKind::RelativeL2] {
+        let objective = Objective::new(eval, &samples, kind, 1);
+        let e = objective
+            .losses(std::slice::from_ref(&truth))
+            .unwrap()
+            .remove(0);
+        assert_eq!(e.total, 0.0, "{kind:?}");
+        assert_eq!(e.channel, [0.0; 3], "{kind:?}");
+        let off = ggx(0.31, [0.8, 0.5, 0.2]);
+        assert!(objective.losses(&[off]).unwrap()[0].total > 0.0);
+    }
+}
+
+/// Runs `lobe fit ARGS` on the CPU backend: (exit success, stderr).
+fn lobe_fit(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .arg("fit")
+        .args(args)
+        .args(["--backend", "cpu", "--max-bins", "256", "--max-iters", "5"])
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_input_is_refused_with_a_sentence() {
+    let cases: [(&[&str], &[&str]); 4] = [
+        (
+            &[
+                "--target",
+                "lambert",
+                "--model",
+                "phong",
+                "--free",
+                "roughness",
+            ],
+            &["--free", "roughness", "shininess"],
+        ),
+        (
+            &[
+                "--target",
+                "lambert",
+                "--model",
+                "microfacet",
+                "--free",
+                "distribution",
+            ],
+            &["distribution", "choice", "not a number"],
+        ),
+        (
+            &[
+                "--target",
+                "lambert",
+                "--model",
+                "phong",
+                "--set",
+                "shininess=10",
+                "--free",
+                "shininess",
+            ],
+            &["shininess", "fixed or fitted"],
+        ),
+        (
+            &[
+                "--target",
+                "lambert",
+                "--model",
+                "phong{shininess=10}",
+                "--free",
+                "shininess,diffuse",
+            ],
+            &["shininess", "fixed or fitted"],
+        ),
+    ];
+    for (args, words) in cases {
+        let (ok, err) = lobe_fit(args);
+        assert!(!ok, "{args:?} was accepted");
+        for w in words {
+            assert!(err.contains(w), "{args:?}: '{w}' not in: {err}");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn a_target_without_valid_bins_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty.binary");
+    // Every stored value negative: MERL's mark of a missing measurement.
+    std::fs::write(&path, lobe::merl::encode(&vec![-1.0; 3 * lobe::merl::BINS])).unwrap();
+    let (ok, err) = lobe_fit(&[
+        "--target",
+        path.to_str().unwrap(),
+        "--model",
+        "lambert",
+        "--free",
+        "albedo",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("--target") && err.contains("none of its"),
+        "{err}"
+    );
+    assert!(err.contains("1458000 missing"), "{err}");
+}
