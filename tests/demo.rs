@@ -310,7 +310,15 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     // Every step is timed on the page.
     let steps = &html[html.find("id=\"steps\"").expect("steps table")..];
     let steps = &steps[..steps.find("</table>").unwrap()];
-    let mut names = vec!["tables", "albedo", "lut", "plots", "preview", "measured"];
+    let mut names = vec![
+        "tables",
+        "albedo",
+        "lut",
+        "plots",
+        "preview",
+        "white_furnace",
+        "measured",
+    ];
     if gpu {
         names.push("parity");
     }
