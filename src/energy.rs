@@ -171,6 +171,54 @@ pub fn cases(model: Model, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
     Ok(out)
 }
 
+/// The cases of a series with its own parameters (`NAME{KEY=V}`, `--set MODEL.KEY=V`): the set
+/// as given, then `sweep` values of the model's main parameter from it (no presets: they would
+/// overwrite what the series sets).
+pub fn cases_from(base: &ParamSet, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
+    let mut out = vec![("as given".to_string(), base.clone())];
+    let model = base.model();
+    let (keys, ..) = default_axis(model);
+    let colour = model
+        .params()
+        .iter()
+        .any(|s| keys.contains(&s.key) && s.kind == ParamKind::Rgb);
+    if sweep > 0 && !colour {
+        let mut spec = LutSpec::new(base.clone(), false);
+        spec.n_p = sweep;
+        for p in spec.ps() {
+            let set = spec.params_at(p)?;
+            out.push((format!("sweep {}={}", keys.join(","), fmt_value(p)), set));
+        }
+    }
+    Ok(out)
+}
+
+/// One series of a report: a model with its presets and default sweep, or a labelled parameter
+/// set ([`cases_from`]).
+#[derive(Clone, Debug)]
+pub enum Series {
+    /// The model's presets, then its sweep from the defaults ([`cases`]).
+    Model(Model),
+    /// A label (the spec as given, `microfacet{multiscatter=kulla_conty}`) and its parameters.
+    Params(String, ParamSet),
+}
+
+impl Series {
+    fn label(&self) -> String {
+        match self {
+            Series::Model(m) => m.name().to_string(),
+            Series::Params(label, _) => label.clone(),
+        }
+    }
+
+    fn cases(&self, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
+        match self {
+            Series::Model(m) => cases(*m, sweep),
+            Series::Params(_, p) => cases_from(p, sweep),
+        }
+    }
+}
+
 fn fmt_value(p: f64) -> String {
     if p >= 100.0 {
         format!("{p:.0}")
@@ -213,12 +261,26 @@ pub fn report_each(
     samples: usize,
     on_row: &mut dyn FnMut(&EnergyRow, u64, u64) -> Result<()>,
 ) -> Result<Vec<EnergyRow>> {
-    // (model, case, white configuration, white furnace), in report order.
+    let series: Vec<Series> = models.iter().map(|&m| Series::Model(m)).collect();
+    report_series_each(eval, &series, sweep, method, samples, on_row)
+}
+
+/// [`report_each`] over series, each labelled in the rows by its spec (`microfacet{…}`) or its
+/// model's name.
+pub fn report_series_each(
+    eval: &Evaluator,
+    series: &[Series],
+    sweep: usize,
+    method: crate::integrate::Method,
+    samples: usize,
+    on_row: &mut dyn FnMut(&EnergyRow, u64, u64) -> Result<()>,
+) -> Result<Vec<EnergyRow>> {
+    // (series index, label, case, white configuration, white furnace), in report order.
     let mut all = Vec::new();
-    for &m in models {
-        for (case, p) in cases(m, sweep)? {
+    for (k, s) in series.iter().enumerate() {
+        for (case, p) in s.cases(sweep)? {
             let (white, wf) = white_configuration(&p)?;
-            all.push((m, case, white, wf));
+            all.push((k, s.label(), case, white, wf));
         }
     }
     let total = all.len() as u64;
@@ -227,11 +289,11 @@ pub fn report_each(
     let mut start = 0;
     while start < all.len() {
         eval.check_cancelled()?;
-        let (m, wf) = (all[start].0, all[start].3);
+        let (m, wf) = (all[start].0, all[start].4);
         let end = start
             + all[start..]
                 .iter()
-                .take_while(|c| c.0 == m && c.3 == wf)
+                .take_while(|c| c.0 == m && c.4 == wf)
                 .count();
         let group = &all[start..end];
         let s = Settings {
@@ -239,14 +301,14 @@ pub fn report_each(
             samples,
             white_furnace: wf,
         };
-        let params: Vec<ParamSet> = group.iter().map(|c| c.2.clone()).collect();
-        for ((m, case, white, wf), (dir, h)) in
+        let params: Vec<ParamSet> = group.iter().map(|c| c.3.clone()).collect();
+        for ((_, label, case, white, wf), (dir, h)) in
             group
                 .iter()
                 .zip(albedo_rows(eval, &params, &s, &pts, Some(0.0))?)
         {
             let h = h.expect("asked for the hemispherical albedo");
-            let row = summarise(m.name(), case, white, *wf, &dir, &h);
+            let row = summarise(label, case, white, *wf, &dir, &h);
             rows.push(row);
             on_row(rows.last().unwrap(), rows.len() as u64, total)?;
         }

@@ -316,7 +316,14 @@ fn check_page(dir: &Path, cell: u32, gpu: bool) -> String {
     let steps = &html[html.find("id=\"steps\"").expect("steps table")..];
     let steps = &steps[..steps.find("</table>").unwrap()];
     let mut names = vec![
-        "tables", "albedo", "lut", "plots", "preview", "measured", "brdf",
+        "tables",
+        "albedo",
+        "lut",
+        "plots",
+        "preview",
+        "white_furnace",
+        "measured",
+        "brdf",
     ];
     if gpu {
         names.push("parity");

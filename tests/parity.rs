@@ -21,7 +21,8 @@ use std::f64::consts::{FRAC_PI_2, PI};
 const RANDOM_SETS: usize = 200;
 /// Random direction pairs per parameter set, on top of the structured ones.
 const RANDOM_PAIRS: usize = 160;
-/// Random parameter sets per microfacet component combination (48 combinations).
+/// Random parameter sets per microfacet component combination (96 combinations, half of them
+/// with the Kulla–Conty lobe, which reads its table from the model data binding).
 const MICROFACET_SETS: usize = 24;
 
 // The tolerance model, with the reason for each term, is lobe::tolerance (docs/design.md §10):

@@ -13,9 +13,16 @@ const MAX_SWEEP: usize = 1024;
 
 #[derive(Args)]
 pub struct EnergyArgs {
-    /// Models, comma-separated (default: every model).
-    #[arg(long, value_delimiter = ',')]
+    /// Models, comma-separated (default: every model); each may carry its own parameters,
+    /// 'microfacet,microfacet{multiscatter=kulla_conty},oren_nayar,eon'. A model with
+    /// parameters (its own or from --set) is reported as given and swept from there; one
+    /// without, at its presets and swept from its defaults.
+    #[arg(long)]
     models: Vec<String>,
+    /// Set a parameter of every listed model that has it, KEY=VALUE, or of one model,
+    /// MODEL.KEY=VALUE; repeatable. Applied before a model's own {KEY=VALUE}.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
     /// Values of each model's main parameter to sweep (its LUT axis: shininess 1..8192 log,
     /// roughness 0.01..1 square, ...), cell-centred; 0 for presets only.
     #[arg(long, default_value_t = 8)]
@@ -48,7 +55,28 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         Method::Peak => energy::DEFAULT_PEAK_SAMPLES,
         m => m.default_samples(),
     });
-    let models = super::models_or_all(&a.models)?;
+    let series: Vec<energy::Series> = if a.models.is_empty() && a.sets.is_empty() {
+        super::models_or_all(&[])?
+            .into_iter()
+            .map(energy::Series::Model)
+            .collect()
+    } else {
+        let specs = if a.models.is_empty() {
+            lobe::Model::ALL.map(|m| m.name().to_string()).to_vec()
+        } else {
+            super::split_specs(&a.models)
+        };
+        super::resolve_all(&specs, None, &a.sets)?
+            .into_iter()
+            .map(|(label, p)| {
+                if p == lobe::ParamSet::defaults(p.model()) {
+                    energy::Series::Model(p.model())
+                } else {
+                    energy::Series::Params(label, p)
+                }
+            })
+            .collect()
+    };
     let bar = indicatif::ProgressBar::new(0);
     // Without a terminal the bar is hidden: say how far it got on stderr, one line per model.
     let plain = !std::io::stderr().is_terminal();
@@ -63,9 +91,9 @@ pub fn run(a: EnergyArgs) -> Result<()> {
     }
     out.flush()?;
     let mut last_model = String::new();
-    let rows = energy::report_each(
+    let rows = energy::report_series_each(
         &session.evaluator(),
-        &models,
+        &series,
         a.sweep,
         method,
         samples,

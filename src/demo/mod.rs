@@ -12,6 +12,8 @@
 //!    heat map, and the E(μ) curves of every model for each material (these also give the largest
 //!    E(μ) on the page: energy gain);
 //! 5. **preview**: the contact sheet (rows materials, columns models) under the lab's lights;
+//!    then **white_furnace**: a row of spheres under a uniform white sky (colours at 1, F = 1), each
+//!    pixel its albedo E(μo): Oren–Nayar against EON, GGX α = 1 without and with Kulla–Conty;
 //! 6. **measured**: gold under Cook–Torrance written as a MERL file by the f64 reference (in a
 //!    temporary folder: the file is 35 MB) and read back as a model ([`crate::merl`]), with its
 //!    albedo JSON for the nearest and the trilinear lookup;
@@ -214,7 +216,8 @@ impl Progress for Silent {
 /// One finished step.
 #[derive(Clone, Debug)]
 pub struct Step {
-    /// The step's name: `tables`, `albedo`, `lut`, `plots`, `preview`, `parity` or `page`.
+    /// The step's name: `tables`, `albedo`, `lut`, `plots`, `preview`, `white_furnace`, `measured`,
+    /// `parity` or `page`.
     pub name: &'static str,
     /// Wall-clock time the step took, in seconds.
     pub seconds: f64,
@@ -331,6 +334,8 @@ pub struct Report {
     pub shipped: Option<shipped::Shipped>,
     /// None with the CPU backend.
     pub parity: Option<Vec<ParityRow>>,
+    /// Pixel size of the white-furnace row's PNG (`preview/white_furnace.png`).
+    pub white_furnace_png: (usize, usize),
     /// Wall-clock time of the whole demo, in seconds.
     pub seconds: f64,
 }
@@ -482,6 +487,9 @@ pub fn run(
     let preview_size = steps.run("preview", models.len() as u64, |p| {
         steps::preview(eval, &demo, &mut files, p)
     })?;
+    let white_furnace_png = steps.run("white_furnace", 4, |p| {
+        steps::white_furnace(eval, &demo, &mut files, p)
+    })?;
     let measured = steps.run("measured", 1 + 2, |p| {
         steps::measured(eval, &demo, &mut files, p)
     })?;
@@ -504,6 +512,7 @@ pub fn run(
         measured,
         shipped,
         parity,
+        white_furnace_png,
         seconds: 0.0,
     };
     publish(

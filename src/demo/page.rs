@@ -213,6 +213,12 @@ pub(super) fn page(
         "<p>Linear radiance: <a href=\"preview/contact_sheet.exr\">preview/contact_sheet.exr</a> ({}x{}, float RGB).</p>",
         preview_exr.0, preview_exr.1
     );
+    figure(
+        &mut h,
+        "preview/white_furnace.png",
+        r.white_furnace_png,
+        "White furnace: colours at 1 and F = 1 under a uniform white sky, so each pixel shows the albedo E(μo) and anything darker than white is energy the model loses. Left to right: qualitative Oren–Nayar (σ = 0.5), EON (r = 1), GGX α = 1 (height-correlated Smith), the same with multiscatter=kulla_conty.",
+    );
 
     let _ = writeln!(h, "<h2>Albedo and energy</h2>");
     let _ = writeln!(

@@ -428,3 +428,121 @@ pub(super) fn parity(
     let n: usize = rows.iter().map(|r| r.values).sum();
     Ok((rows, format!("{n} values, max relative error {worst:.1e}")))
 }
+
+/// The white-furnace row's configurations: (column model, settings), colours at 1 and F = 1, so
+/// that every pixel short of white is energy the model loses (and one above, energy it gains).
+const FURNACE_ROW: [(&str, &[&str]); 4] = [
+    ("oren_nayar", &["albedo=1", "sigma=0.5"]),
+    ("eon", &["albedo=1", "roughness=1"]),
+    (
+        "microfacet",
+        &["fresnel=none", "diffuse=0", "specular=1", "alpha=1"],
+    ),
+    (
+        "microfacet",
+        &[
+            "fresnel=none",
+            "diffuse=0",
+            "specular=1",
+            "alpha=1",
+            "multiscatter=kulla_conty",
+        ],
+    ),
+];
+
+/// View cosines at which the furnace row's albedo is integrated, cell-centred; a pixel reads
+/// E(μo) between them linearly.
+const FURNACE_MUS: usize = 24;
+
+/// Step 5b, the white-furnace row: spheres under a uniform white sky of radiance 1, so that a
+/// pixel's radiance is the model's directional albedo E(μo) at that pixel's view cosine
+/// (integrated with the default rule on the demo's backend). Oren–Nayar against EON, GGX at
+/// α = 1 without and with Kulla–Conty. Returns the PNG's size.
+pub(super) fn white_furnace(
+    eval: &Evaluator,
+    d: &Demo,
+    files: &mut Vec<String>,
+    p: &mut dyn Progress,
+) -> Result<((usize, usize), String)> {
+    let mut models = Vec::new();
+    let mut params = Vec::new();
+    for (name, sets) in FURNACE_ROW {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let set = crate::resolve_params(name, None, &sets)?;
+        models.push(set.model());
+        params.push(vec![set]);
+    }
+    let sheet = Sheet {
+        materials: vec!["white furnace".to_string()],
+        models,
+        params,
+    };
+    let scene = Scene::lab(
+        d.settings.preview_cell,
+        Shape::Sphere,
+        LightKind::Point,
+        DVec3::ZERO,
+    );
+    let (w, h) = (scene.cell_width as usize, scene.cell_height as usize);
+    let mus: Vec<(f64, f64)> = (0..FURNACE_MUS)
+        .map(|j| ((j as f64 + 0.5) / FURNACE_MUS as f64, 0.0))
+        .collect();
+    let settings = AlbedoSettings {
+        white_furnace: true,
+        ..AlbedoSettings::default()
+    };
+    let mut image = preview::SheetImage {
+        rows: 1,
+        cols: sheet.models.len(),
+        cell_width: w,
+        cell_height: h,
+        rgb: vec![[0.0; 3]; sheet.models.len() * w * h],
+    };
+    let width = image.width();
+    let mut worst = Vec::new();
+    for (col, column) in sheet.params.iter().enumerate() {
+        eval.check_cancelled()?;
+        let e: Vec<f64> = crate::integrate::directional(eval, &column[0], &settings, &mus)?
+            .iter()
+            .map(|a| a.albedo.x)
+            .collect();
+        worst.push(e.iter().map(|v| (v - 1.0).abs()).fold(0.0, f64::max));
+        let at = |mu: f64| {
+            let u = (mu * FURNACE_MUS as f64 - 0.5).clamp(0.0, (FURNACE_MUS - 1) as f64);
+            let j = (u.floor() as usize).min(FURNACE_MUS - 2);
+            let t = u - j as f64;
+            e[j] * (1.0 - t) + e[j + 1] * t
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let dir = scene.camera_ray(x as u32, y as u32);
+                if let Some((_, n)) = preview::intersect(&scene, dir) {
+                    let v = at(n.dot(-dir).clamp(0.0, 1.0)) as f32;
+                    image.rgb[y * width + col * w + x] = [v; 3];
+                }
+            }
+        }
+        p.advance(col as u64 + 1);
+    }
+    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost. Left to right: oren_nayar (sigma = 0.5), eon (r = 1), microfacet GGX alpha = 1, the same with multiscatter=kulla_conty.";
+    let size = preview::write_png(
+        &image,
+        &sheet,
+        0.0,
+        caption,
+        &d.staging.path("preview/white_furnace.png"),
+    )?;
+    files.push("preview/white_furnace.png".into());
+    Ok((
+        size,
+        format!(
+            "{} spheres, largest |E - 1|: {}",
+            worst.len(),
+            worst
+                .iter()
+                .map(|v| format!("{v:.1e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    ))
+}

@@ -55,8 +55,9 @@ impl Kernel {
 }
 
 /// The binding of a model's data table (a measured BRDF's bins, read-only storage buffer) in
-/// every kernel of a model that has one ([`Model::data`]). Built-in models have none, and their
-/// pipelines' layouts do not have this binding.
+/// every kernel of a model that has one ([`Model::data`]): a measured BRDF's bins, the
+/// microfacet model's Kulla–Conty table. The pipelines of models without one do not have this
+/// binding.
 pub const MODEL_DATA_BINDING: u32 = 7;
 
 /// A model's data table on the device, with the device it lives on.

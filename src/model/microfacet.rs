@@ -2,10 +2,12 @@
 //! f = diffuse/π + specular · F(c_d) · D(h) · G(ωi, ωo) / (4 c_i c_o), with
 //! D ∈ {Beckmann, GGX}, isotropic or anisotropic α; G ∈ {V-cavity, separable Smith,
 //! height-correlated Smith}; for Beckmann's Smith G1 the exact erf form or Walter's rational fit;
-//! F ∈ {none, Schlick (from `ior` or `f0`), exact dielectric, exact conductor}.
+//! F ∈ {none, Schlick (from `ior` or `f0`), exact dielectric, exact conductor}; optionally
+//! Kulla & Conty's multiple-scattering lobe ([`super::kulla_conty`]) on top of the specular one.
 //! Twin of `glsl/brdf/microfacet.glsl`, where each component choice is a specialization constant,
 //! so a pipeline holds only the components it uses.
 
+use super::kulla_conty;
 use super::params::ParamSpec;
 use super::quadrature::{beckmann_exponent, SamplingLobes};
 use super::registry::{white_specular_alone, LutAxis, ModelInfo};
@@ -31,6 +33,10 @@ pub const BECKMANN_G1S: &[&str] = &["exact", "rational"];
 /// Options of the `fresnel` parameter, in the order of their index (specialization constant 6).
 pub const FRESNELS: &[&str] = &["none", "schlick", "dielectric", "conductor"];
 
+/// Options of the `multiscatter` parameter, in the order of their index (specialization
+/// constant 7): no multiple scattering, or Kulla & Conty's lobe.
+pub const MULTISCATTERS: &[&str] = &["none", "kulla_conty"];
+
 /// Keys whose absence means something: alpha_x and alpha_y fall back to alpha, f0 to the IOR.
 pub const OPTIONAL_KEYS: &[&str] = &["alpha_x", "alpha_y", "f0"];
 
@@ -46,6 +52,12 @@ pub const PARAMS: &[ParamSpec] = &[
         "Beckmann's Smith G1: erf form or Walter 2007's rational fit",
     ),
     ParamSpec::choice("fresnel", FRESNELS, 1, "Fresnel factor F"),
+    ParamSpec::choice(
+        "multiscatter",
+        MULTISCATTERS,
+        0,
+        "multiple scattering: none, or Kulla-Conty's lobe from lobe's own E(mu, alpha) tables",
+    ),
     ParamSpec::positive(
         "alpha",
         1.0,
@@ -95,7 +107,7 @@ pub const PARAMS: &[ParamSpec] = &[
 ];
 
 /// The component choices, as indices into the option lists; they are the pipeline's
-/// specialization constants 3, 4, 5 and 6.
+/// specialization constants 3, 4, 5, 6 and 7.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct MicrofacetConfig {
     /// Index into [`DISTRIBUTIONS`].
@@ -106,15 +118,19 @@ pub struct MicrofacetConfig {
     pub beckmann_g1: u8,
     /// Index into [`FRESNELS`].
     pub fresnel: u8,
+    /// Index into [`MULTISCATTERS`].
+    pub multiscatter: u8,
 }
 
 impl MicrofacetConfig {
-    /// GGX, height-correlated Smith, exact Beckmann G1 (unused with GGX), Schlick.
+    /// GGX, height-correlated Smith, exact Beckmann G1 (unused with GGX), Schlick, no multiple
+    /// scattering.
     pub const DEFAULT: MicrofacetConfig = MicrofacetConfig {
         distribution: 1,
         masking: 2,
         beckmann_g1: 0,
         fresnel: 1,
+        multiscatter: 0,
     };
 
     /// The configuration a parameter set's choice values name (`get` reads a value by key); an
@@ -129,30 +145,39 @@ impl MicrofacetConfig {
             masking: index("masking", MASKINGS),
             beckmann_g1: index("beckmann_g1", BECKMANN_G1S),
             fresnel: index("fresnel", FRESNELS),
+            multiscatter: index("multiscatter", MULTISCATTERS),
         }
     }
 
     /// (key, option) of each component, as parameter values.
-    pub fn choices(&self) -> [(&'static str, &'static str); 4] {
+    pub fn choices(&self) -> [(&'static str, &'static str); 5] {
         [
             ("distribution", DISTRIBUTIONS[self.distribution as usize]),
             ("masking", MASKINGS[self.masking as usize]),
             ("beckmann_g1", BECKMANN_G1S[self.beckmann_g1 as usize]),
             ("fresnel", FRESNELS[self.fresnel as usize]),
+            ("multiscatter", MULTISCATTERS[self.multiscatter as usize]),
         ]
     }
 
-    /// The four indices in the order of specialization constants 3 to 6.
-    pub fn spec_constants(&self) -> [u32; 4] {
+    /// The five indices in the order of specialization constants 3 to 7.
+    pub fn spec_constants(&self) -> [u32; 5] {
         [
             self.distribution as u32,
             self.masking as u32,
             self.beckmann_g1 as u32,
             self.fresnel as u32,
+            self.multiscatter as u32,
         ]
     }
 
-    /// `ggx/smith_correlated/schlick` (the G1 variant only where it matters).
+    /// Whether Kulla & Conty's multiple-scattering lobe is on.
+    pub fn kulla_conty(&self) -> bool {
+        MULTISCATTERS[self.multiscatter as usize] == "kulla_conty"
+    }
+
+    /// `ggx/smith_correlated/schlick` (the G1 variant only where it matters, `+kulla_conty`
+    /// where that lobe is on).
     pub fn label(&self) -> String {
         let d = DISTRIBUTIONS[self.distribution as usize];
         let g1 = if self.distribution == 0 && self.masking != 0 {
@@ -161,8 +186,14 @@ impl MicrofacetConfig {
             String::new()
         };
         format!(
-            "{d}/{}{g1}/{}",
-            MASKINGS[self.masking as usize], FRESNELS[self.fresnel as usize]
+            "{d}/{}{g1}/{}{}",
+            MASKINGS[self.masking as usize],
+            FRESNELS[self.fresnel as usize],
+            if self.kulla_conty() {
+                "+kulla_conty"
+            } else {
+                ""
+            }
         )
     }
 
@@ -173,12 +204,15 @@ impl MicrofacetConfig {
             for masking in 0..MASKINGS.len() as u8 {
                 for beckmann_g1 in 0..BECKMANN_G1S.len() as u8 {
                     for fresnel in 0..FRESNELS.len() as u8 {
-                        out.push(MicrofacetConfig {
-                            distribution,
-                            masking,
-                            beckmann_g1,
-                            fresnel,
-                        });
+                        for multiscatter in 0..MULTISCATTERS.len() as u8 {
+                            out.push(MicrofacetConfig {
+                                distribution,
+                                masking,
+                                beckmann_g1,
+                                fresnel,
+                                multiscatter,
+                            });
+                        }
                     }
                 }
             }
@@ -210,6 +244,9 @@ pub struct Microfacet {
     pub specular: DVec3,
     /// Reflectance of the Lambertian base, linear RGB.
     pub diffuse: DVec3,
+    /// F_avg = 2∫₀¹ F(μ) μ dμ of the chosen Fresnel factor, per channel, for the Kulla–Conty
+    /// lobe ([`fresnel_average`]).
+    pub f_avg: DVec3,
 }
 
 /// std430 twin of the GLSL `MicrofacetParams`.
@@ -234,8 +271,12 @@ pub struct MicrofacetParams {
     pub _pad0: f32,
     /// `k` rounded to f32.
     pub k: [f32; 3],
-    /// Padding to the std430 size of 80 bytes; always 0.
+    /// Padding after a vec3 in std430; always 0.
     pub _pad1: f32,
+    /// `f_avg` (the Fresnel factor's hemispherical average, from the host) rounded to f32.
+    pub f_avg: [f32; 3],
+    /// Padding to the std430 size of 96 bytes; always 0.
+    pub _pad2: f32,
 }
 
 /// Byte offset of every field of [`MicrofacetParams`], checked against the compiled kernels.
@@ -248,6 +289,7 @@ pub const GPU_LAYOUT: Layout = &[
     ("ior", offset_of!(MicrofacetParams, ior)),
     ("eta", offset_of!(MicrofacetParams, eta)),
     ("k", offset_of!(MicrofacetParams, k)),
+    ("f_avg", offset_of!(MicrofacetParams, f_avg)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -322,7 +364,7 @@ impl Microfacet {
         let alpha = p.scalar("alpha");
         let pick = |key: &str| if p.is_set(key) { p.scalar(key) } else { alpha };
         let ior = p.scalar("ior");
-        Microfacet {
+        let mut m = Microfacet {
             config: MicrofacetConfig::from_values(|k| p.get(k)),
             alpha_x: pick("alpha_x"),
             alpha_y: pick("alpha_y"),
@@ -336,7 +378,10 @@ impl Microfacet {
             k: p.rgb("k"),
             specular: p.rgb("specular"),
             diffuse: p.rgb("diffuse"),
-        }
+            f_avg: DVec3::ONE,
+        };
+        m.f_avg = fresnel_average(&m);
+        m
     }
 
     /// Whether the two roughnesses are equal, so that f depends on φi and φo only through φo − φi.
@@ -357,6 +402,8 @@ impl Microfacet {
             _pad0: 0.0,
             k: f32x3(self.k),
             _pad1: 0.0,
+            f_avg: f32x3(self.f_avg),
+            _pad2: 0.0,
         }
     }
 
@@ -372,8 +419,29 @@ impl Microfacet {
     }
 }
 
-/// f = diffuse/π + specular F D G/(4 c_i c_o) in 1/sr, without the cosine, with the components
-/// of `p.config`; `white_furnace` sets F = 1.
+/// F_avg = 2∫₀¹ F(μ) μ dμ of the model's Fresnel factor, per channel: 1 for `none`, Schlick's
+/// closed form F0 + (1 − F0)/21, and for the exact dielectric and conductor the rule of
+/// [`kulla_conty::fresnel_average`] (Gauss–Legendre, 8 × 8 points). The host computes it once
+/// per parameter set; the GPU reads it from the parameter block.
+pub fn fresnel_average(p: &Microfacet) -> DVec3 {
+    match p.config.fresnel {
+        0 => DVec3::ONE,
+        1 => p.f0 + (DVec3::ONE - p.f0) / 21.0,
+        2 => DVec3::splat(kulla_conty::fresnel_average(|c| F_dielectric(c, p.ior))),
+        _ => {
+            let channel = |i: usize| {
+                kulla_conty::fresnel_average(|c| {
+                    F_conductor(c, DVec3::splat(p.eta[i]), DVec3::splat(p.k[i])).x
+                })
+            };
+            DVec3::new(channel(0), channel(1), channel(2))
+        }
+    }
+}
+
+/// f = diffuse/π + specular (F D G/(4 c_i c_o) + F_ms f_ms) in 1/sr, without the cosine, with the
+/// components of `p.config` (f_ms, Kulla & Conty's lobe, only with `multiscatter=kulla_conty`:
+/// [`kulla_conty`]); `white_furnace` sets F = 1, and so F_avg = F_ms = 1.
 pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
     let (h, c_d) = half_vector(wi, wo);
     let (c_i, c_o) = (wi.z, wo.z);
@@ -396,7 +464,20 @@ pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> 
             _ => F_conductor(c_d, p.eta, p.k),
         }
     };
-    p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o))
+    let mut spec = f * (d * g / (4.0 * c_i * c_o));
+    if p.config.kulla_conty() {
+        let table = &kulla_conty::tables()[kulla_conty::table_index(p.config)];
+        let alpha = (p.alpha_x * p.alpha_y).sqrt();
+        let (f_ms, avg_loss) = kulla_conty::lobe(table, c_i, c_o, alpha);
+        let f_avg = if white_furnace { DVec3::ONE } else { p.f_avg };
+        let f_ms_colour = DVec3::new(
+            kulla_conty::fresnel_ms(f_avg.x, avg_loss),
+            kulla_conty::fresnel_ms(f_avg.y, avg_loss),
+            kulla_conty::fresnel_ms(f_avg.z, avg_loss),
+        );
+        spec += f_ms_colour * f_ms;
+    }
+    p.diffuse * FRAC_1_PI + p.specular * spec
 }
 
 /// Beckmann's (or, matched at its peak, GGX's) lobe per tangent axis: n = 1/(2α²).

@@ -6,6 +6,7 @@ pub mod blinn_phong;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
+pub mod kulla_conty;
 pub mod lambert;
 pub mod merl;
 pub mod microfacet;
@@ -141,11 +142,14 @@ impl Model {
     }
 
     /// The data table this model's kernels read at
-    /// [`crate::gpu::pipeline::MODEL_DATA_BINDING`] (a measured BRDF's bins), if it has one;
-    /// built-in models have none.
+    /// [`crate::gpu::pipeline::MODEL_DATA_BINDING`], if it has one: a measured BRDF's bins, or
+    /// for `microfacet` the Kulla–Conty table of its distribution and masking
+    /// ([`kulla_conty::Table::gpu`]; its kernels declare the table, so every microfacet pipeline
+    /// binds it, used or not). Other built-in models have none.
     pub fn data(self) -> Option<&'static [u8]> {
         match self {
             Model::Runtime(r) => r.data(),
+            Model::Microfacet(c) => Some(&kulla_conty::tables()[kulla_conty::table_index(c)].gpu),
             _ => None,
         }
     }
