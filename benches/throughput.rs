@@ -1,7 +1,8 @@
 //! Criterion benchmark of evaluation throughput per model, for development: the GPU table kernel
 //! (f32, Vulkan) and the CPU reference (f64, all cores) over the same isotropic grid, output
 //! discarded; and albedo integration (the GPU reduction kernel, f64 sums on the CPU) with
-//! `lobe bench`'s rule and view directions. `cargo bench --bench throughput`; `lobe bench`
+//! `lobe bench`'s rule and view directions; and a GGX white-furnace albedo LUT as `lobe bench
+//! --tasks lut` times it (32 × 32 cells, the peak rule at 32768 nodes per direction). `cargo bench --bench throughput`; `lobe bench`
 //! measures the same for users.
 //! GPU and CPU groups run one after the other, never at once (PLATFORM.md: rayon work and
 //! lavapipe slow each other down).
@@ -66,5 +67,24 @@ fn albedo_throughput(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, throughput, albedo_throughput);
+fn lut_throughput(c: &mut Criterion) {
+    use lobe::bench::{lut_evaluations, lut_spec};
+    let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = Gpu::new(dev);
+    let params = lobe::resolve_params("microfacet", None, &[]).expect("microfacet");
+    let spec = lut_spec(&params, true);
+    let evaluations = lut_evaluations(&spec).expect("LUT spec");
+    for (name, e) in [("gpu", Evaluator::gpu(&gpu)), ("cpu_f64", Evaluator::cpu())] {
+        let mut group = c.benchmark_group(format!("lut_{name}"));
+        group.throughput(Throughput::Elements(evaluations));
+        // Seconds per LUT on lavapipe: criterion's fewest samples.
+        group.sample_size(10);
+        group.bench_function("microfacet_white_furnace", |b| {
+            b.iter(|| lobe::lut::compute(&e, &spec, &mut |_, _| {}).expect("LUT"))
+        });
+        group.finish();
+    }
+}
+
+criterion_group!(benches, throughput, albedo_throughput, lut_throughput);
 criterion_main!(benches);

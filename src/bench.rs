@@ -172,7 +172,7 @@ pub fn measure_lut(
 
 /// Integrand evaluations of `spec`'s LUT: every row's directional view directions and its
 /// hemispherical ones, each with its fine and coarse rule.
-fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
+pub fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
     use crate::integrate::{hemispherical_directions, rule_evaluations, view_direction};
     spec.validate()?;
     let mut total = 0;

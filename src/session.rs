@@ -47,6 +47,10 @@ pub struct SessionOptions {
     pub validation: bool,
     /// Make every GPU dispatch end as if the device had been lost (to test that path).
     pub inject_device_lost: bool,
+    /// Stage every GPU buffer through a copy to device-local memory, as a discrete GPU without
+    /// host-visible device memory needs, even where the device maps its memory directly (to
+    /// test that path; `LOBE_STAGING=1` on the command line).
+    pub staging: bool,
     /// Receives progress notes (each pipeline built, with its build time).
     pub log: Option<LogSink>,
     /// Set it (from any thread) to stop the running job at its next chunk with
@@ -61,6 +65,7 @@ impl std::fmt::Debug for SessionOptions {
             .field("device", &self.device)
             .field("validation", &self.validation)
             .field("inject_device_lost", &self.inject_device_lost)
+            .field("staging", &self.staging)
             .field("log", &self.log.as_ref().map(|_| "sink"))
             .field("cancelled", &self.cancel.is_cancelled())
             .finish()
@@ -88,6 +93,7 @@ impl Session {
                     name_contains: opts.device.clone(),
                     validation: opts.validation,
                     inject_device_lost: opts.inject_device_lost,
+                    force_staging: opts.staging,
                 })?;
                 Some(Gpu::new(dev).with_log(opts.log.clone()))
             }

@@ -365,7 +365,8 @@ pub fn install_ctrl_c() -> Result<()> {
 
 /// Opens the session the backend flags ask for. The environment switches of the command line
 /// become session options here: `LOBE_VALIDATION=1` (the Khronos validation layer),
-/// `LOBE_INJECT_DEVICE_LOST=1` (every dispatch fails as a lost device would), `LOBE_LOG=1`
+/// `LOBE_INJECT_DEVICE_LOST=1` (every dispatch fails as a lost device would), `LOBE_STAGING=1`
+/// (every GPU buffer staged through device-local memory, as on a discrete GPU), `LOBE_LOG=1`
 /// (each pipeline built, on stderr).
 pub fn open_session(b: &BackendArgs) -> Result<Session> {
     let env_on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
@@ -377,6 +378,7 @@ pub fn open_session(b: &BackendArgs) -> Result<Session> {
         device: b.device.clone(),
         validation: env_on("LOBE_VALIDATION"),
         inject_device_lost: env_on("LOBE_INJECT_DEVICE_LOST"),
+        staging: env_on("LOBE_STAGING"),
         log,
         cancel: cancel_token().clone(),
     };

@@ -127,9 +127,9 @@ impl Gpu {
 
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
-        param_buf.write(&params);
+        param_buf.write(&params)?;
         let mut node_buf = Buffer::new(&self.dev, node_bytes, "albedo node")?;
-        node_buf.write(bytemuck::cast_slice(nodes));
+        node_buf.write(bytemuck::cast_slice(nodes))?;
         let entry_bytes = std::mem::size_of::<AlbedoEntry>() as u64;
         let mut entry_buf = Buffer::new(&self.dev, entry_bytes * per_chunk as u64, "albedo entry")?;
         let groups_max = groups_per_wo * per_chunk as u64;
@@ -140,7 +140,7 @@ impl Gpu {
         )?;
         let mut sums = Vec::with_capacity(entries.len());
         for part in entries.chunks(per_chunk) {
-            entry_buf.write(bytemuck::cast_slice(part));
+            entry_buf.write(bytemuck::cast_slice(part))?;
             let groups = groups_per_wo * part.len() as u64;
             let push = AlbedoPush {
                 nodes_per_group: span as u32,

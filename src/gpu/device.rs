@@ -43,6 +43,10 @@ pub struct DeviceOptions {
     /// fence wait), so that the path a real GPU reset takes (the message, the exit status, no
     /// partial output) can be tested without crashing a GPU.
     pub inject_device_lost: bool,
+    /// Stage every buffer through a copy, as where device-local memory is not host-visible
+    /// (see `src/gpu/buffer.rs`), even on a device that maps it directly: tests the staging
+    /// path on lavapipe. The command line sets it with `LOBE_STAGING=1`.
+    pub force_staging: bool,
 }
 
 /// An open Vulkan device with one compute queue.
@@ -63,6 +67,10 @@ pub struct Device {
     pub(crate) queue_lock: Mutex<()>,
     /// See [`DeviceOptions::inject_device_lost`].
     pub(crate) inject_device_lost: bool,
+    /// See [`DeviceOptions::force_staging`].
+    pub(crate) force_staging: bool,
+    /// Staging copies submitted so far (uploads and read-backs).
+    staging_copies: std::sync::atomic::AtomicU64,
     /// Warnings and errors the validation layer reported on this device (shared: the messenger
     /// holds a pointer to it, taken with `Arc::as_ptr`, which moving the `Arc` leaves valid).
     validation_messages: Arc<AtomicUsize>,
@@ -218,6 +226,8 @@ impl Device {
                     device_type: props.device_type,
                     queue_lock: Mutex::new(()),
                     inject_device_lost: opts.inject_device_lost,
+                    force_staging: opts.force_staging,
+                    staging_copies: Default::default(),
                     validation_messages,
                     hung: Default::default(),
                 })
@@ -275,6 +285,17 @@ impl Device {
     /// (always 0 without [`DeviceOptions::validation`]).
     pub fn validation_messages(&self) -> usize {
         self.validation_messages.load(Ordering::SeqCst)
+    }
+
+    /// How many staging copies (uploads to device-local buffers and read-backs from them) were
+    /// submitted on this device so far: 0 where every buffer is mapped directly.
+    pub fn staging_copies(&self) -> u64 {
+        self.staging_copies.load(Ordering::Relaxed)
+    }
+
+    /// Adds `n` to [`Device::staging_copies`].
+    pub(crate) fn count_staging_copies(&self, n: u64) {
+        self.staging_copies.fetch_add(n, Ordering::Relaxed);
     }
 
     /// Whether this is a CPU implementation such as lavapipe.

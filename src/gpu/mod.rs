@@ -181,7 +181,7 @@ impl Gpu {
         let chunk = (self.max_chunk(&pipe, std::mem::size_of::<GpuPair>() as u64) as usize)
             .min(pairs.len().max(1));
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
-        param_buf.write(&params);
+        param_buf.write(&params)?;
         let mut pair_buf = Buffer::new(
             &self.dev,
             (chunk * std::mem::size_of::<GpuPair>()) as u64,
@@ -191,7 +191,7 @@ impl Gpu {
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pair_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pairs.len());
         for (k, part) in pairs.chunks(chunk).enumerate() {
-            pair_buf.write(bytemuck::cast_slice(part));
+            pair_buf.write(bytemuck::cast_slice(part))?;
             let push = ChunkPush {
                 first: (k * chunk) as u32,
                 count: part.len() as u32,
@@ -263,11 +263,11 @@ impl Gpu {
             .min(by_dispatch)
             .min(cells.div_ceil(per_group) * per_group);
         let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
-        param_buf.write(block);
+        param_buf.write(block)?;
         let mut wi_buf = Buffer::new(&self.dev, (wi.len() * 16) as u64, "light direction")?;
-        wi_buf.write(bytemuck::cast_slice(wi));
+        wi_buf.write(bytemuck::cast_slice(wi))?;
         let mut wo_buf = Buffer::new(&self.dev, (wo.len() * 16) as u64, "view direction")?;
-        wo_buf.write(bytemuck::cast_slice(wo));
+        wo_buf.write(bytemuck::cast_slice(wo))?;
         // Two output buffers, each with its own dispatcher: while the sink takes one chunk, the
         // next one runs into the other buffer. Sized for whole invocations (the kernel writes the
         // last invocation's cells past the chunk's end into the padding).

@@ -84,7 +84,7 @@ impl ModelData {
             )));
         }
         let mut buffer = Buffer::new(dev, bytes.len() as u64, "model data")?;
-        buffer.write(bytes);
+        buffer.write(bytes)?;
         // SAFETY: a `Buffer` uses its `&Device` only to reach the device (in `Drop`); the `Arc`
         // kept beside it holds that `Device` at the same address until after `buffer` is
         // dropped (fields drop in declaration order).
@@ -346,6 +346,8 @@ pub struct Dispatcher<'p> {
     views: Vec<vk::BufferView>,
     /// Whether a submission has not been waited for yet.
     in_flight: std::cell::Cell<bool>,
+    /// The staged outputs' copies recorded after each dispatch.
+    read_backs: Vec<super::buffer::ReadBack>,
 }
 
 impl<'p> Dispatcher<'p> {
@@ -374,6 +376,7 @@ impl<'p> Dispatcher<'p> {
             queries: vk::QueryPool::null(),
             views: Vec::new(),
             in_flight: std::cell::Cell::new(false),
+            read_backs: buffers.iter().filter_map(|b| b.read_back()).collect(),
         };
         // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
         unsafe {
@@ -554,18 +557,7 @@ impl<'p> Dispatcher<'p> {
                 );
             }
             // Make the shader's writes visible to the host's reads of the mapped output.
-            let barrier = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
-            d.cmd_pipeline_barrier(
-                self.cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &[barrier],
-                &[],
-                &[],
-            );
+            super::buffer::record_read_back(&pipe.dev, self.cmd, &self.read_backs);
             d.end_command_buffer(self.cmd)
                 .ctx("ending a command buffer")?;
             let cmds = [self.cmd];

@@ -87,14 +87,14 @@ impl Gpu {
         let chunk = self.max_chunk(&pipe, 0).min(pixels.max(1));
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
-        param_buf.write(&params);
+        param_buf.write(&params)?;
         let mut scene: Vec<u8> = bytemuck::bytes_of(header).to_vec();
         scene.extend_from_slice(bytemuck::cast_slice(lights));
         let mut scene_buf = Buffer::new(&self.dev, scene.len() as u64, "preview scene")?;
-        scene_buf.write(&scene);
+        scene_buf.write(&scene)?;
         let object_bytes: &[u8] = bytemuck::cast_slice(objects);
         let mut object_buf = Buffer::new(&self.dev, object_bytes.len() as u64, "preview object")?;
-        object_buf.write(object_bytes);
+        object_buf.write(object_bytes)?;
         let out_buf = Buffer::output(&self.dev, chunk * 12, "preview output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &scene_buf, &object_buf, &out_buf])?;
         let mut out = Vec::with_capacity(pixels as usize);

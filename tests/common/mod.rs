@@ -12,6 +12,8 @@ pub fn gpu_device(test: &str) -> Option<Device> {
     }
     let opts = DeviceOptions {
         validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
+        // LOBE_STAGING=1 runs every GPU test on the staging path of discrete GPUs.
+        force_staging: std::env::var("LOBE_STAGING").is_ok_and(|v| v == "1"),
         ..DeviceOptions::default()
     };
     match Device::open(&opts) {
