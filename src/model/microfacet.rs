@@ -464,7 +464,7 @@ pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> 
             _ => F_conductor(c_d, p.eta, p.k),
         }
     };
-    let mut spec = f * (d * g / (4.0 * c_i * c_o));
+    let mut out = p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
     if p.config.kulla_conty() {
         let table = &kulla_conty::tables()[kulla_conty::table_index(p.config)];
         let alpha = (p.alpha_x * p.alpha_y).sqrt();
@@ -475,9 +475,9 @@ pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> 
             kulla_conty::fresnel_ms(f_avg.y, avg_loss),
             kulla_conty::fresnel_ms(f_avg.z, avg_loss),
         );
-        spec += f_ms_colour * f_ms;
+        out += p.specular * (f_ms_colour * f_ms);
     }
-    p.diffuse * FRAC_1_PI + p.specular * spec
+    out
 }
 
 /// Beckmann's (or, matched at its peak, GGX's) lobe per tangent axis: n = 1/(2α²).
