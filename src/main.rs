@@ -58,6 +58,14 @@ enum Command {
     Plot(cli::plot::PlotArgs),
     /// Fit the free parameters of a model to a target (a model, a .brdf file, a MERL file or a
     /// lobe table) by the cosine-weighted log error, every round's candidates in one GPU dispatch.
+    ///
+    /// The target is sampled at MERL's 90x90x180 half/difference bin centres (a table: at its own
+    /// cells), missing data and bins below the horizon left out; at most --max-bins of them,
+    /// evenly spaced in storage order, are used. Each free key is mapped from R into its range by
+    /// a logistic function (in ln(1+x) for ranges wider than 1000); rgb keys fit three channels.
+    /// Nelder-Mead (argmin) runs from --starts Halton points in lock-step: each round's
+    /// candidates of all starts are evaluated in one GPU dispatch (--backend cpu: the f64
+    /// reference).
     Fit(cli::fit::FitArgs),
     /// Two models on the same bins: relative difference (RMS, largest and where), the
     /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A

@@ -207,3 +207,100 @@ fn a_target_without_valid_bins_is_refused() {
     );
     assert!(err.contains("1458000 missing"), "{err}");
 }
+
+#[test]
+fn output_prefix_draws_target_and_fit_and_a_table_target_is_refused_for_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = dir.path().join("fit");
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["fit", "--target", "phong{shininess=40}", "--model", "phong"])
+        .args([
+            "--free",
+            "shininess",
+            "--backend",
+            "cpu",
+            "--max-bins",
+            "256",
+        ])
+        .args(["--max-iters", "20", "-o", prefix.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for name in ["fit_polar.png", "fit_difference.png"] {
+        let len = std::fs::metadata(dir.path().join(name)).unwrap().len();
+        assert!(len > 1000, "{name}: {len} bytes");
+    }
+    // A table target: no model to draw, refused before any work, nothing written.
+    let table = dir.path().join("t.exr");
+    let made = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args([
+            "table",
+            "--model",
+            "lambert",
+            "--grid",
+            "isotropic",
+            "--res",
+            "4,4,4",
+        ])
+        .args(["--backend", "cpu", "-o", table.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(made.status.success());
+    let prefix2 = dir.path().join("t_fit");
+    let (ok, err) = lobe_fit(&[
+        "--target",
+        dir.path().join("t.npy").to_str().unwrap(),
+        "--model",
+        "lambert",
+        "--free",
+        "albedo",
+        "-o",
+        prefix2.to_str().unwrap(),
+    ]);
+    assert!(!ok && err.contains("-o") && err.contains("table"), "{err}");
+    assert!(!dir.path().join("t_fit_polar.png").exists());
+}
+
+#[test]
+fn a_table_target_is_read_through_its_sidecar() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("t.exr");
+    let made = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args([
+            "table",
+            "--model",
+            "lambert",
+            "--set",
+            "albedo=0.25,0.5,0.75",
+        ])
+        .args(["--grid", "isotropic", "--res", "8,8,8", "--backend", "cpu"])
+        .args(["-o", table.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(made.status.success());
+    let base = ParamSet::for_model("lambert").unwrap();
+    let space = Space::new(base, &["albedo".into()], &[]).unwrap();
+    let session = Session::cpu();
+    let r = fit::fit(
+        &session.evaluator(),
+        &Target::Table(dir.path().join("t.npy")),
+        &space,
+        &FitOptions::default(),
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(r.samples.used, 8 * 8 * 8);
+    let got = r.params.rgb("albedo").to_array();
+    for (c, truth) in [0.25, 0.5, 0.75].into_iter().enumerate() {
+        // The table is f32: its values carry 6e-8 relative rounding, far inside 1 %.
+        assert!(
+            (got[c] - truth).abs() / truth < RECOVERY_TOLERANCE,
+            "{c}: {got:?}"
+        );
+    }
+    assert!(r.albedo.iter().all(|a| a.target.is_none()));
+}

@@ -30,15 +30,6 @@ pub enum LossArg {
 
 /// `lobe fit` arguments.
 #[derive(Args, Debug)]
-#[command(
-    long_about = "Fit the free parameters of --model to a target: a model (NAME or NAME{KEY=VALUE,...} with \
---target-set), a .brdf file, a MERL .binary file, or a lobe table (.npy with its .json sidecar).\n\
-The target is sampled at MERL's 90x90x180 half/difference bin centres (a table: at its own cells), missing \
-data and bins below the horizon left out; at most --max-bins of them, evenly spaced in storage order, are used. \
-Each free key is mapped from R into its range by a logistic function (ln(1+x) for ranges wider than 1000); \
-rgb keys fit three channels. Nelder-Mead (argmin) runs from --starts Halton points in lock-step: each round's \
-candidates of all starts are evaluated in one GPU dispatch (--backend cpu: the f64 reference)."
-)]
 pub struct FitArgs {
     /// What to fit against: a model spec, a .brdf file, a MERL .binary file, or a table .npy/.json.
     #[arg(long)]
