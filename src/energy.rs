@@ -204,7 +204,8 @@ pub enum Series {
 }
 
 impl Series {
-    fn label(&self) -> String {
+    /// The name its rows carry in the `model` column.
+    pub fn label(&self) -> String {
         match self {
             Series::Model(m) => m.name().to_string(),
             Series::Params(label, _) => label.clone(),
@@ -319,25 +320,37 @@ pub fn report_series_each(
 
 /// A fixed-width table, one line per case.
 pub fn format_table(rows: &[EnergyRow]) -> String {
-    let mut s = table_header();
+    let width = model_width(rows.iter().map(|r| r.model.as_str()));
+    let mut s = table_header(width);
     for r in rows {
-        s += &table_line(r);
+        s += &table_line(r, width);
     }
     s
 }
 
-/// The header line of [`format_table`], newline included.
-pub fn table_header() -> String {
+/// The width of the `model` column that holds every one of `labels` (at least 18).
+pub fn model_width<'a>(labels: impl IntoIterator<Item = &'a str>) -> usize {
+    labels
+        .into_iter()
+        .map(|l| l.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(18)
+}
+
+/// The header line of [`format_table`] with a `model` column `width` characters wide
+/// ([`model_width`]), newline included.
+pub fn table_header(width: usize) -> String {
     format!(
-        "{:<18} {:<28} {:>10} {:>8} {:>10} {:>10} {:>10} {:>5} {:>9}\n",
+        "{:<width$} {:<28} {:>10} {:>8} {:>10} {:>10} {:>10} {:>5} {:>9}\n",
         "model", "case", "E max", "at mu", "E(mu=1)", "E_avg", "loss", "gain", "error"
     )
 }
 
 /// One line of [`format_table`], newline included.
-pub fn table_line(r: &EnergyRow) -> String {
+pub fn table_line(r: &EnergyRow, width: usize) -> String {
     format!(
-        "{:<18} {:<28} {:>10.6} {:>8.4} {:>10.6} {:>10.6} {:>10.6} {:>5} {:>9.1e}\n",
+        "{:<width$} {:<28} {:>10.6} {:>8.4} {:>10.6} {:>10.6} {:>10.6} {:>5} {:>9.1e}\n",
         r.model,
         r.case,
         r.e_max,

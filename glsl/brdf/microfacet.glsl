@@ -94,7 +94,9 @@ vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
     } else {
         f = F_conductor(c_d, p.eta, p.k);
     }
-    vec3 spec = f * (d * g / (4.0 * c_i * c_o));
-    if (MF_MULTISCATTER == 1u) spec += kulla_conty(p, c_i, c_o);
-    return p.diffuse * INV_PI + p.specular * spec;
+    // Summed in cook_torrance's order (specular * F first), so that cook_torrance equals its
+    // microfacet configuration to the last bit; the f64 twin sums the same way.
+    vec3 f_total = p.diffuse * INV_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
+    if (MF_MULTISCATTER == 1u) f_total += p.specular * kulla_conty(p, c_i, c_o);
+    return f_total;
 }

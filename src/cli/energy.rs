@@ -84,8 +84,10 @@ pub fn run(a: EnergyArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let mut out = super::stdout();
     // Table and CSV lines go out as they are known; JSON is one document, written at the end.
+    let labels: Vec<String> = series.iter().map(energy::Series::label).collect();
+    let width = energy::model_width(labels.iter().map(String::as_str));
     match a.format {
-        TableFormat::Table => write!(out, "{}", energy::table_header())?,
+        TableFormat::Table => write!(out, "{}", energy::table_header(width))?,
         TableFormat::Csv => write!(out, "{}", energy::CSV_HEADER)?,
         TableFormat::Json => {}
     }
@@ -101,7 +103,9 @@ pub fn run(a: EnergyArgs) -> Result<()> {
             bar.set_length(total);
             bar.set_position(done);
             match a.format {
-                TableFormat::Table => bar.suspend(|| write!(out, "{}", energy::table_line(row)))?,
+                TableFormat::Table => {
+                    bar.suspend(|| write!(out, "{}", energy::table_line(row, width)))?
+                }
                 TableFormat::Csv => bar.suspend(|| write!(out, "{}", energy::csv_line(row)))?,
                 TableFormat::Json => {}
             }

@@ -439,7 +439,7 @@ pub fn fresnel_average(p: &Microfacet) -> DVec3 {
     }
 }
 
-/// f = diffuse/π + specular (F D G/(4 c_i c_o) + F_ms f_ms) in 1/sr, without the cosine, with the
+/// f = diffuse/π + specular F D G/(4 c_i c_o) + specular F_ms f_ms in 1/sr, without the cosine, with the
 /// components of `p.config` (f_ms, Kulla & Conty's lobe, only with `multiscatter=kulla_conty`:
 /// [`kulla_conty`]); `white_furnace` sets F = 1, and so F_avg = F_ms = 1.
 pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
