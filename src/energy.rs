@@ -155,30 +155,16 @@ pub fn cases(model: Model, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
             Err(e) => return Err(e.into()),
         }
     }
-    let (keys, ..) = default_axis(model);
-    let colour = model
-        .params()
-        .iter()
-        .any(|s| keys.contains(&s.key) && s.kind == ParamKind::Rgb);
-    if sweep > 0 && !colour {
-        let mut spec = LutSpec::new(ParamSet::defaults(model), false);
-        spec.n_p = sweep;
-        for p in spec.ps() {
-            let set = spec.params_at(p)?;
-            out.push((format!("sweep {}={}", keys.join(","), fmt_value(p)), set));
-        }
-    }
+    push_sweep(&mut out, &ParamSet::defaults(model), sweep)?;
     Ok(out)
 }
 
-/// The cases of a series with its own parameters (`NAME{KEY=V}`, `--set MODEL.KEY=V`): the set
-/// as given, then `sweep` values of the model's main parameter from it (no presets: they would
-/// overwrite what the series sets).
-pub fn cases_from(base: &ParamSet, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
-    let mut out = vec![("as given".to_string(), base.clone())];
-    let model = base.model();
-    let (keys, ..) = default_axis(model);
-    let colour = model
+/// Appends `sweep` values of the model's main parameter (its LUT axis) from `base`, unless that
+/// axis is a colour.
+fn push_sweep(out: &mut Vec<(String, ParamSet)>, base: &ParamSet, sweep: usize) -> Result<()> {
+    let (keys, ..) = default_axis(base.model());
+    let colour = base
+        .model()
         .params()
         .iter()
         .any(|s| keys.contains(&s.key) && s.kind == ParamKind::Rgb);
@@ -190,6 +176,15 @@ pub fn cases_from(base: &ParamSet, sweep: usize) -> Result<Vec<(String, ParamSet
             out.push((format!("sweep {}={}", keys.join(","), fmt_value(p)), set));
         }
     }
+    Ok(())
+}
+
+/// The cases of a series with its own parameters (`NAME{KEY=V}`, `--set MODEL.KEY=V`): the set
+/// as given, then `sweep` values of the model's main parameter from it (no presets: they would
+/// overwrite what the series sets).
+pub fn cases_from(base: &ParamSet, sweep: usize) -> Result<Vec<(String, ParamSet)>> {
+    let mut out = vec![("as given".to_string(), base.clone())];
+    push_sweep(&mut out, base, sweep)?;
     Ok(out)
 }
 
