@@ -168,6 +168,12 @@ pub fn sum_rule(
     }
 }
 
+/// Nodes of ωo-dependent rules in one batch on the GPU: 1M nodes, a node buffer of 16 MiB as
+/// f32x4. Small enough that first touching its pages stays a small part of a directional
+/// albedo's time (each page of a fresh mapping faults once), large enough for dispatches of
+/// ~1000 workgroups.
+const GPU_BUFFER_NODES: usize = 1 << 20;
+
 /// Σ w f(ωi, ωo) for each parameter block of `blocks` (one model) and each ωo on the GPU:
 /// row-major results. A shared node list goes out once; lists per direction go out a batch of
 /// directions at a time, made straight into one node buffer that serves every batch.
@@ -209,7 +215,7 @@ fn gpu_sum_rows(
     // nodes each: gigabytes at once). Each batch's lists are padded to its longest; the buffer
     // is sized once for the largest batch.
     let counts: Vec<usize> = wo.par_iter().map(|&o| rule.node_count(o)).collect();
-    let batch = (GPU_NODE_BATCH / counts.first().copied().unwrap_or(1).max(1)).max(1);
+    let batch = (GPU_BUFFER_NODES / counts.first().copied().unwrap_or(1).max(1)).max(1);
     let stride = |c: &[usize]| c.iter().copied().max().unwrap_or(0);
     let capacity = counts
         .chunks(batch)
