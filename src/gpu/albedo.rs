@@ -79,11 +79,45 @@ impl Gpu {
         n_nodes: usize,
         per_wo: bool,
     ) -> Result<Vec<Vec<[f64; 3]>>> {
+        let mut buf = self.albedo_nodes(nodes.len())?;
+        buf.fill(nodes.len(), |d| d.copy_from_slice(nodes))?;
+        self.albedo_rows_in(model, blocks, white_furnace, wo, &buf, n_nodes, per_wo)
+    }
+
+    /// A node buffer for [`Gpu::albedo_rows_in`] of `capacity` nodes, made once and filled
+    /// again for each batch of directions (no fresh memory per batch).
+    pub fn albedo_nodes(&self, capacity: usize) -> Result<AlbedoNodes<'_>> {
+        let range = self.dev.limits.max_storage_buffer_range as u64;
+        let bytes = 16 * capacity as u64;
+        if bytes > range {
+            return Err(GpuError::Limit(format!(
+                "albedo: {capacity} nodes need {bytes} bytes, over this device's storage buffer range of {range}; use fewer nodes per direction"
+            )));
+        }
+        Ok(AlbedoNodes {
+            buf: Buffer::new(&self.dev, bytes, "albedo node")?,
+            capacity,
+            len: 0,
+        })
+    }
+
+    /// [`Gpu::albedo_rows`] on the nodes of `nodes` (as filled last).
+    #[allow(clippy::too_many_arguments)]
+    pub fn albedo_rows_in(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        white_furnace: bool,
+        wo: &[[f32; 4]],
+        nodes: &AlbedoNodes<'_>,
+        n_nodes: usize,
+        per_wo: bool,
+    ) -> Result<Vec<Vec<[f64; 3]>>> {
         let expected = if per_wo { n_nodes * wo.len() } else { n_nodes };
-        if nodes.len() != expected {
+        if nodes.len != expected {
             return Err(GpuError::Limit(format!(
                 "albedo: {} nodes given, {expected} expected ({n_nodes} per direction, {} directions, per_wo = {per_wo})",
-                nodes.len(),
+                nodes.len,
                 wo.len()
             )));
         }
@@ -92,16 +126,9 @@ impl Gpu {
         }
         let limits = &self.dev.limits;
         let max_groups = limits.max_compute_work_group_count[0] as u64;
-        let range = limits.max_storage_buffer_range as u64;
-        let node_bytes = 16 * nodes.len() as u64;
-        if node_bytes > range {
-            return Err(GpuError::Limit(format!(
-                "albedo: {} nodes need {node_bytes} bytes, over this device's storage buffer range of {range}; use fewer nodes per direction",
-                nodes.len()
-            )));
-        }
+        // The texel view covers the first maxTexelBufferElements nodes of the buffer.
         let texel_nodes =
-            self.dev.is_cpu() && nodes.len() as u64 <= limits.max_texel_buffer_elements as u64;
+            self.dev.is_cpu() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
         let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
         // The span per workgroup: NODES_PER_INVOCATION per invocation, more if one direction
         // would otherwise need more workgroups than one dispatch may have.
@@ -128,15 +155,14 @@ impl Gpu {
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params)?;
-        let mut node_buf = Buffer::new(&self.dev, node_bytes, "albedo node")?;
-        node_buf.write(bytemuck::cast_slice(nodes))?;
+        let node_buf = &nodes.buf;
         let entry_bytes = std::mem::size_of::<AlbedoEntry>() as u64;
         let mut entry_buf = Buffer::new(&self.dev, entry_bytes * per_chunk as u64, "albedo entry")?;
         let groups_max = groups_per_wo * per_chunk as u64;
         let out_buf = Buffer::output(&self.dev, 12 * groups_max, "albedo partial sum")?;
         let dispatcher = Dispatcher::new(
             &pipe,
-            &[&param_buf, &node_buf, &entry_buf, &out_buf, &node_buf],
+            &[&param_buf, node_buf, &entry_buf, &out_buf, node_buf],
         )?;
         let mut sums = Vec::with_capacity(entries.len());
         for part in entries.chunks(per_chunk) {
@@ -162,6 +188,35 @@ impl Gpu {
             }
         }
         Ok(sums.chunks(wo.len()).map(<[_]>::to_vec).collect())
+    }
+}
+
+/// The node list of [`Gpu::albedo_rows_in`]: one buffer of (ωi.xyz, w) nodes, mapped once and
+/// written in place by [`AlbedoNodes::fill`] for each batch of directions.
+pub struct AlbedoNodes<'d> {
+    buf: Buffer<'d>,
+    capacity: usize,
+    len: usize,
+}
+
+impl AlbedoNodes<'_> {
+    /// How many nodes the buffer holds at most.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Lets `fill` write the first `len` nodes in place (every one of them: the buffer holds
+    /// the previous batch's nodes); they are what the next [`Gpu::albedo_rows_in`] sums.
+    pub fn fill(&mut self, len: usize, fill: impl FnOnce(&mut [[f32; 4]])) -> Result<()> {
+        if len > self.capacity {
+            return Err(GpuError::Limit(format!(
+                "albedo: {len} nodes into a buffer of {}",
+                self.capacity
+            )));
+        }
+        self.len = len;
+        self.buf
+            .write_in_place(16 * len, |bytes| fill(bytemuck::cast_slice_mut(bytes)))
     }
 }
 

@@ -358,6 +358,26 @@ impl<'d> Buffer<'d> {
         }
     }
 
+    /// Lets `fill` write the first `len` bytes of the buffer in place, through the host's
+    /// mapping (no copy of the data); a staged input is then copied to its device-local buffer,
+    /// and waited for, before this returns.
+    pub fn write_in_place(&mut self, len: usize, fill: impl FnOnce(&mut [u8])) -> Result<()> {
+        assert!(
+            len as u64 <= self.size,
+            "write of {len} bytes into a {}-byte buffer",
+            self.size
+        );
+        // SAFETY: the mapping covers `size` bytes, this borrow is the only access to it, and no
+        // submission uses the buffer (every dispatch that reads it has been waited for).
+        fill(unsafe { std::slice::from_raw_parts_mut(self.ptr, len) });
+        match &self.staging {
+            Some(s) if self.use_ == MemoryUse::Input && len > 0 => {
+                upload(self.dev, s.buffer, self.buffer, len as u64)
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The first `n` f32 values of the buffer (of its staging buffer, where staged: the
     /// dispatch that wrote it copied them there).
     pub fn read_f32(&self, n: usize) -> &[f32] {

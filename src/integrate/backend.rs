@@ -73,9 +73,9 @@ pub fn rule_albedo(
 pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
     let count = |r: Rule| -> u64 {
         if r.depends_on_wo() {
-            wo.par_iter().map(|&o| r.nodes(o).len() as u64).sum()
+            wo.par_iter().map(|&o| r.node_count(o) as u64).sum()
         } else {
-            r.nodes(DVec3::Z).len() as u64 * wo.len() as u64
+            r.node_count(DVec3::Z) as u64 * wo.len() as u64
         }
     };
     match rule {
@@ -115,8 +115,8 @@ fn f32_rounding(backend: &Evaluator) -> impl Fn(DVec3, DVec3) -> DVec3 {
     }
 }
 
-/// Nodes of ωo-dependent rules gathered for one GPU call: 4M nodes, 64 MiB as f32x4 (and 128 MiB
-/// as f64 while they are made).
+/// Nodes of ωo-dependent rules gathered for one batch of directions: 4M nodes, 64 MiB as f32x4 in
+/// the GPU's node buffer (made straight into it), 128 MiB as f64 lists on the CPU.
 const GPU_NODE_BATCH: usize = 1 << 22;
 
 /// Σ w f(ωi, ωo) for each ωo: f64 sums on the CPU, the reduction kernel on the GPU.
@@ -153,65 +153,110 @@ pub fn sum_rule(
                 .collect()
         }
         Backend::Gpu(gpu) => {
-            // Nodes per direction travel to the GPU: a batch of directions at a time keeps host
-            // memory bounded (an anisotropic hemispherical albedo asks for thousands of
-            // directions of ~1e5 nodes each: gigabytes at once).
-            let batch = match (rule.depends_on_wo(), wo.first()) {
-                (true, Some(&o)) => (GPU_NODE_BATCH / rule.nodes(o).len().max(1)).max(1),
-                _ => wo.len().max(1),
-            };
-            let mut out = Vec::with_capacity(wo.len());
-            for part in wo.chunks(batch) {
-                backend.check_cancelled()?;
-                out.extend(gpu_sum(gpu, params, white_furnace, rule, part)?);
-            }
-            Ok(out)
+            let blocks = [Brdf::new(params).gpu_block()];
+            let mut rows = gpu_sum_rows(
+                backend,
+                gpu,
+                params.model(),
+                &blocks,
+                white_furnace,
+                rule,
+                wo,
+            )?;
+            Ok(rows.pop().unwrap_or_default())
         }
     }
 }
 
-/// Σ w f(ωi, ωo) for each ωo of `wo` by the GPU reduction kernel, in one call.
-fn gpu_sum(
+/// Nodes of ωo-dependent rules in one batch on the GPU: 1M nodes, a node buffer of 16 MiB as
+/// f32x4. Small enough that first touching its pages stays a small part of a directional
+/// albedo's time (each page of a fresh mapping faults once), large enough for dispatches of
+/// ~1000 workgroups.
+const GPU_BUFFER_NODES: usize = 1 << 20;
+
+/// Σ w f(ωi, ωo) for each parameter block of `blocks` (one model) and each ωo on the GPU:
+/// row-major results. A shared node list goes out once; lists per direction go out a batch of
+/// directions at a time, made straight into one node buffer that serves every batch.
+fn gpu_sum_rows(
+    backend: &Evaluator,
     gpu: &crate::gpu::Gpu,
-    params: &ParamSet,
+    model: crate::model::Model,
+    blocks: &[Vec<u8>],
     white_furnace: bool,
     rule: Rule,
     wo: &[DVec3],
-) -> Result<Vec<(DVec3, u64)>> {
-    let block = Brdf::new(params).gpu_block();
-    let f4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+) -> Result<Vec<Vec<(DVec3, u64)>>> {
     let wo4: Vec<[f32; 4]> = wo.iter().map(|&o| f4(o, 0.0)).collect();
-    let (nodes, n_nodes, per_wo, counts) = if rule.depends_on_wo() {
-        let lists: Vec<Vec<Node>> = wo.par_iter().map(|&o| rule.nodes(o)).collect();
-        let n = lists.iter().map(Vec::len).max().unwrap_or(0);
-        let mut flat = Vec::with_capacity(n * lists.len());
-        for l in &lists {
-            flat.extend(l.iter().map(|x| f4(x.wi, x.weight)));
-            // Padding nodes weigh nothing.
-            flat.resize(flat.len() + n - l.len(), [0.0, 0.0, 1.0, 0.0]);
+    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); blocks.len()];
+    let mut add = |sums: Vec<Vec<[f64; 3]>>, counts: &[usize]| {
+        for (row, sums) in out.iter_mut().zip(sums) {
+            row.extend(
+                sums.into_iter()
+                    .zip(counts)
+                    .map(|(s, &k)| (DVec3::from_array(s), k as u64)),
+            );
         }
-        let counts = lists.iter().map(|l| l.len() as u64).collect();
-        (flat, n, true, counts)
-    } else {
-        let l = rule.nodes(DVec3::Z);
-        let n = l.len();
-        let flat = l.iter().map(|x| f4(x.wi, x.weight)).collect();
-        (flat, n, false, vec![n as u64; wo.len()])
     };
-    let sums = gpu.albedo(
-        params.model(),
-        &block,
-        white_furnace,
-        &wo4,
-        &nodes,
-        n_nodes,
-        per_wo,
-    )?;
-    Ok(sums
-        .into_iter()
-        .zip(counts)
-        .map(|(s, n)| (DVec3::from_array(s), n))
-        .collect())
+    if !rule.depends_on_wo() {
+        let l = rule.nodes(DVec3::Z);
+        let mut nodes = gpu.albedo_nodes(l.len())?;
+        nodes.fill(l.len(), |d| {
+            for (d, x) in d.iter_mut().zip(&l) {
+                *d = f4(x.wi, x.weight);
+            }
+        })?;
+        let sums =
+            gpu.albedo_rows_in(model, blocks, white_furnace, &wo4, &nodes, l.len(), false)?;
+        add(sums, &vec![l.len(); wo.len()]);
+        return Ok(out);
+    }
+    // Nodes per direction travel to the GPU: a batch of directions at a time keeps host memory
+    // bounded (an anisotropic hemispherical albedo asks for thousands of directions of ~1e5
+    // nodes each: gigabytes at once). Each batch's lists are padded to its longest; the buffer
+    // is sized once for the largest batch.
+    let counts: Vec<usize> = wo.par_iter().map(|&o| rule.node_count(o)).collect();
+    let batch = (GPU_BUFFER_NODES / counts.first().copied().unwrap_or(1).max(1)).max(1);
+    let stride = |c: &[usize]| c.iter().copied().max().unwrap_or(0);
+    let capacity = counts
+        .chunks(batch)
+        .map(|c| stride(c) * c.len())
+        .max()
+        .unwrap_or(0);
+    let mut nodes = gpu.albedo_nodes(capacity)?;
+    for ((part, part4), c) in wo
+        .chunks(batch)
+        .zip(wo4.chunks(batch))
+        .zip(counts.chunks(batch))
+    {
+        backend.check_cancelled()?;
+        let n = stride(c);
+        nodes.fill(n * part.len(), |d| {
+            if n > 0 {
+                d.par_chunks_mut(n)
+                    .zip(part.par_iter())
+                    .for_each(|(slot, &o)| fill_nodes(rule, o, slot));
+            }
+        })?;
+        let sums = gpu.albedo_rows_in(model, blocks, white_furnace, part4, &nodes, n, true)?;
+        add(sums, c);
+    }
+    Ok(out)
+}
+
+/// f32x4 (xyz, w) of a direction and a weight, as the GPU kernels read them.
+fn f4(v: DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// Writes the nodes of `rule` at `wo` into `slot` as f32x4 (ωi, w), then pads the rest of the
+/// slot with nodes that weigh nothing.
+fn fill_nodes(rule: Rule, wo: DVec3, slot: &mut [[f32; 4]]) {
+    let mut k = 0;
+    rule.for_each_node(wo, |x| {
+        slot[k] = f4(x.wi, x.weight);
+        k += 1;
+    });
+    slot[k..].fill([0.0, 0.0, 1.0, 0.0]);
 }
 
 /// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
@@ -267,22 +312,30 @@ pub fn sum_rule_rows(
     let Some(first) = rows.first() else {
         return Ok(Vec::new());
     };
+    if let Backend::Gpu(gpu) = backend.backend() {
+        let blocks: Vec<Vec<u8>> = rows.iter().map(|p| Brdf::new(p).gpu_block()).collect();
+        return gpu_sum_rows(
+            backend,
+            gpu,
+            first.model(),
+            &blocks,
+            white_furnace,
+            rule,
+            wo,
+        );
+    }
     let depends = rule.depends_on_wo();
     let batch = match (depends, wo.first()) {
-        (true, Some(&o)) => (GPU_NODE_BATCH / rule.nodes(o).len().max(1)).max(1),
+        (true, Some(&o)) => (GPU_NODE_BATCH / rule.node_count(o).max(1)).max(1),
         _ => wo.len().max(1),
     };
     let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); rows.len()];
     let shared = (!depends).then(|| rule.nodes(DVec3::Z));
-    let refs = match backend.backend() {
-        Backend::Cpu => {
-            first.model().require_reference("the CPU backend")?;
-            rows.iter()
-                .map(|p| Reference::new(p, white_furnace))
-                .collect()
-        }
-        Backend::Gpu(_) => Vec::new(),
-    };
+    first.model().require_reference("the CPU backend")?;
+    let refs: Vec<Reference> = rows
+        .iter()
+        .map(|p| Reference::new(p, white_furnace))
+        .collect();
     for part in wo.chunks(batch) {
         backend.check_cancelled()?;
         let lists: Vec<Vec<Node>> = match &shared {
@@ -295,59 +348,24 @@ pub fn sum_rule_rows(
                 None => &lists[d],
             }
         };
-        match backend.backend() {
-            Backend::Cpu => {
-                let sums: Vec<(DVec3, u64)> = (0..rows.len() * part.len())
-                    .into_par_iter()
-                    .map(|e| {
-                        let (r, d) = (e / part.len(), e % part.len());
-                        let (nodes, o, reference) = (list(d), part[d], &refs[r]);
-                        let sum = nodes
-                            .par_chunks(4096)
-                            .map(|c| {
-                                c.iter()
-                                    .map(|n| n.weight * reference.eval(n.wi, o))
-                                    .sum::<DVec3>()
-                            })
-                            .sum::<DVec3>();
-                        (sum, nodes.len() as u64)
+        let sums: Vec<(DVec3, u64)> = (0..rows.len() * part.len())
+            .into_par_iter()
+            .map(|e| {
+                let (r, d) = (e / part.len(), e % part.len());
+                let (nodes, o, reference) = (list(d), part[d], &refs[r]);
+                let sum = nodes
+                    .par_chunks(4096)
+                    .map(|c| {
+                        c.iter()
+                            .map(|n| n.weight * reference.eval(n.wi, o))
+                            .sum::<DVec3>()
                     })
-                    .collect();
-                for (r, row) in sums.chunks(part.len()).enumerate() {
-                    out[r].extend_from_slice(row);
-                }
-            }
-            Backend::Gpu(gpu) => {
-                let f4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
-                let wo4: Vec<[f32; 4]> = part.iter().map(|&o| f4(o, 0.0)).collect();
-                let n = (0..if depends { part.len() } else { 1 })
-                    .map(|d| list(d).len())
-                    .max()
-                    .unwrap_or(0);
-                let mut flat = Vec::with_capacity(n * lists.len().max(1));
-                for d in 0..if depends { part.len() } else { 1 } {
-                    flat.extend(list(d).iter().map(|x| f4(x.wi, x.weight)));
-                    // Padding nodes weigh nothing.
-                    flat.resize(flat.len() + n - list(d).len(), [0.0, 0.0, 1.0, 0.0]);
-                }
-                let blocks: Vec<Vec<u8>> = rows.iter().map(|p| Brdf::new(p).gpu_block()).collect();
-                let sums = gpu.albedo_rows(
-                    first.model(),
-                    &blocks,
-                    white_furnace,
-                    &wo4,
-                    &flat,
-                    n,
-                    depends,
-                )?;
-                for (r, row) in sums.into_iter().enumerate() {
-                    out[r].extend(
-                        row.into_iter()
-                            .enumerate()
-                            .map(|(d, s)| (DVec3::from_array(s), list(d).len() as u64)),
-                    );
-                }
-            }
+                    .sum::<DVec3>();
+                (sum, nodes.len() as u64)
+            })
+            .collect();
+        for (r, row) in sums.chunks(part.len()).enumerate() {
+            out[r].extend_from_slice(row);
         }
     }
     Ok(out)

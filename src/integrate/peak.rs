@@ -96,14 +96,57 @@ impl PeakFrame {
 /// `extra_levels` grade further towards the peak for lobes narrower than the ones
 /// [`PEAK_LEVELS`] was made for ([`lobe_levels`]).
 pub(super) fn peak_nodes(order: usize, v_cavity: bool, extra_levels: u32, wo: DVec3) -> Vec<Node> {
-    let phi_o = wo.y.atan2(wo.x);
-    let gl = gauss_legendre(order);
+    let mut out = Vec::with_capacity(peak_node_count(order, v_cavity, extra_levels, wo));
+    peak_nodes_each(order, v_cavity, extra_levels, wo, |n| out.push(n));
+    out
+}
+
+/// The μ breakpoints of [`peak_nodes`] at ωo, the V-cavity's turns included with `v_cavity`.
+fn peak_mu_breaks_at(v_cavity: bool, extra_levels: u32, wo: DVec3) -> Vec<f64> {
     let mut mb = peak_mu_breaks(wo.z, extra_levels);
     if v_cavity {
         mb.extend(v_cavity_turns(wo.z));
         mb.sort_by(f64::total_cmp);
         mb.dedup();
     }
+    mb
+}
+
+/// The Δφ breakpoints of the μ line at `mu` with the V-cavity's kinks added to `pb`.
+fn with_v_cavity_kinks(pb: &[f64], mu: f64, mu_o: f64) -> Vec<f64> {
+    let mut b = pb.to_vec();
+    b.extend(v_cavity_kinks(mu, mu_o));
+    b.sort_by(f64::total_cmp);
+    b.dedup();
+    b
+}
+
+/// How many nodes [`peak_nodes`] makes at ωo, from its breakpoints alone (no node is made).
+pub(super) fn peak_node_count(order: usize, v_cavity: bool, extra_levels: u32, wo: DVec3) -> usize {
+    let mb = peak_mu_breaks_at(v_cavity, extra_levels, wo);
+    let pb = peak_phi_breaks(wo.z, extra_levels);
+    let panels = |b: &[f64]| b.len().saturating_sub(1);
+    if !v_cavity {
+        return order * panels(&mb) * order * panels(&pb);
+    }
+    let gl = gauss_legendre(order);
+    mb.windows(2)
+        .flat_map(|w| gauss_on(&gl, w[0], w[1]))
+        .map(|(mu, _)| order * panels(&with_v_cavity_kinks(&pb, mu, wo.z)))
+        .sum()
+}
+
+/// [`peak_nodes`], each node handed to `emit` in order instead of collected.
+pub(super) fn peak_nodes_each(
+    order: usize,
+    v_cavity: bool,
+    extra_levels: u32,
+    wo: DVec3,
+    mut emit: impl FnMut(Node),
+) {
+    let phi_o = wo.y.atan2(wo.x);
+    let gl = gauss_legendre(order);
+    let mb = peak_mu_breaks_at(v_cavity, extra_levels, wo);
     let pb = peak_phi_breaks(wo.z, extra_levels);
     let line = |breaks: &[f64]| -> Vec<(f64, f64, f64)> {
         let mut phis = Vec::with_capacity(order * breaks.len());
@@ -116,30 +159,24 @@ pub(super) fn peak_nodes(order: usize, v_cavity: bool, extra_levels: u32, wo: DV
         phis
     };
     let shared = line(&pb);
-    let mut out = Vec::with_capacity(order * (mb.len() - 1) * (shared.len() + 2 * order));
     for w in mb.windows(2) {
         for (mu, wm) in gauss_on(&gl, w[0], w[1]) {
             let s = (1.0 - mu * mu).max(0.0).sqrt();
             let own;
             let phis = if v_cavity {
-                let mut b = pb.clone();
-                b.extend(v_cavity_kinks(mu, wo.z));
-                b.sort_by(f64::total_cmp);
-                b.dedup();
-                own = line(&b);
+                own = line(&with_v_cavity_kinks(&pb, mu, wo.z));
                 &own
             } else {
                 &shared
             };
             for &(sp, cp, wp) in phis {
-                out.push(Node {
+                emit(Node {
                     wi: DVec3::new(s * cp, s * sp, mu),
                     weight: wm * wp * mu,
                 });
             }
         }
     }
-    out
 }
 
 /// The `peak` rule's μ breakpoints. Below μo: graded towards μo. Above: towards μo and towards

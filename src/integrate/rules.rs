@@ -4,7 +4,7 @@
 
 use super::gauss::{gauss_legendre, gauss_on};
 use super::importance::{importance_nodes, Mixture, REPLICATES};
-use super::peak::peak_nodes;
+use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -136,6 +136,35 @@ impl Rule {
             } => peak_nodes(order, v_cavity, extra_levels, wo),
         }
     }
+
+    /// How many nodes [`Rule::nodes`] makes at `wo`; for the `peak` rule from its breakpoints
+    /// alone, without making them.
+    pub fn node_count(&self, wo: DVec3) -> usize {
+        match *self {
+            Rule::Midpoint { n_theta } => n_theta * 4 * n_theta,
+            Rule::Gauss { n_mu } => n_mu * 4 * n_mu,
+            Rule::Qmc { n } => n,
+            Rule::Importance { .. } => self.nodes(wo).len(),
+            Rule::Peak {
+                order,
+                v_cavity,
+                extra_levels,
+            } => peak_node_count(order, v_cavity, extra_levels, wo),
+        }
+    }
+
+    /// [`Rule::nodes`] at `wo`, each node handed to `emit` in order; the `peak` rule makes them
+    /// one by one without a list.
+    pub fn for_each_node(&self, wo: DVec3, mut emit: impl FnMut(Node)) {
+        match *self {
+            Rule::Peak {
+                order,
+                v_cavity,
+                extra_levels,
+            } => peak_nodes_each(order, v_cavity, extra_levels, wo, emit),
+            _ => self.nodes(wo).into_iter().for_each(&mut emit),
+        }
+    }
 }
 
 /// Midpoint rule in (θ, φ): dω = sinθ dθ dφ, so E ≈ Σ f c_i sinθ Δθ Δφ at the cell centres
@@ -227,6 +256,36 @@ mod tests {
                 1e-13
             };
             assert!((s / PI - 1.0).abs() < tol, "{rule:?}: {}", s / PI);
+        }
+    }
+
+    #[test]
+    fn node_counts_match_the_node_lists() {
+        // Every rule's count without the list equals the list's length, and `for_each_node`
+        // hands out the list's nodes in order.
+        for mu in [1.0, 0.9, 0.5, 0.1, 0.02] {
+            let wo = view_direction(mu, 0.4);
+            for rule in [
+                Rule::Midpoint { n_theta: 7 },
+                Rule::Gauss { n_mu: 5 },
+                Rule::Qmc { n: 33 },
+                Rule::Peak {
+                    order: 6,
+                    v_cavity: false,
+                    extra_levels: 2,
+                },
+                Rule::Peak {
+                    order: 5,
+                    v_cavity: true,
+                    extra_levels: 0,
+                },
+            ] {
+                let list = rule.nodes(wo);
+                assert_eq!(rule.node_count(wo), list.len(), "{rule:?} at mu {mu}");
+                let mut each = Vec::new();
+                rule.for_each_node(wo, |n| each.push(n));
+                assert_eq!(each, list, "{rule:?} at mu {mu}");
+            }
         }
     }
 }
