@@ -144,10 +144,7 @@ pub fn sum_rule(
                             &own
                         }
                     };
-                    let sum = nodes
-                        .par_chunks(4096)
-                        .map(|c| c.iter().map(|n| n.weight * r.eval(n.wi, o)).sum::<DVec3>())
-                        .sum::<DVec3>();
+                    let sum = weighted_sum(nodes, |n| n.weight * r.eval(n.wi, o));
                     Ok((sum, nodes.len() as u64))
                 })
                 .collect()
@@ -241,6 +238,17 @@ fn gpu_sum_rows(
         add(sums, c);
     }
     Ok(out)
+}
+
+/// Σ term(node) over `nodes` in parallel and in a fixed order: sums of 4096-node chunks, then
+/// those sums in chunk order. (rayon's own `sum` combines partial sums in an order that depends
+/// on which thread stole what, so the same integral could differ in its last bit between runs.)
+fn weighted_sum(nodes: &[Node], term: impl Fn(&Node) -> DVec3 + Sync) -> DVec3 {
+    let parts: Vec<DVec3> = nodes
+        .par_chunks(4096)
+        .map(|c| c.iter().map(&term).sum::<DVec3>())
+        .collect();
+    parts.into_iter().sum()
 }
 
 /// f32x4 (xyz, w) of a direction and a weight, as the GPU kernels read them.
@@ -353,14 +361,7 @@ pub fn sum_rule_rows(
             .map(|e| {
                 let (r, d) = (e / part.len(), e % part.len());
                 let (nodes, o, reference) = (list(d), part[d], &refs[r]);
-                let sum = nodes
-                    .par_chunks(4096)
-                    .map(|c| {
-                        c.iter()
-                            .map(|n| n.weight * reference.eval(n.wi, o))
-                            .sum::<DVec3>()
-                    })
-                    .sum::<DVec3>();
+                let sum = weighted_sum(nodes, |n| n.weight * reference.eval(n.wi, o));
                 (sum, nodes.len() as u64)
             })
             .collect();
