@@ -67,7 +67,8 @@ fn main() {
 
     let models: Vec<String> = stems(&root.join("brdf"), "glsl")
         .into_iter()
-        .filter(|m| m != "terms")
+        // Files of shared terms that models include, not models themselves.
+        .filter(|m| m != "terms" && m != "kulla_conty")
         .collect();
     let kernels = stems(&root.join("kernels"), "comp");
     let compiler = Compiler::acquire().expect("glslang compiler is already in use");

@@ -11,7 +11,7 @@
 //! extrapolation 4L₁ − 6L₂ + 4L₃ − L₄ of its row, so each table has 65 × 65 knots; the knots are
 //! kept as f32, the values the GPU reads, so that both twins interpolate the same numbers.
 //!
-//! Interpolation, the same on both sides (twin: `kc_loss` in `glsl/brdf/microfacet.glsl`):
+//! Interpolation, the same on both sides (twin: `kc_loss` in `glsl/brdf/kulla_conty.glsl`):
 //! 4-point Lagrange in s and in r on the uniform knots, the stencil of interval m being knots
 //! clamp(m − 1, 0, 61) … + 3 (a piecewise cubic), tensor product in (s, r). The average row
 //! L_avg(r_k) = 4∫₀¹ L̃_k(s) s³ ds is the exact integral of row k's piecewise cubic (4-point
