@@ -56,6 +56,7 @@ fn glossy_sheet_and_scene(light: [f64; 3], cell: u32) -> (Sheet, Scene) {
     let sheet = Sheet {
         materials: vec!["mirror-like".into()],
         models: vec![Model::Phong],
+        columns: vec!["phong".into()],
         params: vec![vec![p]],
     };
     let mut scene = Scene::lab(cell, Shape::Sphere, LightKind::Point, DVec3::ZERO);

@@ -429,16 +429,18 @@ pub(super) fn parity(
     Ok((rows, format!("{n} values, max relative error {worst:.1e}")))
 }
 
-/// The white-furnace row's configurations: (column model, settings), colours at 1 and F = 1, so
+/// The white-furnace row's configurations: (column label, model, settings), colours at 1 and F = 1, so
 /// that every pixel short of white is energy the model loses (and one above, energy it gains).
-const FURNACE_ROW: [(&str, &[&str]); 4] = [
-    ("oren_nayar", &["albedo=1", "sigma=0.5"]),
-    ("eon", &["albedo=1", "roughness=1"]),
+const FURNACE_ROW: [(&str, &str, &[&str]); 4] = [
+    ("oren_nayar", "oren_nayar", &["albedo=1", "sigma=0.5"]),
+    ("eon", "eon", &["albedo=1", "roughness=1"]),
     (
+        "ggx",
         "microfacet",
         &["fresnel=none", "diffuse=0", "specular=1", "alpha=1"],
     ),
     (
+        "ggx+kc",
         "microfacet",
         &[
             "fresnel=none",
@@ -466,7 +468,8 @@ pub(super) fn white_furnace(
 ) -> Result<((usize, usize), String)> {
     let mut models = Vec::new();
     let mut params = Vec::new();
-    for (name, sets) in FURNACE_ROW {
+    let columns = FURNACE_ROW.map(|(label, ..)| label.to_string()).to_vec();
+    for (_, name, sets) in FURNACE_ROW {
         let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
         let set = crate::resolve_params(name, None, &sets)?;
         models.push(set.model());
@@ -475,6 +478,7 @@ pub(super) fn white_furnace(
     let sheet = Sheet {
         materials: vec!["white furnace".to_string()],
         models,
+        columns,
         params,
     };
     let scene = Scene::lab(
@@ -524,7 +528,7 @@ pub(super) fn white_furnace(
         }
         p.advance(col as u64 + 1);
     }
-    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost. Left to right: oren_nayar (sigma = 0.5), eon (r = 1), microfacet GGX alpha = 1, the same with multiscatter=kulla_conty.";
+    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost. Left to right: oren_nayar (sigma = 0.5), eon (r = 1), ggx: microfacet GGX alpha = 1; ggx+kc: the same with multiscatter=kulla_conty.";
     let size = preview::write_png(
         &image,
         &sheet,

@@ -18,6 +18,9 @@ pub struct Sheet {
     pub materials: Vec<String>,
     /// The columns' models, left to right.
     pub models: Vec<Model>,
+    /// The columns' labels, left to right: each model's name ([`Sheet::model_names`]) unless
+    /// two columns of one model need telling apart.
+    pub columns: Vec<String>,
     /// The preset of each row's material for each column's model.
     pub params: Vec<Vec<ParamSet>>,
 }
@@ -49,8 +52,14 @@ impl Sheet {
         Ok(Sheet {
             materials: materials.to_vec(),
             models: models.to_vec(),
+            columns: Sheet::model_names(models),
             params,
         })
+    }
+
+    /// The default column labels: each model's name.
+    pub fn model_names(models: &[Model]) -> Vec<String> {
+        models.iter().map(|m| m.name().to_string()).collect()
     }
 
     /// The same sheet with every parameter rounded to f32, as the GPU receives it.
@@ -168,7 +177,7 @@ pub fn encode_exr(
         crate::output::EXR_ENCODING,
         channels,
     );
-    let columns: Vec<&str> = sheet.models.iter().map(|m| m.name()).collect();
+    let columns = &sheet.columns;
     let attrs = [
         ("lobe.kind", "preview".to_string()),
         ("lobe.rows", sheet.materials.join(",")),
@@ -262,12 +271,7 @@ struct Layout {
 impl Layout {
     fn new(face: &Typeface, image: &SheetImage, sheet: &Sheet, caption: &str) -> Layout {
         let cw = image.cell_width;
-        let fits = |size: f32| {
-            sheet
-                .models
-                .iter()
-                .all(|m| face.width(m.name(), size) + 2 <= cw)
-        };
+        let fits = |size: f32| sheet.columns.iter().all(|c| face.width(c, size) + 2 <= cw);
         let label_size = LABEL_SIZES
             .into_iter()
             .find(|&s| fits(s))
@@ -317,8 +321,8 @@ fn compose(
             canvas.put(left + x, top + y, c);
         }
     }
-    for (col, model) in sheet.models.iter().enumerate() {
-        let label = model.name();
+    for (col, label) in sheet.columns.iter().enumerate() {
+        let label = label.as_str();
         let x0 = left + col * cw;
         let x = x0 + cw.saturating_sub(face.width(label, size)) / 2;
         // A name cut at the cell's edge keeps one clear pixel before the next column's name.
@@ -457,13 +461,10 @@ mod tests {
         }
         // No name reaches its column's last pixel, so neighbouring names never touch; a name
         // that fits keeps its column's first pixel clear too.
-        let fits = sheet.models.iter().all(|m| {
-            Typeface::dejavu_sans()
-                .unwrap()
-                .width(m.name(), l.label_size)
-                + 2
-                <= cell
-        });
+        let fits = sheet
+            .columns
+            .iter()
+            .all(|c| Typeface::dejavu_sans().unwrap().width(c, l.label_size) + 2 <= cell);
         for col in 0..models.len() {
             let x0 = l.left + col * cell;
             assert!(

@@ -256,6 +256,7 @@ impl Scene {
         Ok(Sheet {
             materials: names,
             models: p.models.clone(),
+            columns: Sheet::model_names(&p.models),
             params,
         })
     }
