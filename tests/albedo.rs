@@ -567,28 +567,19 @@ fn the_reference_runs_on_the_cpu_whatever_the_backend() {
 
 #[test]
 fn cli_albedo_json_has_the_documented_fields() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
-        .args([
-            "albedo",
-            "--model",
-            "smooth_layered",
-            "--material",
-            "tin",
-            "--mu",
-            "0.1,1",
-            "--backend",
-            "cpu",
-            "--format",
-            "json",
-        ])
-        .output()
-        .expect("run lobe");
-    assert!(
-        out.status.success(),
-        "lobe albedo failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let doc = common::lobe_json(&[
+        "albedo",
+        "--model",
+        "smooth_layered",
+        "--material",
+        "tin",
+        "--mu",
+        "0.1,1",
+        "--backend",
+        "cpu",
+        "--format",
+        "json",
+    ]);
     for key in [
         "model",
         "parameters",

@@ -5,6 +5,8 @@ use lobe::integrate::Method;
 use lobe::model::terms::r0_from_ior;
 use lobe::{resolve_params, Evaluator, Model};
 
+mod common;
+
 /// Closed forms against the default `peak` rule: it integrates these smooth integrands to
 /// round-off (tests/albedo.rs); 1e-9 leaves room for the sums of ~1e5 f64 terms.
 const EXACT_TOL: f64 = 1e-9;
@@ -158,32 +160,23 @@ fn cli_energy_formats_and_bad_input() {
 /// lobe it loses nothing (to the 1e-4 of the lobe's tables).
 #[test]
 fn cli_energy_per_series_parameters() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
-        .args([
-            "energy",
-            "--models",
-            "microfacet,microfacet{multiscatter=kulla_conty},eon",
-            "--set",
-            "microfacet.alpha=1",
-            "--set",
-            "eon.multiscatter=none",
-            "--backend",
-            "cpu",
-            "--samples",
-            "4096",
-            "--sweep",
-            "0",
-            "--format",
-            "json",
-        ])
-        .output()
-        .expect("run lobe");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let doc = common::lobe_json(&[
+        "energy",
+        "--models",
+        "microfacet,microfacet{multiscatter=kulla_conty},eon",
+        "--set",
+        "microfacet.alpha=1",
+        "--set",
+        "eon.multiscatter=none",
+        "--backend",
+        "cpu",
+        "--samples",
+        "4096",
+        "--sweep",
+        "0",
+        "--format",
+        "json",
+    ]);
     let rows = doc["rows"].as_array().expect("rows");
     let find = |model: &str| {
         rows.iter()

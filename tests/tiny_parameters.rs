@@ -6,33 +6,28 @@
 //! (`lobe::model::SLOPE_FLOOR`) every value is evaluated as the floor.
 
 use serde_json::Value;
-use std::process::Command;
+
+mod common;
 
 /// Roughness values from the floor down to the smallest positive subnormal.
 const TINY: [&str; 4] = ["1e-5", "1e-6", "1e-30", "5e-324"];
 
 /// The albedo JSON of `model` with `key` set to `value`, specular lobe alone, white furnace.
 fn albedo(model: &str, key: &str, value: &str, extra: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
-        .args([
-            "albedo",
-            "--model",
-            model,
-            "--white-furnace",
-            "--backend",
-            "cpu",
-        ])
-        .args(["--set", &format!("{key}={value}")])
-        .args(extra)
-        .args(["--theta-o-deg", "0,1,30,80", "--format", "json"])
-        .output()
-        .expect("run lobe");
-    assert!(
-        out.status.success(),
-        "{model} {key}={value}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("albedo JSON")
+    let set = format!("{key}={value}");
+    let mut args = vec![
+        "albedo",
+        "--model",
+        model,
+        "--white-furnace",
+        "--backend",
+        "cpu",
+        "--set",
+        &set,
+    ];
+    args.extend_from_slice(extra);
+    args.extend(["--theta-o-deg", "0,1,30,80", "--format", "json"]);
+    common::lobe_json(&args)
 }
 
 fn channel(v: &Value, key: &str) -> f64 {

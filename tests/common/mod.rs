@@ -72,3 +72,20 @@ pub fn assert_rho_over_pi(f: &[[f64; 3]], rho: [f64; 3], rel: f64) {
         }
     }
 }
+
+/// Runs the `lobe` binary with `args`, asserts that it succeeded (printing the arguments and its
+/// stderr if not) and returns its stdout parsed as JSON.
+pub fn lobe_json<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> serde_json::Value {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(args)
+        .output()
+        .expect("run lobe");
+    let shown: Vec<_> = args.iter().map(|a| a.as_ref().to_string_lossy()).collect();
+    assert!(
+        out.status.success(),
+        "lobe {}: {}",
+        shown.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
