@@ -131,7 +131,7 @@ pub fn sum_rule(
         Backend::Cpu => {
             params.model().require_reference("the CPU backend")?;
             let r = Reference::new(params, white_furnace);
-            let shared = (!rule.depends_on_wo()).then(|| rule.nodes(DVec3::Z));
+            let shared = rule.shared_nodes();
             wo.par_iter()
                 .map(|&o| {
                     // Ctrl-C: one view direction's sum at most runs on.
@@ -194,11 +194,10 @@ fn gpu_sum_rows(
             );
         }
     };
-    if !rule.depends_on_wo() {
-        let l = rule.nodes(DVec3::Z);
+    if let Some(l) = rule.shared_nodes() {
         let mut nodes = gpu.albedo_nodes(l.len())?;
         nodes.fill(l.len(), |d| {
-            for (d, x) in d.iter_mut().zip(&l) {
+            for (d, x) in d.iter_mut().zip(l.iter()) {
                 *d = f4(x.wi, x.weight);
             }
         })?;
@@ -338,7 +337,7 @@ pub fn sum_rule_rows(
         _ => wo.len().max(1),
     };
     let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); rows.len()];
-    let shared = (!depends).then(|| rule.nodes(DVec3::Z));
+    let shared = rule.shared_nodes();
     first.model().require_reference("the CPU backend")?;
     let refs: Vec<Reference> = rows
         .iter()

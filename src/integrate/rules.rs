@@ -7,6 +7,12 @@ use super::importance::{importance_nodes, Mixture, REPLICATES};
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::sync::{Arc, Mutex};
+
+/// How many ωo-independent node lists [`Rule::shared_nodes`] keeps: a fine rule and its coarse
+/// twin for two jobs at once. At the largest `--samples` (2^20 nodes, 32 bytes each) that is
+/// 128 MiB at most.
+pub const SHARED_RULES: usize = 4;
 
 /// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,6 +114,36 @@ impl Rule {
                 1.0,
             ),
         }
+    }
+
+    /// The nodes of a rule that does not depend on ωo, made once per process and shared: an
+    /// albedo job sums the same Gauss–Legendre, midpoint or QMC list at every view direction, and
+    /// repeated jobs (a sweep, a benchmark) ask for the same lists again. None for rules that
+    /// depend on ωo. The last [`SHARED_RULES`] lists are kept.
+    pub fn shared_nodes(&self) -> Option<Arc<Vec<Node>>> {
+        if self.depends_on_wo() {
+            return None;
+        }
+        static CACHE: Mutex<Vec<(Rule, Arc<Vec<Node>>)>> = Mutex::new(Vec::new());
+        let find = |cache: &[(Rule, Arc<Vec<Node>>)]| {
+            cache
+                .iter()
+                .find(|(r, _)| r == self)
+                .map(|(_, n)| n.clone())
+        };
+        if let Some(n) = find(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
+            return Some(n);
+        }
+        // Made outside the lock: another thread may make the same list meanwhile (same bits).
+        let nodes = Arc::new(self.nodes(DVec3::Z));
+        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        if find(&cache).is_none() {
+            if cache.len() == SHARED_RULES {
+                cache.remove(0);
+            }
+            cache.push((*self, nodes.clone()));
+        }
+        Some(nodes)
     }
 
     /// The nodes for the view direction `wo` (ignored by rules that do not depend on it).
@@ -234,6 +270,28 @@ pub(super) fn qmc_nodes(n: usize) -> Vec<Node> {
 mod tests {
     use super::*;
     use crate::integrate::view_direction;
+
+    #[test]
+    fn shared_nodes_are_the_rules_own_nodes() {
+        for rule in [
+            Rule::Gauss { n_mu: 37 },
+            Rule::Midpoint { n_theta: 11 },
+            Rule::Qmc { n: 999 },
+        ] {
+            let first = rule
+                .shared_nodes()
+                .expect("an ωo-independent rule is shared");
+            assert_eq!(*first, rule.nodes(DVec3::Z), "{rule:?}");
+            // A second call reads the kept list (or makes it again if other jobs evicted it).
+            assert_eq!(*rule.shared_nodes().unwrap(), *first, "{rule:?}");
+        }
+        let peak = Rule::Peak {
+            order: 8,
+            v_cavity: false,
+            extra_levels: 0,
+        };
+        assert!(peak.shared_nodes().is_none(), "the peak rule depends on ωo");
+    }
 
     #[test]
     fn rules_integrate_the_cosine_to_one() {
