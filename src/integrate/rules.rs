@@ -119,7 +119,7 @@ impl Rule {
     /// The nodes of a rule that does not depend on ωo, made once per process and shared: an
     /// albedo job sums the same Gauss–Legendre, midpoint or QMC list at every view direction, and
     /// repeated jobs (a sweep, a benchmark) ask for the same lists again. None for rules that
-    /// depend on ωo. The last [`SHARED_RULES`] lists are kept.
+    /// depend on ωo. The last `SHARED_RULES` (four) lists are kept.
     pub fn shared_nodes(&self) -> Option<Arc<Vec<Node>>> {
         if self.depends_on_wo() {
             return None;
