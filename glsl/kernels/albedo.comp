@@ -2,12 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 // Directional albedo as a reduction, E(wo) = sum_k w_k f(wi_k, wo), with the quadrature's nodes
 // (wi_k, w_k) given as a list; w_k already holds cos(theta_i) (src/integrate/ derives each rule).
-// No table is written: each workgroup sums one span of one wo's nodes in f32 (strided per
-// invocation, then a tree in shared memory) and writes one partial sum; the host adds each wo's
-// partials in f64 (src/gpu/albedo.rs).
+// No table is written: each workgroup sums one span of one node list for one (parameter set,
+// view direction) in f32 and writes its partial sums; the host adds each sum's partials in f64
+// (src/gpu/albedo.rs).
 //
-// One dispatch serves many (parameter set, view direction) entries: a LUT's rows share each
-// direction's node list, uploaded once.
+// One dispatch serves many sums: a LUT's rows and a rule's coarse check share the node buffer,
+// uploaded once, and every span of every sum is one workgroup of the same dispatch.
 //
 // Self-contained rather than built on kernels/eval.glsl, whose push-constant block it cannot share;
 // bindings 0 and 3 keep eval.glsl's meaning (parameters, output).
@@ -22,33 +22,39 @@ layout(local_size_x_id = 1) in;
 // whose index varies across invocations into a loop over the SIMD lanes. The host turns it on
 // where the list fits maxTexelBufferElements.
 layout(constant_id = 20) const bool TEXEL_NODES = false;
+// Each invocation writes its own partial sum instead of the workgroup folding them in shared
+// memory: a CPU driver (lavapipe) runs a barrier as a switch between the workgroup's SIMD
+// slices, so the tree's barriers cost more than the host's f64 sum of 64 partials. The host
+// turns it on for a CPU driver (src/gpu/pipeline.rs, albedo_lane_partials).
+layout(constant_id = 21) const bool LANE_PARTIALS = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
-// xyz = wi, w = weight (with cos(theta_i)); node k of entry e is
-// nodes[entries[e].node_list * node_stride + k].
+// xyz = wi, w = weight (with cos(theta_i)), every sum's list back to back.
 layout(std430, set = 0, binding = 1) readonly buffer Nodes { vec4 nodes[]; };
-// One entry per (parameter set, view direction): twin of AlbedoEntry in src/gpu/albedo.rs.
-struct Entry {
+// One span per workgroup: nodes[begin, end) at one (parameter set, view direction). Twin of
+// AlbedoSpan in src/gpu/albedo.rs.
+struct Span {
     vec3 wo;
     uint param_index;
-    uint node_list;
+    uint begin;
+    uint end;
     uint pad0;
     uint pad1;
-    uint pad2;
 };
-layout(std430, set = 0, binding = 2) readonly buffer Entries { Entry entries[]; };
-// One rgb partial sum per workgroup: 3 floats at 3 * gl_WorkGroupID.x.
-layout(std430, set = 0, binding = 3) writeonly buffer Partials { float partial_out[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Spans { Span spans[]; };
+// One rgb partial sum (w = 0) per workgroup at gl_WorkGroupID.x, or with LANE_PARTIALS one per
+// invocation at gl_GlobalInvocationID.x.
+layout(std430, set = 0, binding = 3) writeonly buffer Partials { vec4 partial_out[]; };
 layout(set = 0, binding = 4) uniform samplerBuffer node_texels;
 
-// nodes_per_group: the span of nodes one workgroup sums; dispatch_count: read by the host's
-// dispatcher only (workgroups x its evaluations per workgroup); n_nodes: nodes per entry;
-// node_stride: 0 when every entry shares one node list, else n_nodes. Twin of AlbedoPush.
+// first_span: the span of workgroup 0 (a job longer than one dispatch's workgroup count goes out
+// in several); dispatch_count: read by the host's dispatcher only (workgroups x its evaluations
+// per workgroup). Twin of AlbedoPush.
 layout(push_constant) uniform AlbedoJob {
-    uint nodes_per_group;
+    uint first_span;
     uint dispatch_count;
-    uint n_nodes;
-    uint node_stride;
+    uint pad0;
+    uint pad1;
 } job;
 
 shared vec3 sums[gl_WorkGroupSize.x];
@@ -66,18 +72,37 @@ vec4 node_at(uint k) {
 
 void main() {
     uint lid = gl_LocalInvocationID.x;
-    uint groups_per_wo = (job.n_nodes + job.nodes_per_group - 1u) / job.nodes_per_group;
     // Everything but the node index is the same across the workgroup: uniform loads.
-    uint o = gl_WorkGroupID.x / groups_per_wo;
-    uint begin = (gl_WorkGroupID.x - o * groups_per_wo) * job.nodes_per_group;
-    uint end = min(begin + job.nodes_per_group, job.n_nodes);
-    Entry entry = entries[o];
-    MODEL_PARAMS p = params[entry.param_index];
-    vec3 wo = entry.wo;
-    uint base = entry.node_list * job.node_stride;
+    Span span = spans[job.first_span + gl_WorkGroupID.x];
+    MODEL_PARAMS p = params[span.param_index];
+    vec3 wo = span.wo;
+    const uint W = gl_WorkGroupSize.x;
+    if (LANE_PARTIALS) {
+        // Four running sums over interleaved nodes (at most 16 terms each in a span of
+        // 64 x 64 nodes), added pairwise: fewer partials per evaluation, the same rounding depth.
+        vec3 a0 = vec3(0.0), a1 = vec3(0.0), a2 = vec3(0.0), a3 = vec3(0.0);
+        for (uint k = span.begin + lid; k < span.end; k += 4u * W) {
+            vec4 n0 = node_at(k);
+            a0 += n0.w * brdf(p, n0.xyz, wo);
+            if (k + W < span.end) {
+                vec4 n1 = node_at(k + W);
+                a1 += n1.w * brdf(p, n1.xyz, wo);
+            }
+            if (k + 2u * W < span.end) {
+                vec4 n2 = node_at(k + 2u * W);
+                a2 += n2.w * brdf(p, n2.xyz, wo);
+            }
+            if (k + 3u * W < span.end) {
+                vec4 n3 = node_at(k + 3u * W);
+                a3 += n3.w * brdf(p, n3.xyz, wo);
+            }
+        }
+        partial_out[gl_GlobalInvocationID.x] = vec4((a0 + a1) + (a2 + a3), 0.0);
+        return;
+    }
     vec3 acc = vec3(0.0);
-    for (uint k = begin + lid; k < end; k += gl_WorkGroupSize.x) {
-        vec4 node = node_at(base + k);
+    for (uint k = span.begin + lid; k < span.end; k += W) {
+        vec4 node = node_at(k);
         acc += node.w * brdf(p, node.xyz, wo);
     }
     sums[lid] = acc;
@@ -89,9 +114,5 @@ void main() {
         barrier();
         width = half_width;
     }
-    if (lid == 0u) {
-        partial_out[3u * gl_WorkGroupID.x + 0u] = sums[0].r;
-        partial_out[3u * gl_WorkGroupID.x + 1u] = sums[0].g;
-        partial_out[3u * gl_WorkGroupID.x + 2u] = sums[0].b;
-    }
+    if (lid == 0u) partial_out[gl_WorkGroupID.x] = vec4(sums[0], 0.0);
 }

@@ -1,91 +1,80 @@
 //! The GPU path of directional albedo (`glsl/kernels/albedo.comp`): E(ωo) = Σ_k w_k f(ωi_k, ωo)
-//! as a workgroup reduction. Nothing but one partial sum per workgroup comes back; the host adds
-//! each direction's partials in f64. The quadrature rules themselves live in `src/integrate/`.
+//! as a reduction. Nothing but partial sums come back (one per workgroup, or on a CPU driver one
+//! per invocation); the host adds each sum's partials in f64. The quadrature rules themselves live in `src/integrate/`.
 
 use super::buffer::Buffer;
-use super::pipeline::{ChunkPush, Dispatcher, Kernel, LOCAL_SIZE};
+use super::pipeline::{albedo_lane_partials, ChunkPush, Dispatcher, Kernel, LOCAL_SIZE};
 use super::{Gpu, GpuError, Result};
 use crate::model::Model;
 
-/// Nodes one invocation sums before the workgroup's tree reduction. 16 keeps the f32 running
-/// sums short (16 terms, then log2(64) = 6 tree levels: relative rounding ≲ 22 × 2^-24 ≈ 1.3e-6
-/// in the worst case, ~1e-7 typically) while amortising the barriers over many evaluations.
+/// Nodes one invocation sums on a GPU (a workgroup's span is [`LOCAL_SIZE`] times this): 16
+/// terms in f32, then log2(64) = 6 levels of the workgroup's tree, so at most 22 roundings
+/// (≲ 22 × 2^-24 ≈ 1.3e-6 relative, ~1e-7 typically).
 pub const NODES_PER_INVOCATION: u32 = 16;
+
+/// Nodes one invocation sums on a CPU driver, where each invocation writes its own partial
+/// (LANE_PARTIALS): four running sums of at most 16 terms each, added pairwise (18 roundings at
+/// most), then the host's f64 sum. Four times the GPU's span means a quarter of the partials to
+/// read back and add.
+pub const LANE_NODES_PER_INVOCATION: u32 = 64;
+
+/// The nodes one workgroup of the albedo kernel sums on this kind of device.
+pub fn span_nodes(cpu_driver: bool) -> usize {
+    let per_invocation = if albedo_lane_partials(cpu_driver) {
+        LANE_NODES_PER_INVOCATION
+    } else {
+        NODES_PER_INVOCATION
+    };
+    (LOCAL_SIZE * per_invocation) as usize
+}
 
 /// Push constants of `albedo.comp` (`AlbedoJob`). `dispatch_count` sits where [`ChunkPush`] keeps
 /// `count`, which the dispatcher turns into the number of workgroups; the test below pins it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct AlbedoPush {
-    /// The span of nodes one workgroup sums.
-    pub nodes_per_group: u32,
+    /// The span of this dispatch's workgroup 0.
+    pub first_span: u32,
     /// Workgroups times evaluations per workgroup; read by the host's dispatcher only.
     pub dispatch_count: u32,
-    /// Nodes per view direction.
-    pub n_nodes: u32,
-    /// 0 when every view direction shares one node list, else `n_nodes`.
-    pub node_stride: u32,
+    /// Padding; always 0.
+    pub pad: [u32; 2],
 }
 
-/// One (parameter set, view direction) of an albedo dispatch; the std430 twin of `Entry` in
-/// `glsl/kernels/albedo.comp`.
+/// One workgroup's work: nodes `begin..end` of the node buffer at one (parameter set, view
+/// direction). The std430 twin of `Span` in `glsl/kernels/albedo.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct AlbedoEntry {
+pub struct AlbedoSpan {
     /// ωo, the unit direction to the viewer.
     pub wo: [f32; 3],
     /// Which parameter block evaluates it.
     pub param_index: u32,
-    /// Which node list it sums (0 when every entry shares one).
-    pub node_list: u32,
+    /// The first node.
+    pub begin: u32,
+    /// One past the last node.
+    pub end: u32,
     /// Padding to the std430 size of 32 bytes; always 0.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
+}
+
+/// One sum an albedo dispatch makes: Σ w f(ωi, ωo) over nodes `begin..begin + len` of the node
+/// buffer, with parameter block `param` at ωo = `wo`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlbedoSum {
+    /// ωo, the unit direction to the viewer (xyz as f32, as the kernel reads it).
+    pub wo: [f32; 3],
+    /// Index of the parameter block in the `blocks` given with it.
+    pub param: usize,
+    /// The list's first node in the node buffer.
+    pub begin: usize,
+    /// The list's length.
+    pub len: usize,
 }
 
 impl Gpu {
-    /// E(ωo) = Σ_k w_k f(ωi_k, ωo) for each `wo[o]` (xyz; w unused), the nodes given as
-    /// (ωi.xyz, w): one list of `n_nodes` shared by every ωo, or with `per_wo` one list of
-    /// `n_nodes` per ωo, back to back (pad with zero weights). Sums in f32 per workgroup, in f64
-    /// across workgroups.
-    #[allow(clippy::too_many_arguments)]
-    pub fn albedo(
-        &self,
-        model: Model,
-        block: &[u8],
-        white_furnace: bool,
-        wo: &[[f32; 4]],
-        nodes: &[[f32; 4]],
-        n_nodes: usize,
-        per_wo: bool,
-    ) -> Result<Vec<[f64; 3]>> {
-        let blocks = [block.to_vec()];
-        let mut rows =
-            self.albedo_rows(model, &blocks, white_furnace, wo, nodes, n_nodes, per_wo)?;
-        Ok(rows.pop().unwrap_or_default())
-    }
-
-    /// [`Gpu::albedo`] for several parameter sets of one model at once (`blocks`, std430
-    /// parameter blocks): row r of the result holds E of `blocks[r]` at every ωo. The nodes are
-    /// uploaded once and serve every row; the (row, ωo) entries go out in as few dispatches as
-    /// the device's workgroup count allows.
-    #[allow(clippy::too_many_arguments)]
-    pub fn albedo_rows(
-        &self,
-        model: Model,
-        blocks: &[Vec<u8>],
-        white_furnace: bool,
-        wo: &[[f32; 4]],
-        nodes: &[[f32; 4]],
-        n_nodes: usize,
-        per_wo: bool,
-    ) -> Result<Vec<Vec<[f64; 3]>>> {
-        let mut buf = self.albedo_nodes(nodes.len())?;
-        buf.fill(nodes.len(), |d| d.copy_from_slice(nodes))?;
-        self.albedo_rows_in(model, blocks, white_furnace, wo, &buf, n_nodes, per_wo)
-    }
-
-    /// A node buffer for [`Gpu::albedo_rows_in`] of `capacity` nodes, made once and filled
-    /// again for each batch of directions (no fresh memory per batch).
+    /// A node buffer for [`Gpu::albedo_sums`] of `capacity` nodes, made once and filled again
+    /// for each batch of directions (no fresh memory per batch).
     pub fn albedo_nodes(&self, capacity: usize) -> Result<AlbedoNodes<'_>> {
         let range = self.dev.limits.max_storage_buffer_range as u64;
         let bytes = 16 * capacity as u64;
@@ -95,103 +84,117 @@ impl Gpu {
             )));
         }
         Ok(AlbedoNodes {
-            buf: Buffer::new(&self.dev, bytes, "albedo node")?,
+            buf: Buffer::new(&self.dev, bytes.max(16), "albedo node")?,
             capacity,
             len: 0,
         })
     }
 
-    /// [`Gpu::albedo_rows`] on the nodes of `nodes` (as filled last).
-    #[allow(clippy::too_many_arguments)]
-    pub fn albedo_rows_in(
+    /// Each of `sums` on the nodes of `nodes` (as filled last), the parameter block of sum s
+    /// being `blocks[sums[s].param]` (std430 blocks of one model): E = Σ_k w_k f(ωi_k, ωo) per
+    /// sum, in f32 over spans of [`span_nodes`] and in f64 across them. Every span of every sum is one workgroup, in as few dispatches as the
+    /// device's workgroup count allows: a LUT's rows and a rule's coarse check go out together.
+    pub fn albedo_sums(
         &self,
         model: Model,
         blocks: &[Vec<u8>],
         white_furnace: bool,
-        wo: &[[f32; 4]],
         nodes: &AlbedoNodes<'_>,
-        n_nodes: usize,
-        per_wo: bool,
-    ) -> Result<Vec<Vec<[f64; 3]>>> {
-        let expected = if per_wo { n_nodes * wo.len() } else { n_nodes };
-        if nodes.len != expected {
-            return Err(GpuError::Limit(format!(
-                "albedo: {} nodes given, {expected} expected ({n_nodes} per direction, {} directions, per_wo = {per_wo})",
-                nodes.len,
-                wo.len()
-            )));
+        sums: &[AlbedoSum],
+    ) -> Result<Vec<[f64; 3]>> {
+        for s in sums {
+            if s.begin + s.len > nodes.len || s.param >= blocks.len() {
+                return Err(GpuError::Limit(format!(
+                    "albedo: a sum over nodes {}..{} with parameter block {} of a buffer of {} nodes and {} blocks",
+                    s.begin,
+                    s.begin + s.len,
+                    s.param,
+                    nodes.len,
+                    blocks.len()
+                )));
+            }
         }
-        if wo.is_empty() || n_nodes == 0 || blocks.is_empty() {
-            return Ok(vec![vec![[0.0; 3]; wo.len()]; blocks.len()]);
+        let span = span_nodes(self.dev.is_cpu());
+        // Each sum's spans, and which sum each span belongs to.
+        let mut spans = Vec::new();
+        let mut owner = Vec::new();
+        for (i, s) in sums.iter().enumerate() {
+            for begin in (s.begin..s.begin + s.len).step_by(span) {
+                spans.push(AlbedoSpan {
+                    wo: s.wo,
+                    param_index: s.param as u32,
+                    begin: begin as u32,
+                    end: (begin + span).min(s.begin + s.len) as u32,
+                    pad: [0; 2],
+                });
+                owner.push(i);
+            }
+        }
+        let mut out = vec![[0.0f64; 3]; sums.len()];
+        if spans.is_empty() {
+            return Ok(out);
         }
         let limits = &self.dev.limits;
-        let max_groups = limits.max_compute_work_group_count[0] as u64;
         // The texel view covers the first maxTexelBufferElements nodes of the buffer.
         let texel_nodes =
             self.dev.is_cpu() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
         let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
-        // The span per workgroup: NODES_PER_INVOCATION per invocation, more if one direction
-        // would otherwise need more workgroups than one dispatch may have.
-        let mut span = (LOCAL_SIZE * NODES_PER_INVOCATION) as u64;
-        let n = n_nodes as u64;
-        if n.div_ceil(span) > max_groups {
-            span = n.div_ceil(max_groups).div_ceil(LOCAL_SIZE as u64) * LOCAL_SIZE as u64;
-        }
-        let groups_per_wo = n.div_ceil(span);
-        // Entries (row, ωo), row-major, in chunks the workgroup count allows.
-        let entries: Vec<AlbedoEntry> = (0..blocks.len())
-            .flat_map(|r| {
-                wo.iter().enumerate().map(move |(o, w)| AlbedoEntry {
-                    wo: [w[0], w[1], w[2]],
-                    param_index: r as u32,
-                    node_list: if per_wo { o as u32 } else { 0 },
-                    pad: [0; 3],
-                })
-            })
-            .collect();
-        let per_chunk = ((max_groups / groups_per_wo).max(1) as usize).min(entries.len());
-        let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as u64;
-
+        let per_dispatch = (limits.max_compute_work_group_count[0] as usize).min(spans.len());
+        // One rgb partial (as a vec4) per workgroup, or per invocation (LANE_PARTIALS).
+        let partials_per_span = if albedo_lane_partials(self.dev.is_cpu()) {
+            LOCAL_SIZE as usize
+        } else {
+            1
+        };
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params)?;
+        let mut span_buf = Buffer::new(
+            &self.dev,
+            std::mem::size_of_val(spans.as_slice()) as u64,
+            "albedo span",
+        )?;
+        span_buf.write(bytemuck::cast_slice(&spans))?;
+        let out_buf = Buffer::output(
+            &self.dev,
+            16 * (partials_per_span * per_dispatch) as u64,
+            "albedo partial sum",
+        )?;
         let node_buf = &nodes.buf;
-        let entry_bytes = std::mem::size_of::<AlbedoEntry>() as u64;
-        let mut entry_buf = Buffer::new(&self.dev, entry_bytes * per_chunk as u64, "albedo entry")?;
-        let groups_max = groups_per_wo * per_chunk as u64;
-        let out_buf = Buffer::output(&self.dev, 12 * groups_max, "albedo partial sum")?;
         let dispatcher = Dispatcher::new(
             &pipe,
-            &[&param_buf, node_buf, &entry_buf, &out_buf, node_buf],
+            &[&param_buf, node_buf, &span_buf, &out_buf, node_buf],
         )?;
-        let mut sums = Vec::with_capacity(entries.len());
-        for part in entries.chunks(per_chunk) {
-            entry_buf.write(bytemuck::cast_slice(part))?;
-            let groups = groups_per_wo * part.len() as u64;
+        let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as usize;
+        for first in (0..spans.len()).step_by(per_dispatch) {
+            let groups = per_dispatch.min(spans.len() - first);
             let push = AlbedoPush {
-                nodes_per_group: span as u32,
+                first_span: first as u32,
                 dispatch_count: (groups * per_group) as u32,
-                n_nodes: n_nodes as u32,
-                node_stride: if per_wo { n_nodes as u32 } else { 0 },
+                pad: [0; 2],
             };
             dispatcher.run_one(&bytemuck::cast::<AlbedoPush, ChunkPush>(push))?;
-            let partials = out_buf.read_f32(groups as usize * 3);
-            for o in 0..part.len() {
+            let partials = out_buf.read_f32(4 * partials_per_span * groups);
+            for (p, &i) in partials
+                .chunks_exact(4 * partials_per_span)
+                .zip(&owner[first..first + groups])
+            {
                 let mut sum = [0.0f64; 3];
-                let g0 = o * groups_per_wo as usize;
-                for g in g0..g0 + groups_per_wo as usize {
-                    for (ch, s) in sum.iter_mut().enumerate() {
-                        *s += partials[3 * g + ch] as f64;
-                    }
+                for q in p.chunks_exact(4) {
+                    sum[0] += q[0] as f64;
+                    sum[1] += q[1] as f64;
+                    sum[2] += q[2] as f64;
                 }
-                sums.push(sum);
+                for (o, s) in out[i].iter_mut().zip(sum) {
+                    *o += s;
+                }
             }
         }
-        Ok(sums.chunks(wo.len()).map(<[_]>::to_vec).collect())
+        Ok(out)
     }
 }
 
-/// The node list of [`Gpu::albedo_rows_in`]: one buffer of (ωi.xyz, w) nodes, mapped once and
+/// The node lists of [`Gpu::albedo_sums`]: one buffer of (ωi.xyz, w) nodes, mapped once and
 /// written in place by [`AlbedoNodes::fill`] for each batch of directions.
 pub struct AlbedoNodes<'d> {
     buf: Buffer<'d>,
@@ -205,8 +208,9 @@ impl AlbedoNodes<'_> {
         self.capacity
     }
 
-    /// Lets `fill` write the first `len` nodes in place (every one of them: the buffer holds
-    /// the previous batch's nodes); they are what the next [`Gpu::albedo_rows_in`] sums.
+    /// Lets `fill` write the first `len` nodes in place; they are what the next
+    /// [`Gpu::albedo_sums`] reads. Nodes it leaves alone keep what the buffer held (a list
+    /// shared by every batch stays at the front while the rest changes).
     pub fn fill(&mut self, len: usize, fill: impl FnOnce(&mut [[f32; 4]])) -> Result<()> {
         if len > self.capacity {
             return Err(GpuError::Limit(format!(
@@ -226,10 +230,11 @@ mod tests {
     use std::mem::{offset_of, size_of};
 
     #[test]
-    fn albedo_entry_has_its_std430_size() {
-        assert_eq!(size_of::<AlbedoEntry>(), 32);
-        assert_eq!(offset_of!(AlbedoEntry, param_index), 12);
-        assert_eq!(offset_of!(AlbedoEntry, node_list), 16);
+    fn albedo_span_has_its_std430_size() {
+        assert_eq!(size_of::<AlbedoSpan>(), 32);
+        assert_eq!(offset_of!(AlbedoSpan, param_index), 12);
+        assert_eq!(offset_of!(AlbedoSpan, begin), 16);
+        assert_eq!(offset_of!(AlbedoSpan, end), 20);
     }
 
     #[test]

@@ -103,6 +103,18 @@ pub const FAST_POW_ID: u32 = 10;
 /// (glsl/kernels/albedo.comp): read a list through a texel buffer.
 pub const TEXEL_DIRECTIONS_ID: u32 = 20;
 
+/// Specialization constant id of LANE_PARTIALS (glsl/kernels/albedo.comp): every invocation
+/// writes its own partial sum, no workgroup tree.
+pub const LANE_PARTIALS_ID: u32 = 21;
+
+/// Whether the albedo kernel writes one partial sum per invocation (LANE_PARTIALS) rather than
+/// one per workgroup. On a CPU driver a barrier switches between the workgroup's SIMD slices,
+/// and the tree's seven barriers per workgroup cost more than storing 64 partials and adding
+/// them on the host; on a GPU the tree is cheap and keeps the read-back small.
+pub fn albedo_lane_partials(cpu_driver: bool) -> bool {
+    cpu_driver
+}
+
 /// The format of a direction list read as a texel buffer: one vec4 per direction.
 pub const TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
@@ -263,6 +275,10 @@ impl Pipeline {
             if matches!(kernel, Kernel::Table | Kernel::Albedo) {
                 ids.push(TEXEL_DIRECTIONS_ID);
                 spec_data.push(texel_directions as u32);
+            }
+            if kernel == Kernel::Albedo {
+                ids.push(LANE_PARTIALS_ID);
+                spec_data.push(albedo_lane_partials(dev.is_cpu()) as u32);
             }
             for (k, v) in model_kind.spec_constants().into_iter().enumerate() {
                 ids.push(3 + k as u32);

@@ -18,54 +18,14 @@ pub fn rule_albedo(
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<Estimate>> {
-    if let Rule::Importance {
-        n,
-        mix,
-        replicate: None,
-    } = rule
-    {
-        let reps: Vec<Vec<(DVec3, u64)>> = (0..REPLICATES)
-            .map(|k| {
-                let one = Rule::Importance {
-                    n,
-                    mix,
-                    replicate: Some(k),
-                };
-                sum_rule(backend, params, white_furnace, one, wo)
-            })
-            .collect::<Result<_>>()?;
-        let r = REPLICATES as f64;
-        let rounding = f32_rounding(backend);
-        return Ok((0..wo.len())
-            .map(|o| {
-                let mean = reps.iter().map(|v| v[o].0).sum::<DVec3>() / r;
-                let var = reps
-                    .iter()
-                    .map(|v| (v[o].0 - mean) * (v[o].0 - mean))
-                    .sum::<DVec3>()
-                    / (r - 1.0);
-                Estimate {
-                    value: mean,
-                    error: REPLICATE_T * (var / r).powf(0.5) + rounding(mean, wo[o]),
-                    evals: reps.iter().map(|v| v[o].1).sum(),
-                }
-            })
-            .collect());
-    }
-    let (coarse, factor) = rule.coarse();
-    let fine_e = sum_rule(backend, params, white_furnace, rule, wo)?;
-    let coarse_e = sum_rule(backend, params, white_furnace, coarse, wo)?;
-    let rounding = f32_rounding(backend);
-    Ok(fine_e
-        .into_iter()
-        .zip(coarse_e)
-        .zip(wo)
-        .map(|(((v, n), (c, _)), &o)| Estimate {
-            value: v,
-            error: factor * (v - c).abs() + rounding(v, o),
-            evals: n,
-        })
-        .collect())
+    let mut rows = rule_albedo_rows(
+        backend,
+        std::slice::from_ref(params),
+        white_furnace,
+        rule,
+        wo,
+    )?;
+    Ok(rows.pop().unwrap_or_default())
 }
 
 /// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the fine
@@ -119,6 +79,9 @@ fn f32_rounding(backend: &Evaluator) -> impl Fn(DVec3, DVec3) -> DVec3 {
 /// the GPU's node buffer (made straight into it), 128 MiB as f64 lists on the CPU.
 const GPU_NODE_BATCH: usize = 1 << 22;
 
+/// One rule's sums for several parameter sets: `[row][ωo]` of (Σ w f, the number of nodes).
+pub type RowSums = Vec<Vec<(DVec3, u64)>>;
+
 /// Σ w f(ωi, ωo) for each ωo: f64 sums on the CPU, the reduction kernel on the GPU.
 pub fn sum_rule(
     backend: &Evaluator,
@@ -127,42 +90,14 @@ pub fn sum_rule(
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<(DVec3, u64)>> {
-    match backend.backend() {
-        Backend::Cpu => {
-            params.model().require_reference("the CPU backend")?;
-            let r = Reference::new(params, white_furnace);
-            let shared = rule.shared_nodes();
-            wo.par_iter()
-                .map(|&o| {
-                    // Ctrl-C: one view direction's sum at most runs on.
-                    backend.check_cancelled()?;
-                    let own;
-                    let nodes = match &shared {
-                        Some(n) => n,
-                        None => {
-                            own = rule.nodes(o);
-                            &own
-                        }
-                    };
-                    let sum = weighted_sum(nodes, |n| n.weight * r.eval(n.wi, o));
-                    Ok((sum, nodes.len() as u64))
-                })
-                .collect()
-        }
-        Backend::Gpu(gpu) => {
-            let blocks = [Brdf::new(params).gpu_block()];
-            let mut rows = gpu_sum_rows(
-                backend,
-                gpu,
-                params.model(),
-                &blocks,
-                white_furnace,
-                rule,
-                wo,
-            )?;
-            Ok(rows.pop().unwrap_or_default())
-        }
-    }
+    let mut sums = sum_rules_rows(
+        backend,
+        std::slice::from_ref(params),
+        white_furnace,
+        &[rule],
+        wo,
+    )?;
+    Ok(sums.pop().and_then(|mut r| r.pop()).unwrap_or_default())
 }
 
 /// Nodes of ωo-dependent rules in one batch on the GPU: 1M nodes, a node buffer of 16 MiB as
@@ -171,70 +106,166 @@ pub fn sum_rule(
 /// ~1000 workgroups.
 const GPU_BUFFER_NODES: usize = 1 << 20;
 
-/// Σ w f(ωi, ωo) for each parameter block of `blocks` (one model) and each ωo on the GPU:
-/// row-major results. A shared node list goes out once; lists per direction go out a batch of
-/// directions at a time, made straight into one node buffer that serves every batch.
-fn gpu_sum_rows(
+/// Workgroup spans ([`crate::gpu::albedo::span_nodes`]) in one batch of directions on the GPU,
+/// which bounds the host's span list and partial sums however many rows and directions a job
+/// has: 64M evaluations on a GPU, 256M on a CPU driver.
+const GPU_BATCH_SPANS: usize = 1 << 16;
+
+/// Σ w f(ωi, ωo) of each rule of `rules`, for each parameter block of `blocks` (one model) and
+/// each ωo, on the GPU: results indexed `[rule][row][ωo]`. Every rule, row and direction of a
+/// batch goes out in the same dispatches. Shared node lists go out once, at the front of the
+/// node buffer; lists per direction follow, a batch of directions at a time, made straight into
+/// the buffer that serves every batch.
+fn gpu_sum_rules(
     backend: &Evaluator,
     gpu: &crate::gpu::Gpu,
     model: crate::model::Model,
     blocks: &[Vec<u8>],
     white_furnace: bool,
-    rule: Rule,
+    rules: &[Rule],
     wo: &[DVec3],
-) -> Result<Vec<Vec<(DVec3, u64)>>> {
-    let wo4: Vec<[f32; 4]> = wo.iter().map(|&o| f4(o, 0.0)).collect();
-    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); blocks.len()];
-    let mut add = |sums: Vec<Vec<[f64; 3]>>, counts: &[usize]| {
-        for (row, sums) in out.iter_mut().zip(sums) {
-            row.extend(
-                sums.into_iter()
-                    .zip(counts)
-                    .map(|(s, &k)| (DVec3::from_array(s), k as u64)),
+) -> Result<Vec<RowSums>> {
+    use crate::gpu::albedo::{span_nodes, AlbedoSum};
+    let span = span_nodes(gpu.device().is_cpu());
+    let shared: Vec<Option<std::sync::Arc<Vec<Node>>>> =
+        rules.iter().map(Rule::shared_nodes).collect();
+    // Where each shared list starts in the node buffer.
+    let mut front = 0;
+    let shared_at: Vec<usize> = shared
+        .iter()
+        .map(|l| {
+            let at = front;
+            front += l.as_ref().map_or(0, |l| l.len());
+            at
+        })
+        .collect();
+    // Nodes of each rule at each direction, and what one direction costs: the nodes it adds to
+    // the buffer and the spans of all its sums.
+    // (Shared lists only: no work worth waking the thread pool for.)
+    let all_shared = shared.iter().all(Option::is_some);
+    let count = |&o: &DVec3| -> Vec<usize> {
+        rules
+            .iter()
+            .zip(&shared)
+            .map(|(r, l)| l.as_ref().map_or_else(|| r.node_count(o), |l| l.len()))
+            .collect()
+    };
+    let counts: Vec<Vec<usize>> = if all_shared {
+        wo.iter().map(count).collect()
+    } else {
+        wo.par_iter().map(count).collect()
+    };
+    let own = |o: usize| -> usize {
+        counts[o]
+            .iter()
+            .zip(&shared)
+            .filter(|(_, l)| l.is_none())
+            .map(|(c, _)| c)
+            .sum()
+    };
+    let spans = |o: usize| -> usize {
+        blocks.len() * counts[o].iter().map(|c| c.div_ceil(span)).sum::<usize>()
+    };
+    // Batches of consecutive directions, each within both budgets (at least one direction).
+    let mut batches: Vec<std::ops::Range<usize>> = Vec::new();
+    let (mut start, mut nodes_in, mut spans_in) = (0, 0, 0);
+    for o in 0..wo.len() {
+        let (n, k) = (own(o), spans(o));
+        if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > GPU_BATCH_SPANS) {
+            batches.push(start..o);
+            (start, nodes_in, spans_in) = (o, 0, 0);
+        }
+        nodes_in += n;
+        spans_in += k;
+    }
+    if start < wo.len() {
+        batches.push(start..wo.len());
+    }
+    let capacity = front
+        + batches
+            .iter()
+            .map(|b| b.clone().map(own).sum::<usize>())
+            .max()
+            .unwrap_or(0);
+    let mut nodes = gpu.albedo_nodes(capacity)?;
+    nodes.fill(front, |d| {
+        for (l, &at) in shared.iter().zip(&shared_at) {
+            if let Some(l) = l {
+                for (d, x) in d[at..at + l.len()].iter_mut().zip(l.iter()) {
+                    *d = f4(x.wi, x.weight);
+                }
+            }
+        }
+    })?;
+    let mut out = vec![vec![Vec::with_capacity(wo.len()); blocks.len()]; rules.len()];
+    for batch in batches {
+        backend.check_cancelled()?;
+        // Where each (direction, rule) list starts: shared lists at the front, the rest of the
+        // batch's lists after them, direction by direction.
+        let mut at = front;
+        let mut starts: Vec<Vec<usize>> = Vec::with_capacity(batch.len());
+        for o in batch.clone() {
+            starts.push(
+                shared_at
+                    .iter()
+                    .zip(&shared)
+                    .zip(&counts[o])
+                    .map(|((&s, l), &c)| match l {
+                        Some(_) => s,
+                        None => {
+                            at += c;
+                            at - c
+                        }
+                    })
+                    .collect(),
             );
         }
-    };
-    if let Some(l) = rule.shared_nodes() {
-        let mut nodes = gpu.albedo_nodes(l.len())?;
-        nodes.fill(l.len(), |d| {
-            for (d, x) in d.iter_mut().zip(l.iter()) {
-                *d = f4(x.wi, x.weight);
+        nodes.fill(at, |d| {
+            if at == front {
+                return;
             }
-        })?;
-        let sums =
-            gpu.albedo_rows_in(model, blocks, white_furnace, &wo4, &nodes, l.len(), false)?;
-        add(sums, &vec![l.len(); wo.len()]);
-        return Ok(out);
-    }
-    // Nodes per direction travel to the GPU: a batch of directions at a time keeps host memory
-    // bounded (an anisotropic hemispherical albedo asks for thousands of directions of ~1e5
-    // nodes each: gigabytes at once). Each batch's lists are padded to its longest; the buffer
-    // is sized once for the largest batch.
-    let counts: Vec<usize> = wo.par_iter().map(|&o| rule.node_count(o)).collect();
-    let batch = (GPU_BUFFER_NODES / counts.first().copied().unwrap_or(1).max(1)).max(1);
-    let stride = |c: &[usize]| c.iter().copied().max().unwrap_or(0);
-    let capacity = counts
-        .chunks(batch)
-        .map(|c| stride(c) * c.len())
-        .max()
-        .unwrap_or(0);
-    let mut nodes = gpu.albedo_nodes(capacity)?;
-    for ((part, part4), c) in wo
-        .chunks(batch)
-        .zip(wo4.chunks(batch))
-        .zip(counts.chunks(batch))
-    {
-        backend.check_cancelled()?;
-        let n = stride(c);
-        nodes.fill(n * part.len(), |d| {
-            if n > 0 {
-                d.par_chunks_mut(n)
-                    .zip(part.par_iter())
-                    .for_each(|(slot, &o)| fill_nodes(rule, o, slot));
+            // One slot per direction, then filled in parallel.
+            let mut slots = Vec::with_capacity(batch.len());
+            let mut rest = &mut d[front..];
+            for o in batch.clone() {
+                let (slot, tail) = std::mem::take(&mut rest).split_at_mut(own(o));
+                slots.push((o, slot));
+                rest = tail;
             }
+            slots.into_par_iter().for_each(|(o, slot)| {
+                let mut k = 0;
+                for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
+                    if l.is_none() {
+                        fill_nodes(*r, wo[o], &mut slot[k..k + c]);
+                        k += c;
+                    }
+                }
+            });
         })?;
-        let sums = gpu.albedo_rows_in(model, blocks, white_furnace, part4, &nodes, n, true)?;
-        add(sums, c);
+        let mut sums = Vec::with_capacity(rules.len() * blocks.len() * batch.len());
+        for r in 0..rules.len() {
+            for param in 0..blocks.len() {
+                for (o, s) in batch.clone().zip(&starts) {
+                    let w = f4(wo[o], 0.0);
+                    sums.push(AlbedoSum {
+                        wo: [w[0], w[1], w[2]],
+                        param,
+                        begin: s[r],
+                        len: counts[o][r],
+                    });
+                }
+            }
+        }
+        let e = gpu.albedo_sums(model, blocks, white_furnace, &nodes, &sums)?;
+        let mut e = e.into_iter();
+        for (r, rule_out) in out.iter_mut().enumerate() {
+            for row in rule_out.iter_mut() {
+                for o in batch.clone() {
+                    let v = e.next().unwrap_or_default();
+                    row.push((DVec3::from_array(v), counts[o][r] as u64));
+                }
+            }
+        }
     }
     Ok(out)
 }
@@ -255,22 +286,21 @@ fn f4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
-/// Writes the nodes of `rule` at `wo` into `slot` as f32x4 (ωi, w), then pads the rest of the
-/// slot with nodes that weigh nothing.
+/// Writes the nodes of `rule` at `wo` into `slot` (as long as their count) as f32x4 (ωi, w).
 fn fill_nodes(rule: Rule, wo: DVec3, slot: &mut [[f32; 4]]) {
     let mut k = 0;
     rule.for_each_node(wo, |x| {
         slot[k] = f4(x.wi, x.weight);
         k += 1;
     });
-    slot[k..].fill([0.0, 0.0, 1.0, 0.0]);
+    debug_assert_eq!(k, slot.len(), "node_count and for_each_node disagree");
 }
 
 /// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
 /// directions with the same rule: each direction's nodes are made once and serve every row, and
-/// on the GPU every row goes out in the same dispatches. Row r of the result is
-/// `rule_albedo(backend, &rows[r], …)`. A rule that depends on the parameters (`importance`)
-/// or rows of different models are taken row by row.
+/// on the GPU every row, the fine rule and its coarse check (or every replicate) go out in the
+/// same dispatches. Row r of the result is `rule_albedo(backend, &rows[r], …)`. Rows of
+/// different models are taken row by row.
 pub fn rule_albedo_rows(
     backend: &Evaluator,
     rows: &[ParamSet],
@@ -278,17 +308,53 @@ pub fn rule_albedo_rows(
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<Vec<Estimate>>> {
-    let one_model = rows.windows(2).all(|w| w[0].model() == w[1].model());
-    if matches!(rule, Rule::Importance { .. }) || !one_model {
+    if !rows.windows(2).all(|w| w[0].model() == w[1].model()) {
         return rows
             .iter()
             .map(|p| rule_albedo(backend, p, white_furnace, rule, wo))
             .collect();
     }
-    let (coarse, factor) = rule.coarse();
-    let fine_e = sum_rule_rows(backend, rows, white_furnace, rule, wo)?;
-    let coarse_e = sum_rule_rows(backend, rows, white_furnace, coarse, wo)?;
     let rounding = f32_rounding(backend);
+    if let Rule::Importance {
+        n,
+        mix,
+        replicate: None,
+    } = rule
+    {
+        let reps: Vec<Rule> = (0..REPLICATES)
+            .map(|k| Rule::Importance {
+                n,
+                mix,
+                replicate: Some(k),
+            })
+            .collect();
+        // [replicate][row][ωo]
+        let sums = sum_rules_rows(backend, rows, white_furnace, &reps, wo)?;
+        let r = REPLICATES as f64;
+        return Ok((0..rows.len())
+            .map(|row| {
+                (0..wo.len())
+                    .map(|o| {
+                        let at = |k: u32| sums[k as usize][row][o];
+                        let mean = (0..REPLICATES).map(|k| at(k).0).sum::<DVec3>() / r;
+                        let var = (0..REPLICATES)
+                            .map(|k| (at(k).0 - mean) * (at(k).0 - mean))
+                            .sum::<DVec3>()
+                            / (r - 1.0);
+                        Estimate {
+                            value: mean,
+                            error: REPLICATE_T * (var / r).powf(0.5) + rounding(mean, wo[o]),
+                            evals: (0..REPLICATES).map(|k| at(k).1).sum(),
+                        }
+                    })
+                    .collect()
+            })
+            .collect());
+    }
+    let (coarse, factor) = rule.coarse();
+    let mut sums = sum_rules_rows(backend, rows, white_furnace, &[rule, coarse], wo)?;
+    let coarse_e = sums.pop().unwrap_or_default();
+    let fine_e = sums.pop().unwrap_or_default();
     Ok(fine_e
         .into_iter()
         .zip(coarse_e)
@@ -306,43 +372,57 @@ pub fn rule_albedo_rows(
         .collect())
 }
 
-/// [`sum_rule`] for every parameter set of `rows` (one model) at each ωo: row-major results.
-/// The nodes of a batch of directions are made once (in parallel) for all rows; the CPU then
-/// sums every (row, ωo) in parallel, the GPU in one reduction call per batch.
-pub fn sum_rule_rows(
+/// [`sum_rule`] of each rule of `rules` for every parameter set of `rows` (one model) at each
+/// ωo: results indexed `[rule][row][ωo]`. The nodes of a batch of directions are made once (in
+/// parallel) for all rows; the CPU then sums every (rule, row, ωo) in parallel, the GPU in the
+/// same dispatches.
+pub fn sum_rules_rows(
     backend: &Evaluator,
     rows: &[ParamSet],
     white_furnace: bool,
-    rule: Rule,
+    rules: &[Rule],
     wo: &[DVec3],
-) -> Result<Vec<Vec<(DVec3, u64)>>> {
+) -> Result<Vec<RowSums>> {
     let Some(first) = rows.first() else {
-        return Ok(Vec::new());
+        return Ok(vec![Vec::new(); rules.len()]);
     };
     if let Backend::Gpu(gpu) = backend.backend() {
         let blocks: Vec<Vec<u8>> = rows.iter().map(|p| Brdf::new(p).gpu_block()).collect();
-        return gpu_sum_rows(
+        return gpu_sum_rules(
             backend,
             gpu,
             first.model(),
             &blocks,
             white_furnace,
-            rule,
+            rules,
             wo,
         );
     }
-    let depends = rule.depends_on_wo();
-    let batch = match (depends, wo.first()) {
-        (true, Some(&o)) => (GPU_NODE_BATCH / rule.node_count(o).max(1)).max(1),
-        _ => wo.len().max(1),
-    };
-    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); rows.len()];
-    let shared = rule.shared_nodes();
     first.model().require_reference("the CPU backend")?;
     let refs: Vec<Reference> = rows
         .iter()
         .map(|p| Reference::new(p, white_furnace))
         .collect();
+    rules
+        .iter()
+        .map(|&rule| cpu_sum_rule_rows(backend, &refs, rule, wo))
+        .collect()
+}
+
+/// One rule's f64 sums for every reference of `refs` at each ωo: row-major results.
+fn cpu_sum_rule_rows(
+    backend: &Evaluator,
+    refs: &[Reference],
+    rule: Rule,
+    wo: &[DVec3],
+) -> Result<RowSums> {
+    let depends = rule.depends_on_wo();
+    let batch = match (depends, wo.first()) {
+        (true, Some(&o)) => (GPU_NODE_BATCH / rule.node_count(o).max(1)).max(1),
+        _ => wo.len().max(1),
+    };
+    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); refs.len()];
+    let shared = rule.shared_nodes();
     for part in wo.chunks(batch) {
         backend.check_cancelled()?;
         let lists: Vec<Vec<Node>> = match &shared {
@@ -355,7 +435,7 @@ pub fn sum_rule_rows(
                 None => &lists[d],
             }
         };
-        let sums: Vec<(DVec3, u64)> = (0..rows.len() * part.len())
+        let sums: Vec<(DVec3, u64)> = (0..refs.len() * part.len())
             .into_par_iter()
             .map(|e| {
                 let (r, d) = (e / part.len(), e % part.len());

@@ -43,7 +43,8 @@ pub use albedo::{
     albedo_rows, directional, hemispherical, hemispherical_directions, HemiAlbedo, PointAlbedo,
 };
 pub use backend::{
-    rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rule_rows, GPU_ROUNDING_FACTOR,
+    rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
+    GPU_ROUNDING_FACTOR,
 };
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
