@@ -94,6 +94,7 @@ impl Session {
                     validation: opts.validation,
                     inject_device_lost: opts.inject_device_lost,
                     force_staging: opts.staging,
+                    ..DeviceOptions::default()
                 })?;
                 Some(Gpu::new(dev).with_log(opts.log.clone()))
             }

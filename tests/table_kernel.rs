@@ -50,13 +50,9 @@ fn first_difference(a: &[u32], b: &[u32]) -> Option<usize> {
     a.iter().zip(b).position(|(x, y)| x != y)
 }
 
-#[test]
-fn every_cell_equals_its_pair_evaluated_alone() {
-    let Some(dev) = common::gpu_device("every_cell_equals_its_pair_evaluated_alone") else {
-        return;
-    };
-    let gpu = Gpu::new(dev);
-    // Odd list lengths: rows end inside an invocation and the last invocation is padded.
+/// Every model on small grids with odd list lengths: rows end inside an invocation and the
+/// last invocation is padded.
+fn every_cell_of_every_model(gpu: &Gpu) {
     let grids = [
         Grid::parse("isotropic", "7,5,9").unwrap(),
         Grid::parse("full", "3,5,7,3").unwrap(),
@@ -67,7 +63,7 @@ fn every_cell_equals_its_pair_evaluated_alone() {
             if grid.needs_isotropy() && !params.is_isotropic() {
                 continue;
             }
-            let (table, single) = both(&gpu, &params, grid);
+            let (table, single) = both(gpu, &params, grid);
             assert_eq!(table.len(), single.len());
             assert_eq!(
                 first_difference(&table, &single),
@@ -77,7 +73,29 @@ fn every_cell_equals_its_pair_evaluated_alone() {
             );
         }
     }
+}
+
+#[test]
+fn every_cell_equals_its_pair_evaluated_alone() {
+    let Some(dev) = common::gpu_device("every_cell_equals_its_pair_evaluated_alone") else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    every_cell_of_every_model(&gpu);
     common::assert_validation_clean(&gpu, "every_cell_equals_its_pair_evaluated_alone");
+}
+
+/// The same with a GPU's kernel choices (4 cells per invocation, storage-buffer direction
+/// lists), which a CPU driver would otherwise never run.
+#[test]
+fn with_a_gpus_kernel_choices_every_cell_equals_its_pair() {
+    let test = "with_a_gpus_kernel_choices_every_cell_equals_its_pair";
+    let Some(dev) = common::gpu_device_with_gpu_kernels(test) else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    every_cell_of_every_model(&gpu);
+    common::assert_validation_clean(&gpu, test);
 }
 
 #[test]

@@ -114,7 +114,7 @@ impl Gpu {
                 )));
             }
         }
-        let span = span_nodes(self.dev.is_cpu());
+        let span = span_nodes(self.dev.cpu_kernels());
         // Each sum's spans, and which sum each span belongs to.
         let mut spans = Vec::new();
         let mut owner = Vec::new();
@@ -137,11 +137,11 @@ impl Gpu {
         let limits = &self.dev.limits;
         // The texel view covers the first maxTexelBufferElements nodes of the buffer.
         let texel_nodes =
-            self.dev.is_cpu() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
+            self.dev.cpu_kernels() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
         let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
         let per_dispatch = (limits.max_compute_work_group_count[0] as usize).min(spans.len());
         // One rgb partial (as a vec4) per workgroup, or per invocation (LANE_PARTIALS).
-        let partials_per_span = if albedo_lane_partials(self.dev.is_cpu()) {
+        let partials_per_span = if albedo_lane_partials(self.dev.cpu_kernels()) {
             LOCAL_SIZE as usize
         } else {
             1

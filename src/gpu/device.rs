@@ -47,6 +47,10 @@ pub struct DeviceOptions {
     /// (see `src/gpu/buffer.rs`), even on a device that maps it directly: tests the staging
     /// path on lavapipe. The command line sets it with `LOBE_STAGING=1`.
     pub force_staging: bool,
+    /// Make a GPU's kernel choices (one evaluation per invocation, lists read from storage
+    /// buffers, the albedo workgroup tree) even on a CPU driver: tests on lavapipe the variants
+    /// that only a GPU would otherwise run. Tests set it with `LOBE_GPU_KERNELS=1`.
+    pub gpu_kernels: bool,
 }
 
 /// An open Vulkan device with one compute queue.
@@ -69,6 +73,8 @@ pub struct Device {
     pub(crate) inject_device_lost: bool,
     /// See [`DeviceOptions::force_staging`].
     pub(crate) force_staging: bool,
+    /// See [`DeviceOptions::gpu_kernels`].
+    gpu_kernels: bool,
     /// Staging copies submitted so far (uploads and read-backs).
     staging_copies: std::sync::atomic::AtomicU64,
     /// Warnings and errors the validation layer reported on this device (shared: the messenger
@@ -227,6 +233,7 @@ impl Device {
                     queue_lock: Mutex::new(()),
                     inject_device_lost: opts.inject_device_lost,
                     force_staging: opts.force_staging,
+                    gpu_kernels: opts.gpu_kernels,
                     staging_copies: Default::default(),
                     validation_messages,
                     hung: Default::default(),
@@ -301,6 +308,12 @@ impl Device {
     /// Whether this is a CPU implementation such as lavapipe.
     pub fn is_cpu(&self) -> bool {
         self.device_type == vk::PhysicalDeviceType::CPU
+    }
+
+    /// Whether the kernels take their CPU-driver variants: on a CPU implementation, unless
+    /// [`DeviceOptions::gpu_kernels`] asks for a GPU's.
+    pub fn cpu_kernels(&self) -> bool {
+        self.is_cpu() && !self.gpu_kernels
     }
 
     /// Records that a submission timed out and may still run: from then on the device takes no

@@ -236,7 +236,7 @@ impl Gpu {
             return Ok(());
         }
         let choice = table_choice(
-            self.dev.is_cpu(),
+            self.dev.cpu_kernels(),
             self.dev.limits.max_texel_buffer_elements as u64,
             wi.len() as u64,
             wo.len() as u64,

@@ -198,7 +198,7 @@ impl Pipeline {
         let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
             GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
         })?;
-        let evals_per_invocation = evals_per_invocation(kernel, dev.is_cpu());
+        let evals_per_invocation = evals_per_invocation(kernel, dev.cpu_kernels());
         let label = format!(
             "{}/{}{}",
             kernel.name(),
@@ -278,7 +278,7 @@ impl Pipeline {
             }
             if kernel == Kernel::Albedo {
                 ids.push(LANE_PARTIALS_ID);
-                spec_data.push(albedo_lane_partials(dev.is_cpu()) as u32);
+                spec_data.push(albedo_lane_partials(dev.cpu_kernels()) as u32);
             }
             for (k, v) in model_kind.spec_constants().into_iter().enumerate() {
                 ids.push(3 + k as u32);

@@ -126,7 +126,7 @@ fn gpu_sum_rules(
     wo: &[DVec3],
 ) -> Result<Vec<RowSums>> {
     use crate::gpu::albedo::{span_nodes, AlbedoSum};
-    let span = span_nodes(gpu.device().is_cpu());
+    let span = span_nodes(gpu.device().cpu_kernels());
     let shared: Vec<Option<std::sync::Arc<Vec<Node>>>> =
         rules.iter().map(Rule::shared_nodes).collect();
     // Where each shared list starts in the node buffer.

@@ -6,6 +6,20 @@ use lobe::gpu::{Device, DeviceOptions, Gpu};
 /// GPU tests do not hide: without a Vulkan device they fail with the install hint. They skip
 /// only when LOBE_SKIP_GPU=1 is set (CI never sets it). Returns None when skipping.
 pub fn gpu_device(test: &str) -> Option<Device> {
+    // LOBE_GPU_KERNELS=1 runs every GPU test with a GPU's kernel choices.
+    open_device(
+        test,
+        std::env::var("LOBE_GPU_KERNELS").is_ok_and(|v| v == "1"),
+    )
+}
+
+/// [`gpu_device`] with a GPU's kernel choices on any device (`DeviceOptions::gpu_kernels`): on
+/// lavapipe, the only way to run the kernels' GPU variants.
+pub fn gpu_device_with_gpu_kernels(test: &str) -> Option<Device> {
+    open_device(test, true)
+}
+
+fn open_device(test: &str, gpu_kernels: bool) -> Option<Device> {
     if std::env::var("LOBE_SKIP_GPU").is_ok_and(|v| v == "1") {
         eprintln!("{test}: skipped because LOBE_SKIP_GPU=1");
         return None;
@@ -14,6 +28,7 @@ pub fn gpu_device(test: &str) -> Option<Device> {
         validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
         // LOBE_STAGING=1 runs every GPU test on the staging path of discrete GPUs.
         force_staging: std::env::var("LOBE_STAGING").is_ok_and(|v| v == "1"),
+        gpu_kernels,
         ..DeviceOptions::default()
     };
     match Device::open(&opts) {
