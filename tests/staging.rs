@@ -15,13 +15,12 @@ use lobe::preview::{self, LightKind, Scene, Shape, Sheet};
 use lobe::Evaluator;
 
 /// The direct path (as the test environment asks, see tests/common) and the forced staging
-/// path, both with the validation layer as LOBE_VALIDATION says.
+/// path, otherwise with the same options.
 fn both_paths(test: &str) -> Option<(Gpu, Gpu)> {
     let direct = common::gpu_device(test)?;
     let staged = Device::open(&DeviceOptions {
-        validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
         force_staging: true,
-        ..DeviceOptions::default()
+        ..common::device_options()
     })
     .unwrap_or_else(|e| panic!("{test} needs a Vulkan device: {e}"));
     Some((Gpu::new(direct), Gpu::new(staged)))

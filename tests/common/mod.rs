@@ -6,11 +6,20 @@ use lobe::gpu::{Device, DeviceOptions, Gpu};
 /// GPU tests do not hide: without a Vulkan device they fail with the install hint. They skip
 /// only when LOBE_SKIP_GPU=1 is set (CI never sets it). Returns None when skipping.
 pub fn gpu_device(test: &str) -> Option<Device> {
-    // LOBE_GPU_KERNELS=1 runs every GPU test with a GPU's kernel choices.
-    open_device(
-        test,
-        std::env::var("LOBE_GPU_KERNELS").is_ok_and(|v| v == "1"),
-    )
+    open_device(test, device_options().gpu_kernels)
+}
+
+/// The device options the test environment asks for: LOBE_VALIDATION=1 turns the validation
+/// layer on, LOBE_STAGING=1 runs every GPU test on the staging path of discrete GPUs, and
+/// LOBE_GPU_KERNELS=1 with a GPU's kernel choices.
+pub fn device_options() -> DeviceOptions {
+    let on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
+    DeviceOptions {
+        validation: on("LOBE_VALIDATION"),
+        force_staging: on("LOBE_STAGING"),
+        gpu_kernels: on("LOBE_GPU_KERNELS"),
+        ..DeviceOptions::default()
+    }
 }
 
 /// [`gpu_device`] with a GPU's kernel choices on any device (`DeviceOptions::gpu_kernels`): on
@@ -25,11 +34,8 @@ fn open_device(test: &str, gpu_kernels: bool) -> Option<Device> {
         return None;
     }
     let opts = DeviceOptions {
-        validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
-        // LOBE_STAGING=1 runs every GPU test on the staging path of discrete GPUs.
-        force_staging: std::env::var("LOBE_STAGING").is_ok_and(|v| v == "1"),
         gpu_kernels,
-        ..DeviceOptions::default()
+        ..device_options()
     };
     match Device::open(&opts) {
         Ok(d) => Some(d),
