@@ -107,6 +107,11 @@ impl SplitMix64 {
     }
 }
 
+/// How many nodes [`importance_nodes`] makes for `n` points of `mix` (at any ωo).
+pub(super) fn importance_node_count(n: usize, mix: &Mixture) -> usize {
+    mix.counts(n).iter().sum()
+}
+
 /// The `importance` rule: multi-sample importance sampling with the balance heuristic (Veach
 /// 1997, §9.2). Component l of the [`Mixture`] gets N_l = round(c_l N) points, the R2 sequence
 /// (each component at its own offset) mapped through its inverse CDF:

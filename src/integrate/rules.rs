@@ -3,7 +3,7 @@
 //! model knowledge (midpoint, Gauss–Legendre × trapezoid, cosine-weighted QMC).
 
 use super::gauss::{gauss_legendre, gauss_on};
-use super::importance::{importance_nodes, Mixture, REPLICATES};
+use super::importance::{importance_node_count, importance_nodes, Mixture, REPLICATES};
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -67,9 +67,15 @@ pub enum Rule {
 }
 
 impl Rule {
-    /// Whether the nodes depend on ωo (they then travel to the GPU once per direction).
+    /// Whether the nodes depend on ωo (they then travel to the GPU once per direction). The
+    /// importance rule's do only through its lobes about the mirror direction: drawn from the
+    /// cosine alone (the diffuse models), its points and weights are the same at every ωo.
     pub fn depends_on_wo(&self) -> bool {
-        matches!(self, Rule::Peak { .. } | Rule::Importance { .. })
+        match self {
+            Rule::Peak { .. } => true,
+            Rule::Importance { mix, .. } => mix.lobes.iter().any(|&(_, c)| c > 0.0),
+            _ => false,
+        }
     }
 
     /// The same rule at about half the nodes (a quarter for the 2D midpoint rule, whose h is then
@@ -117,7 +123,8 @@ impl Rule {
     }
 
     /// The nodes of a rule that does not depend on ωo, made once per process and shared: an
-    /// albedo job sums the same Gauss–Legendre, midpoint or QMC list at every view direction, and
+    /// albedo job sums the same Gauss–Legendre, midpoint, QMC or cosine-only importance list at
+    /// every view direction, and
     /// repeated jobs (a sweep, a benchmark) ask for the same lists again. None for rules that
     /// depend on ωo. The last `SHARED_RULES` (four) lists are kept.
     pub fn shared_nodes(&self) -> Option<Arc<Vec<Node>>> {
@@ -173,14 +180,21 @@ impl Rule {
         }
     }
 
-    /// How many nodes [`Rule::nodes`] makes at `wo`; for the `peak` rule from its breakpoints
-    /// alone, without making them.
+    /// How many nodes [`Rule::nodes`] makes at `wo`, without making them (for the `peak` rule
+    /// from its breakpoints, for `importance` from its mixture's counts).
     pub fn node_count(&self, wo: DVec3) -> usize {
         match *self {
             Rule::Midpoint { n_theta } => n_theta * 4 * n_theta,
             Rule::Gauss { n_mu } => n_mu * 4 * n_mu,
             Rule::Qmc { n } => n,
-            Rule::Importance { .. } => self.nodes(wo).len(),
+            Rule::Importance { n, mix, replicate } => {
+                let per = importance_node_count((n / REPLICATES as usize).max(1), &mix);
+                if replicate.is_some() {
+                    per
+                } else {
+                    per * REPLICATES as usize
+                }
+            }
             Rule::Peak {
                 order,
                 v_cavity,
@@ -294,6 +308,29 @@ mod tests {
     }
 
     #[test]
+    fn the_importance_rule_depends_on_wo_only_through_its_lobes() {
+        let (a, b) = (view_direction(0.9, 0.2), view_direction(0.05, 2.0));
+        let cosine = Rule::Importance {
+            n: 4096,
+            mix: Mixture::cosine_only(),
+            replicate: Some(3),
+        };
+        assert!(!cosine.depends_on_wo());
+        assert_eq!(cosine.nodes(a), cosine.nodes(b));
+        assert_eq!(*cosine.shared_nodes().unwrap(), cosine.nodes(a));
+        let mut mix = Mixture::cosine_only();
+        mix.cosine = 0.5;
+        mix.lobes[0] = (100.0, 0.5);
+        let lobed = Rule::Importance {
+            n: 4096,
+            mix,
+            replicate: Some(3),
+        };
+        assert!(lobed.depends_on_wo());
+        assert_ne!(lobed.nodes(a), lobed.nodes(b));
+    }
+
+    #[test]
     fn rules_integrate_the_cosine_to_one() {
         // ∫ c_i dω = π, so Σ w = π for every rule (Lambert with albedo 1 gives E = 1).
         let wo = view_direction(0.3, 0.7);
@@ -321,6 +358,10 @@ mod tests {
     fn node_counts_match_the_node_lists() {
         // Every rule's count without the list equals the list's length, and `for_each_node`
         // hands out the list's nodes in order.
+        let mut lobed = Mixture::cosine_only();
+        lobed.cosine = 0.3;
+        lobed.lobes[0] = (50.0, 0.45);
+        lobed.lobes[1] = (6.25, 0.25);
         for mu in [1.0, 0.9, 0.5, 0.1, 0.02] {
             let wo = view_direction(mu, 0.4);
             for rule in [
@@ -336,6 +377,16 @@ mod tests {
                     order: 5,
                     v_cavity: true,
                     extra_levels: 0,
+                },
+                Rule::Importance {
+                    n: 1000,
+                    mix: lobed,
+                    replicate: Some(5),
+                },
+                Rule::Importance {
+                    n: 1003,
+                    mix: lobed,
+                    replicate: None,
                 },
             ] {
                 let list = rule.nodes(wo);
