@@ -75,10 +75,6 @@ fn f32_rounding(backend: &Evaluator) -> impl Fn(DVec3, DVec3) -> DVec3 {
     }
 }
 
-/// Nodes of ωo-dependent rules gathered for one batch of directions: 4M nodes, 64 MiB as f32x4 in
-/// the GPU's node buffer (made straight into it), 128 MiB as f64 lists on the CPU.
-const GPU_NODE_BATCH: usize = 1 << 22;
-
 /// One rule's sums for several parameter sets: `[row][ωo]` of (Σ w f, the number of nodes).
 pub type RowSums = Vec<Vec<(DVec3, u64)>>;
 
@@ -373,9 +369,9 @@ pub fn rule_albedo_rows(
 }
 
 /// [`sum_rule`] of each rule of `rules` for every parameter set of `rows` (one model) at each
-/// ωo: results indexed `[rule][row][ωo]`. The nodes of a batch of directions are made once (in
-/// parallel) for all rows; the CPU then sums every (rule, row, ωo) in parallel, the GPU in the
-/// same dispatches.
+/// ωo: results indexed `[rule][row][ωo]`. Each direction's nodes are made once for all rows:
+/// the CPU runs the directions in parallel, the GPU sends a batch of directions (every rule and
+/// row of it) in the same dispatches.
 pub fn sum_rules_rows(
     backend: &Evaluator,
     rows: &[ParamSet],
@@ -409,44 +405,39 @@ pub fn sum_rules_rows(
         .collect()
 }
 
-/// One rule's f64 sums for every reference of `refs` at each ωo: row-major results.
+/// One rule's f64 sums for every reference of `refs` at each ωo: row-major results. The view
+/// directions run in parallel, each making its nodes (unless the rule shares one list) and
+/// summing them for every row: one list per running thread, made once for all rows.
 fn cpu_sum_rule_rows(
     backend: &Evaluator,
     refs: &[Reference],
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<RowSums> {
-    let depends = rule.depends_on_wo();
-    let batch = match (depends, wo.first()) {
-        (true, Some(&o)) => (GPU_NODE_BATCH / rule.node_count(o).max(1)).max(1),
-        _ => wo.len().max(1),
-    };
-    let mut out: Vec<Vec<(DVec3, u64)>> = vec![Vec::with_capacity(wo.len()); refs.len()];
     let shared = rule.shared_nodes();
-    for part in wo.chunks(batch) {
-        backend.check_cancelled()?;
-        let lists: Vec<Vec<Node>> = match &shared {
-            Some(_) => Vec::new(),
-            None => part.par_iter().map(|&o| rule.nodes(o)).collect(),
-        };
-        let list = |d: usize| -> &[Node] {
-            match &shared {
+    let per_wo: Vec<Vec<(DVec3, u64)>> = wo
+        .par_iter()
+        .map(|&o| {
+            // Ctrl-C: one view direction's sums at most run on.
+            backend.check_cancelled()?;
+            let own;
+            let nodes = match &shared {
                 Some(n) => n,
-                None => &lists[d],
-            }
-        };
-        let sums: Vec<(DVec3, u64)> = (0..refs.len() * part.len())
-            .into_par_iter()
-            .map(|e| {
-                let (r, d) = (e / part.len(), e % part.len());
-                let (nodes, o, reference) = (list(d), part[d], &refs[r]);
-                let sum = weighted_sum(nodes, |n| n.weight * reference.eval(n.wi, o));
-                (sum, nodes.len() as u64)
-            })
-            .collect();
-        for (r, row) in sums.chunks(part.len()).enumerate() {
-            out[r].extend_from_slice(row);
-        }
-    }
-    Ok(out)
+                None => {
+                    own = rule.nodes(o);
+                    &own
+                }
+            };
+            Ok(refs
+                .iter()
+                .map(|r| {
+                    let sum = weighted_sum(nodes, |n| n.weight * r.eval(n.wi, o));
+                    (sum, nodes.len() as u64)
+                })
+                .collect())
+        })
+        .collect::<Result<_>>()?;
+    Ok((0..refs.len())
+        .map(|r| per_wo.iter().map(|sums| sums[r]).collect())
+        .collect())
 }
