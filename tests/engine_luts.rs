@@ -373,24 +373,20 @@ fn estimates_bound_the_f32_rounding(gpu: &Gpu) {
 
 #[test]
 fn gpu_error_estimates_bound_the_f32_rounding() {
-    let test = "gpu_error_estimates_bound_the_f32_rounding";
-    let Some(dev) = common::gpu_device(test) else {
-        return;
-    };
-    let gpu = Gpu::new(dev);
-    estimates_bound_the_f32_rounding(&gpu);
-    common::assert_validation_clean(&gpu, test);
+    common::on_gpu(
+        "gpu_error_estimates_bound_the_f32_rounding",
+        false,
+        estimates_bound_the_f32_rounding,
+    );
 }
 
 /// The same with a GPU's albedo reduction (16 nodes per invocation and a workgroup tree) on
 /// any device: on a CPU driver each invocation writes its own partial instead.
 #[test]
 fn with_the_workgroup_tree_error_estimates_bound_the_f32_rounding() {
-    let test = "with_the_workgroup_tree_error_estimates_bound_the_f32_rounding";
-    let Some(dev) = common::gpu_device_with_gpu_kernels(test) else {
-        return;
-    };
-    let gpu = Gpu::new(dev);
-    estimates_bound_the_f32_rounding(&gpu);
-    common::assert_validation_clean(&gpu, test);
+    common::on_gpu(
+        "with_the_workgroup_tree_error_estimates_bound_the_f32_rounding",
+        true,
+        estimates_bound_the_f32_rounding,
+    );
 }

@@ -77,25 +77,22 @@ fn every_cell_of_every_model(gpu: &Gpu) {
 
 #[test]
 fn every_cell_equals_its_pair_evaluated_alone() {
-    let Some(dev) = common::gpu_device("every_cell_equals_its_pair_evaluated_alone") else {
-        return;
-    };
-    let gpu = Gpu::new(dev);
-    every_cell_of_every_model(&gpu);
-    common::assert_validation_clean(&gpu, "every_cell_equals_its_pair_evaluated_alone");
+    common::on_gpu(
+        "every_cell_equals_its_pair_evaluated_alone",
+        false,
+        every_cell_of_every_model,
+    );
 }
 
 /// The same with a GPU's kernel choices (4 cells per invocation, storage-buffer direction
 /// lists), which a CPU driver would otherwise never run.
 #[test]
 fn with_a_gpus_kernel_choices_every_cell_equals_its_pair() {
-    let test = "with_a_gpus_kernel_choices_every_cell_equals_its_pair";
-    let Some(dev) = common::gpu_device_with_gpu_kernels(test) else {
-        return;
-    };
-    let gpu = Gpu::new(dev);
-    every_cell_of_every_model(&gpu);
-    common::assert_validation_clean(&gpu, test);
+    common::on_gpu(
+        "with_a_gpus_kernel_choices_every_cell_equals_its_pair",
+        true,
+        every_cell_of_every_model,
+    );
 }
 
 #[test]

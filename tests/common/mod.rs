@@ -45,6 +45,23 @@ fn open_device(test: &str, gpu_kernels: bool) -> Option<Device> {
     }
 }
 
+/// Runs `check` on the test environment's device, then asserts that the validation layer
+/// stayed quiet; with `gpu_kernels`, with a GPU's kernel choices on any device
+/// ([`gpu_device_with_gpu_kernels`]). Does nothing when GPU tests are skipped.
+pub fn on_gpu(test: &str, gpu_kernels: bool, check: impl FnOnce(&Gpu)) {
+    let dev = if gpu_kernels {
+        gpu_device_with_gpu_kernels(test)
+    } else {
+        gpu_device(test)
+    };
+    let Some(dev) = dev else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    check(&gpu);
+    assert_validation_clean(&gpu, test);
+}
+
 /// With LOBE_VALIDATION=1 the validation layer must have reported nothing.
 pub fn assert_validation_clean(gpu: &Gpu, test: &str) {
     let n = gpu.device().validation_messages();
