@@ -139,21 +139,28 @@ impl Gpu {
         let texel_nodes =
             self.dev.cpu_kernels() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
         let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
-        let per_dispatch = (limits.max_compute_work_group_count[0] as usize).min(spans.len());
         // One rgb partial (as a vec4) per workgroup, or per invocation (LANE_PARTIALS).
         let partials_per_span = if albedo_lane_partials(self.dev.cpu_kernels()) {
             LOCAL_SIZE as usize
         } else {
             1
         };
+        // Every buffer a dispatch binds stays within the device's storage-buffer range.
+        let range = limits.max_storage_buffer_range as usize;
+        let span_bytes = std::mem::size_of_val(spans.as_slice());
+        if span_bytes > range {
+            return Err(GpuError::Limit(format!(
+                "albedo: {} workgroup spans need {span_bytes} bytes, over this device's storage buffer range of {range}; use fewer rows, directions or nodes per call",
+                spans.len()
+            )));
+        }
+        let per_dispatch = (limits.max_compute_work_group_count[0] as usize)
+            .min(range / (16 * partials_per_span))
+            .min(spans.len());
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params)?;
-        let mut span_buf = Buffer::new(
-            &self.dev,
-            std::mem::size_of_val(spans.as_slice()) as u64,
-            "albedo span",
-        )?;
+        let mut span_buf = Buffer::new(&self.dev, span_bytes as u64, "albedo span")?;
         span_buf.write(bytemuck::cast_slice(&spans))?;
         let out_buf = Buffer::output(
             &self.dev,
