@@ -136,9 +136,9 @@ fn gpu_sum_rules(
             at
         })
         .collect();
-    // Nodes of each rule at each direction, and what one direction costs: the nodes it adds to
-    // the buffer and the spans of all its sums.
-    // (Shared lists only: no work worth waking the thread pool for.)
+    // Nodes of each rule at each direction (counted in parallel unless every list is shared:
+    // then there is nothing worth waking the thread pool for), and what one direction costs:
+    // the nodes it adds to the buffer and the spans of all its sums.
     let all_shared = shared.iter().all(Option::is_some);
     let count = |&o: &DVec3| -> Vec<usize> {
         rules
@@ -217,28 +217,28 @@ fn gpu_sum_rules(
                     .collect(),
             );
         }
-        nodes.fill(at, |d| {
-            if at == front {
-                return;
-            }
-            // One slot per direction, then filled in parallel.
-            let mut slots = Vec::with_capacity(batch.len());
-            let mut rest = &mut d[front..];
-            for o in batch.clone() {
-                let (slot, tail) = std::mem::take(&mut rest).split_at_mut(own(o));
-                slots.push((o, slot));
-                rest = tail;
-            }
-            slots.into_par_iter().for_each(|(o, slot)| {
-                let mut k = 0;
-                for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
-                    if l.is_none() {
-                        fill_nodes(*r, wo[o], &mut slot[k..k + c]);
-                        k += c;
-                    }
+        // The batch's own lists (none where every list is shared: the buffer holds those).
+        if at > front {
+            nodes.fill(at, |d| {
+                // One slot per direction, then filled in parallel.
+                let mut slots = Vec::with_capacity(batch.len());
+                let mut rest = &mut d[front..];
+                for o in batch.clone() {
+                    let (slot, tail) = std::mem::take(&mut rest).split_at_mut(own(o));
+                    slots.push((o, slot));
+                    rest = tail;
                 }
-            });
-        })?;
+                slots.into_par_iter().for_each(|(o, slot)| {
+                    let mut k = 0;
+                    for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
+                        if l.is_none() {
+                            fill_nodes(*r, wo[o], &mut slot[k..k + c]);
+                            k += c;
+                        }
+                    }
+                });
+            })?;
+        }
         let mut sums = Vec::with_capacity(rules.len() * blocks.len() * batch.len());
         for r in 0..rules.len() {
             for param in 0..blocks.len() {
