@@ -7,6 +7,7 @@ use crate::model::quadrature::SamplingLobes;
 use crate::model::ParamSet;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
+use std::sync::{Arc, Mutex};
 
 /// Power-cosine lobes a [`Mixture`] holds besides the cosine density.
 pub const MAX_LOBES: usize = 4;
@@ -132,17 +133,103 @@ pub(super) fn importance_node_count(n: usize, mix: &Mixture) -> usize {
 pub(super) fn importance_nodes(n: usize, mix: &Mixture, replicate: u32, wo: DVec3) -> Vec<Node> {
     let frame = PeakFrame::new(wo);
     let counts = mix.counts(n);
-    let (a1, a2) = (1.0 / PLASTIC, 1.0 / (PLASTIC * PLASTIC));
-    let density = |x: DVec3| -> f64 {
-        let mut p = counts[0] as f64 * x.z.max(0.0) / PI;
-        for (k, &(e, _)) in mix.lobes.iter().enumerate() {
-            let c = x.dot(frame.r);
-            if counts[k + 1] > 0 && c > 0.0 {
-                p += counts[k + 1] as f64 * (e + 1.0) / TAU * c.powf(e);
+    let cosine = counts[0] as f64 / PI;
+    unit_points(n, mix, replicate)
+        .iter()
+        .map(|pt| {
+            let (x, lobe_density) = match *pt {
+                UnitPoint::Cosine(x) => (x, lobe_density(mix, &counts, x.dot(frame.r))),
+                UnitPoint::Lobe {
+                    cos_a,
+                    sin_a,
+                    cos_b,
+                    sin_b,
+                    lobe_density,
+                } => (
+                    cos_a * frame.r + sin_a * (cos_b * frame.u + sin_b * frame.v),
+                    lobe_density,
+                ),
+            };
+            let p = cosine * x.z.max(0.0) + lobe_density;
+            if x.z > 0.0 && p > 0.0 {
+                Node {
+                    wi: x,
+                    weight: x.z / p,
+                }
+            } else {
+                Node {
+                    wi: DVec3::Z,
+                    weight: 0.0,
+                }
             }
+        })
+        .collect()
+}
+
+/// The lobes' part of the mixture's density, Σ_k N_k (n_k + 1)/(2π) c^{n_k}, at c = r·x.
+fn lobe_density(mix: &Mixture, counts: &[usize; MAX_LOBES + 1], c: f64) -> f64 {
+    let mut p = 0.0;
+    for (k, &(e, _)) in mix.lobes.iter().enumerate() {
+        if counts[k + 1] > 0 && c > 0.0 {
+            p += counts[k + 1] as f64 * (e + 1.0) / TAU * c.powf(e);
         }
-        p
+    }
+    p
+}
+
+/// One point of the importance rule before it meets a view direction.
+#[derive(Clone, Copy, Debug)]
+enum UnitPoint {
+    /// Drawn from the cosine: the direction itself (z up), the same at every ωo.
+    Cosine(DVec3),
+    /// Drawn from a lobe: its angles in the mirror frame (α from r, β about it), and the lobes'
+    /// part of the density there, which depends on cos α = r·x alone.
+    Lobe {
+        cos_a: f64,
+        sin_a: f64,
+        cos_b: f64,
+        sin_b: f64,
+        lobe_density: f64,
+    },
+}
+
+/// Cached point sets, each for one (points, mixture, replicate).
+type PointCache = Vec<((usize, Mixture, u32), Arc<Vec<UnitPoint>>)>;
+
+/// Point sets [`unit_points`] keeps: a job's eight replicates, twice over (fine rule and a
+/// second job), at most 2^20 points each (40 MiB).
+const KEPT_POINT_SETS: usize = 16;
+
+/// The points of `replicate` for `n` points of `mix`, in [`importance_nodes`]' order, with all
+/// that does not depend on ωo worked out once (the R2 sequence, its shift, the inverse CDFs'
+/// sines, cosines and powers) and kept for the other view directions.
+fn unit_points(n: usize, mix: &Mixture, replicate: u32) -> Arc<Vec<UnitPoint>> {
+    static CACHE: Mutex<PointCache> = Mutex::new(Vec::new());
+    let key = (n, *mix, replicate);
+    let find = |cache: &PointCache| {
+        cache
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, p)| p.clone())
     };
+    if let Some(p) = find(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
+        return p;
+    }
+    // Made outside the lock: another thread may make the same set meanwhile (same values).
+    let points = Arc::new(make_unit_points(n, mix, replicate));
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    if find(&cache).is_none() {
+        if cache.len() == KEPT_POINT_SETS {
+            cache.remove(0);
+        }
+        cache.push((key, points.clone()));
+    }
+    points
+}
+
+fn make_unit_points(n: usize, mix: &Mixture, replicate: u32) -> Vec<UnitPoint> {
+    let counts = mix.counts(n);
+    let (a1, a2) = (1.0 / PLASTIC, 1.0 / (PLASTIC * PLASTIC));
     let mut out = Vec::with_capacity(counts.iter().sum());
     for (l, &count) in counts.iter().enumerate() {
         // Cranley–Patterson rotation: the replicate's own random shift of the R2 points, one per
@@ -153,31 +240,68 @@ pub(super) fn importance_nodes(n: usize, mix: &Mixture, replicate: u32, wo: DVec
         for k in 0..count {
             let u = (su + a1 * k as f64).fract();
             let v = (sv + a2 * k as f64).fract();
-            let (sb, cb) = (TAU * v).sin_cos();
-            let x = if l == 0 {
+            let (sin_b, cos_b) = (TAU * v).sin_cos();
+            out.push(if l == 0 {
                 let r = u.sqrt();
-                DVec3::new(r * cb, r * sb, (1.0 - u).sqrt())
+                UnitPoint::Cosine(DVec3::new(r * cos_b, r * sin_b, (1.0 - u).sqrt()))
             } else {
                 let e = mix.lobes[l - 1].0;
                 // sin²α = 1 − u^{2/(n+1)} without the cancellation near α = 0.
                 let ln_u = u.max(f64::MIN_POSITIVE).ln();
                 let sin2 = -(2.0 * ln_u / (e + 1.0)).exp_m1();
-                let (sa, ca) = (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt());
-                ca * frame.r + sa * (cb * frame.u + sb * frame.v)
-            };
-            let p = density(x);
-            out.push(if x.z > 0.0 && p > 0.0 {
-                Node {
-                    wi: x,
-                    weight: x.z / p,
-                }
-            } else {
-                Node {
-                    wi: DVec3::Z,
-                    weight: 0.0,
+                let (sin_a, cos_a) = (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt());
+                UnitPoint::Lobe {
+                    cos_a,
+                    sin_a,
+                    cos_b,
+                    sin_b,
+                    lobe_density: lobe_density(mix, &counts, cos_a),
                 }
             });
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::view_direction;
+
+    /// A lobe point's density uses cos α from its angles, the direct one r·x of the rotated
+    /// vector: a few ε apart, which c^n (n = 200 here) turns into ~200 × a few ε ≈ 2e-13.
+    const DENSITY_TOLERANCE: f64 = 1e-12;
+
+    /// The density the rule's weights divide by, evaluated directly at x from the mixture's
+    /// definition (the cached points only precompute parts of it).
+    fn density(mix: &Mixture, n: usize, wo: DVec3, x: DVec3) -> f64 {
+        let counts = mix.counts(n);
+        let r = PeakFrame::new(wo).r;
+        counts[0] as f64 * x.z.max(0.0) / PI + lobe_density(mix, &counts, x.dot(r))
+    }
+
+    #[test]
+    fn weights_are_the_cosine_over_the_mixtures_density_at_every_view() {
+        let mut mix = Mixture::cosine_only();
+        mix.cosine = 0.4;
+        mix.lobes[0] = (200.0, 0.4);
+        mix.lobes[1] = (25.0, 0.2);
+        let n = 3000;
+        for (mu, phi) in [(1.0, 0.0), (0.6, 1.0), (0.05, 4.0)] {
+            let wo = view_direction(mu, phi);
+            // Twice: made, then read back from the kept point sets.
+            let nodes = importance_nodes(n, &mix, 2, wo);
+            assert_eq!(nodes, importance_nodes(n, &mix, 2, wo));
+            assert_eq!(nodes.len(), importance_node_count(n, &mix));
+            for node in nodes.iter().filter(|n| n.weight > 0.0) {
+                assert!((node.wi.length() - 1.0).abs() < 1e-14, "{node:?}");
+                let w = node.wi.z / density(&mix, n, wo, node.wi);
+                assert!(
+                    (node.weight - w).abs() <= DENSITY_TOLERANCE * w,
+                    "mu {mu}: weight {} vs {w}",
+                    node.weight
+                );
+            }
+        }
+    }
 }
