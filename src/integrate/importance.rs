@@ -74,6 +74,16 @@ impl Mixture {
         Mixture { cosine, lobes }
     }
 
+    /// A mixture with the cosine's share `cosine` and the lobes (exponent, share) `lobes`, the
+    /// rest unused: for tests that need a peaked density without a model.
+    #[cfg(test)]
+    pub(super) fn with_lobes(cosine: f64, lobes: &[(f64, f64)]) -> Mixture {
+        let mut mix = Mixture::cosine_only();
+        mix.cosine = cosine;
+        mix.lobes[..lobes.len()].copy_from_slice(lobes);
+        mix
+    }
+
     /// Points per component for `n` in all: round(c n), the cosine's at least 1 so that the
     /// density stays positive over the hemisphere.
     fn counts(&self, n: usize) -> [usize; MAX_LOBES + 1] {
@@ -282,10 +292,7 @@ mod tests {
 
     #[test]
     fn weights_are_the_cosine_over_the_mixtures_density_at_every_view() {
-        let mut mix = Mixture::cosine_only();
-        mix.cosine = 0.4;
-        mix.lobes[0] = (200.0, 0.4);
-        mix.lobes[1] = (25.0, 0.2);
+        let mix = Mixture::with_lobes(0.4, &[(200.0, 0.4), (25.0, 0.2)]);
         let n = 3000;
         for (mu, phi) in [(1.0, 0.0), (0.6, 1.0), (0.05, 4.0)] {
             let wo = view_direction(mu, phi);

@@ -318,12 +318,9 @@ mod tests {
         assert!(!cosine.depends_on_wo());
         assert_eq!(cosine.nodes(a), cosine.nodes(b));
         assert_eq!(*cosine.shared_nodes().unwrap(), cosine.nodes(a));
-        let mut mix = Mixture::cosine_only();
-        mix.cosine = 0.5;
-        mix.lobes[0] = (100.0, 0.5);
         let lobed = Rule::Importance {
             n: 4096,
-            mix,
+            mix: Mixture::with_lobes(0.5, &[(100.0, 0.5)]),
             replicate: Some(3),
         };
         assert!(lobed.depends_on_wo());
@@ -358,10 +355,7 @@ mod tests {
     fn node_counts_match_the_node_lists() {
         // Every rule's count without the list equals the list's length, and `for_each_node`
         // hands out the list's nodes in order.
-        let mut lobed = Mixture::cosine_only();
-        lobed.cosine = 0.3;
-        lobed.lobes[0] = (50.0, 0.45);
-        lobed.lobes[1] = (6.25, 0.25);
+        let lobed = Mixture::with_lobes(0.3, &[(50.0, 0.45), (6.25, 0.25)]);
         for mu in [1.0, 0.9, 0.5, 0.1, 0.02] {
             let wo = view_direction(mu, 0.4);
             for rule in [
