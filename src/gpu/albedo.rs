@@ -18,6 +18,11 @@ pub const NODES_PER_INVOCATION: u32 = 16;
 /// read back and add.
 pub const LANE_NODES_PER_INVOCATION: u32 = 64;
 
+/// Nodes one albedo dispatch sums at most: 64M, about 0.1–3 s on lavapipe here depending on the
+/// model, so that a model's own bound on each wait (`Model::chunk_timeout`, a `.brdf` shader's
+/// 10 s) and Ctrl-C see dispatches of the same size on every device, whatever its span.
+pub const DISPATCH_NODES: usize = 1 << 26;
+
 /// The nodes one workgroup of the albedo kernel sums on this kind of device.
 pub fn span_nodes(cpu_driver: bool) -> usize {
     let per_invocation = if albedo_lane_partials(cpu_driver) {
@@ -156,6 +161,7 @@ impl Gpu {
         }
         let per_dispatch = (limits.max_compute_work_group_count[0] as usize)
             .min(range / (16 * partials_per_span))
+            .min(DISPATCH_NODES / span)
             .min(spans.len());
         let params: Vec<u8> = blocks.concat();
         let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;

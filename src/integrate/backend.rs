@@ -103,11 +103,6 @@ pub fn sum_rule(
 /// ~1000 workgroups.
 const GPU_BUFFER_NODES: usize = 1 << 20;
 
-/// Workgroup spans ([`crate::gpu::albedo::span_nodes`]) in one batch of directions on the GPU,
-/// which bounds the host's span list and partial sums however many rows and directions a job
-/// has: 64M evaluations on a GPU, 256M on a CPU driver.
-const GPU_BATCH_SPANS: usize = 1 << 16;
-
 /// Σ w f(ωi, ωo) of each rule of `rules`, for each parameter block of `blocks` (one model) and
 /// each ωo, on the GPU: results indexed `[rule][row][ωo]`. Every rule, row and direction of a
 /// batch goes out in the same dispatches. Shared node lists go out once, at the front of the
@@ -122,8 +117,12 @@ fn gpu_sum_rules(
     rules: &[Rule],
     wo: &[DVec3],
 ) -> Result<Vec<RowSums>> {
-    use crate::gpu::albedo::{span_nodes, AlbedoSum};
+    use crate::gpu::albedo::{span_nodes, AlbedoSum, DISPATCH_NODES};
     let span = span_nodes(gpu.device().cpu_kernels());
+    // Workgroup spans in one batch: about one dispatch's worth, which bounds the host's span
+    // list and partial sums however many rows and directions a job has, and lets Ctrl-C act
+    // between dispatches.
+    let batch_spans = DISPATCH_NODES / span;
     let shared: Vec<Option<std::sync::Arc<Vec<Node>>>> =
         rules.iter().map(Rule::shared_nodes).collect();
     // Where each shared list starts in the node buffer.
@@ -168,7 +167,7 @@ fn gpu_sum_rules(
     let (mut start, mut nodes_in, mut spans_in) = (0, 0, 0);
     for o in 0..wo.len() {
         let (n, k) = (own(o), spans(o));
-        if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > GPU_BATCH_SPANS) {
+        if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > batch_spans) {
             batches.push(start..o);
             (start, nodes_in, spans_in) = (o, 0, 0);
         }
