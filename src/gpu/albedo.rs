@@ -97,8 +97,9 @@ impl Gpu {
 
     /// Each of `sums` on the nodes of `nodes` (as filled last), the parameter block of sum s
     /// being `blocks[sums[s].param]` (std430 blocks of one model): E = Σ_k w_k f(ωi_k, ωo) per
-    /// sum, in f32 over spans of [`span_nodes`] and in f64 across them. Every span of every sum is one workgroup, in as few dispatches as the
-    /// device's workgroup count allows: a LUT's rows and a rule's coarse check go out together.
+    /// sum, in f32 over spans of [`span_nodes`] and in f64 across them. Every span of every sum
+    /// is one workgroup, in as few dispatches as the device's workgroup count and
+    /// [`DISPATCH_NODES`] allow: a LUT's rows and a rule's coarse check go out together.
     pub fn albedo_sums(
         &self,
         model: Model,
