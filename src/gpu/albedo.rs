@@ -1,6 +1,7 @@
 //! The GPU path of directional albedo (`glsl/kernels/albedo.comp`): E(ωo) = Σ_k w_k f(ωi_k, ωo)
 //! as a reduction. Nothing but partial sums come back (one per workgroup, or on a CPU driver one
-//! per invocation); the host adds each sum's partials in f64. The quadrature rules themselves live in `src/integrate/`.
+//! per invocation); the host adds each sum's partials in f64. The quadrature rules themselves
+//! live in `src/integrate/`.
 
 use super::buffer::Buffer;
 use super::pipeline::{albedo_lane_partials, ChunkPush, Dispatcher, Kernel, LOCAL_SIZE};
