@@ -56,10 +56,11 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
 /// shares those roundings, so |fine − coarse| misses them: at E(1) of GGX α = 0.3 under the
 /// white furnace the GPU (workgroup tree) is 6.5e-8 from the f64 sum of the same rule while
 /// |fine − coarse| is 1.7e-8. The rounding of f grows at grazing view: h = ωi + ωo cancels to
-/// length 2μo about the mirror direction, so an absolute rounding of ε in its components is ε/(2μo) in its direction. Over the built-in presets and GGX and
-/// Beckmann with α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was
-/// 0.8 at μo = 1 and 80 at μo = 0.02 (1.6/μo): K = 4 covers it with a margin of 2.5
-/// (tests/engine_luts.rs `gpu_error_estimates_bound_the_f32_rounding` checks it).
+/// length 2μo about the mirror direction, so an absolute rounding of ε in its components is
+/// ε/(2μo) in its direction. Over the built-in presets and GGX and Beckmann with
+/// α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was 0.8 at μo = 1
+/// and 80 at μo = 0.02 (1.6/μo): K = 4 covers it with a margin of 2.5 (tests/engine_luts.rs
+/// `gpu_error_estimates_bound_the_f32_rounding` checks it).
 pub const GPU_ROUNDING_FACTOR: f64 = 4.0;
 
 /// The f32 rounding term of an estimate on `backend` (0 on the CPU, whose sums are f64): for a
