@@ -1,13 +1,14 @@
 //! The `importance` rule: a mixture of the cosine density and power-cosine lobes about the
 //! mirror direction, sampled by low-discrepancy points in independently shifted replicates.
 
+use super::kept::Kept;
 use super::peak::PeakFrame;
 use super::rules::{Node, PLASTIC};
 use crate::model::quadrature::SamplingLobes;
 use crate::model::ParamSet;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// Power-cosine lobes a [`Mixture`] holds besides the cosine density.
 pub const MAX_LOBES: usize = 4;
@@ -203,38 +204,18 @@ enum UnitPoint {
     },
 }
 
-/// Cached point sets, each for one (points, mixture, replicate).
-type PointCache = Vec<((usize, Mixture, u32), Arc<Vec<UnitPoint>>)>;
-
-/// Point sets [`unit_points`] keeps: a job's eight replicates, twice over (fine rule and a
-/// second job), at most 2^20 points each (40 MiB).
+/// Point sets [`unit_points`] keeps: two jobs' eight replicates, at most
+/// `MAX_SAMPLES / REPLICATES` = 2^17 points of 48 bytes each (6 MiB; 96 MiB in all).
 const KEPT_POINT_SETS: usize = 16;
 
 /// The points of `replicate` for `n` points of `mix`, in [`importance_nodes`]' order, with all
 /// that does not depend on ωo worked out once (the R2 sequence, its shift, the inverse CDFs'
 /// sines, cosines and powers) and kept for the other view directions.
 fn unit_points(n: usize, mix: &Mixture, replicate: u32) -> Arc<Vec<UnitPoint>> {
-    static CACHE: Mutex<PointCache> = Mutex::new(Vec::new());
-    let key = (n, *mix, replicate);
-    let find = |cache: &PointCache| {
-        cache
-            .iter()
-            .find(|(k, _)| *k == key)
-            .map(|(_, p)| p.clone())
-    };
-    if let Some(p) = find(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
-        return p;
-    }
-    // Made outside the lock: another thread may make the same set meanwhile (same values).
-    let points = Arc::new(make_unit_points(n, mix, replicate));
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    if find(&cache).is_none() {
-        if cache.len() == KEPT_POINT_SETS {
-            cache.remove(0);
-        }
-        cache.push((key, points.clone()));
-    }
-    points
+    static KEPT: Kept<(usize, Mixture, u32), Vec<UnitPoint>> = Kept::new(KEPT_POINT_SETS);
+    KEPT.get_or_make(&(n, *mix, replicate), || {
+        make_unit_points(n, mix, replicate)
+    })
 }
 
 fn make_unit_points(n: usize, mix: &Mixture, replicate: u32) -> Vec<UnitPoint> {
@@ -288,6 +269,12 @@ mod tests {
         let counts = mix.counts(n);
         let r = PeakFrame::new(wo).r;
         counts[0] as f64 * x.z.max(0.0) / PI + lobe_density(mix, &counts, x.dot(r))
+    }
+
+    #[test]
+    fn a_kept_point_is_48_bytes() {
+        // KEPT_POINT_SETS' memory bound counts on it.
+        assert_eq!(std::mem::size_of::<UnitPoint>(), 48);
     }
 
     #[test]

@@ -33,6 +33,7 @@ mod albedo;
 mod backend;
 mod gauss;
 mod importance;
+mod kept;
 mod peak;
 mod reference;
 mod report;

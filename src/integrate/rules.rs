@@ -4,10 +4,11 @@
 
 use super::gauss::{gauss_legendre, gauss_on};
 use super::importance::{importance_node_count, importance_nodes, Mixture, REPLICATES};
+use super::kept::Kept;
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// How many ωo-independent node lists [`Rule::shared_nodes`] keeps: a fine rule and its coarse
 /// twin for two jobs at once. At the largest `--samples` (2^20 nodes, 32 bytes each) that is
@@ -124,33 +125,14 @@ impl Rule {
 
     /// The nodes of a rule that does not depend on ωo, made once per process and shared: an
     /// albedo job sums the same Gauss–Legendre, midpoint, QMC or cosine-only importance list at
-    /// every view direction, and
-    /// repeated jobs (a sweep, a benchmark) ask for the same lists again. None for rules that
-    /// depend on ωo. The last `SHARED_RULES` (four) lists are kept.
+    /// every view direction, and repeated jobs (a sweep, a benchmark) ask for the same lists
+    /// again. None for rules that depend on ωo. The last `SHARED_RULES` (four) lists are kept.
     pub fn shared_nodes(&self) -> Option<Arc<Vec<Node>>> {
+        static KEPT: Kept<Rule, Vec<Node>> = Kept::new(SHARED_RULES);
         if self.depends_on_wo() {
             return None;
         }
-        static CACHE: Mutex<Vec<(Rule, Arc<Vec<Node>>)>> = Mutex::new(Vec::new());
-        let find = |cache: &[(Rule, Arc<Vec<Node>>)]| {
-            cache
-                .iter()
-                .find(|(r, _)| r == self)
-                .map(|(_, n)| n.clone())
-        };
-        if let Some(n) = find(&CACHE.lock().unwrap_or_else(|e| e.into_inner())) {
-            return Some(n);
-        }
-        // Made outside the lock: another thread may make the same list meanwhile (same bits).
-        let nodes = Arc::new(self.nodes(DVec3::Z));
-        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-        if find(&cache).is_none() {
-            if cache.len() == SHARED_RULES {
-                cache.remove(0);
-            }
-            cache.push((*self, nodes.clone()));
-        }
-        Some(nodes)
+        Some(KEPT.get_or_make(self, || self.nodes(DVec3::Z)))
     }
 
     /// The nodes for the view direction `wo` (ignored by rules that do not depend on it).
