@@ -47,8 +47,7 @@ layout(std430, set = 0, binding = 2) readonly buffer Spans { Span spans[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Partials { vec4 partial_out[]; };
 layout(set = 0, binding = 4) uniform samplerBuffer node_texels;
 
-// first_span: the span of workgroup 0 (a job longer than one dispatch's workgroup count goes out
-// in several); dispatch_count: read by the host's dispatcher only (workgroups x its evaluations
+// first_span: the span of workgroup 0 (a job larger than one dispatch goes out in several); dispatch_count: read by the host's dispatcher only (workgroups x its evaluations
 // per workgroup). Twin of AlbedoPush.
 layout(push_constant) uniform AlbedoJob {
     uint first_span;
