@@ -53,17 +53,6 @@ fn run(session: &Session, a: &ParamSet, b: &ParamSet, opts: &Options) -> Compari
     .unwrap_or_else(|e| panic!("{} against {}: {e:#}", a.to_text(), b.to_text()))
 }
 
-fn gpu_session(test: &str) -> Option<Session> {
-    common::gpu_device(test)?;
-    Some(
-        Session::open(SessionOptions {
-            validation: std::env::var("LOBE_VALIDATION").is_ok_and(|v| v == "1"),
-            ..SessionOptions::default()
-        })
-        .unwrap_or_else(|e| panic!("{test}: {e}")),
-    )
-}
-
 fn assert_all_zero(r: &Comparison, what: &str) {
     let mut values = vec![
         r.relative_rms,
@@ -122,7 +111,7 @@ fn a_model_against_itself_is_zero_on_both_backends() {
     for (k, (p, bins)) in cases.iter().enumerate() {
         assert_all_zero(&run(&cpu, p, p, &opts(k, *bins, true)), &p.to_text());
     }
-    let Some(gpu) = gpu_session("a_model_against_itself_is_zero_on_both_backends") else {
+    let Some(gpu) = common::gpu_session("a_model_against_itself_is_zero_on_both_backends") else {
         return;
     };
     for (k, (p, bins)) in cases.iter().enumerate() {
@@ -176,7 +165,7 @@ fn testdata(name: &str) -> PathBuf {
 /// Lambertian base: the built-in microfacet model in that configuration.
 #[test]
 fn the_ggx_brdf_file_is_close_to_its_built_in_twin() {
-    let Some(gpu) = gpu_session("the_ggx_brdf_file_is_close_to_its_built_in_twin") else {
+    let Some(gpu) = common::gpu_session("the_ggx_brdf_file_is_close_to_its_built_in_twin") else {
         return;
     };
     let loaded =

@@ -62,6 +62,21 @@ pub fn on_gpu(test: &str, gpu_kernels: bool, check: impl FnOnce(&Gpu)) {
     assert_validation_clean(&gpu, test);
 }
 
+/// A GPU [`lobe::Session`] with the test environment's options (LOBE_VALIDATION, LOBE_STAGING);
+/// None when GPU tests are skipped, and a failure naming what is missing otherwise.
+pub fn gpu_session(test: &str) -> Option<lobe::Session> {
+    gpu_device(test)?;
+    let opts = device_options();
+    Some(
+        lobe::Session::open(lobe::SessionOptions {
+            validation: opts.validation,
+            staging: opts.force_staging,
+            ..lobe::SessionOptions::default()
+        })
+        .unwrap_or_else(|e| panic!("{test}: {e}")),
+    )
+}
+
 /// With LOBE_VALIDATION=1 the validation layer must have reported nothing.
 pub fn assert_validation_clean(gpu: &Gpu, test: &str) {
     let n = gpu.device().validation_messages();
