@@ -6,7 +6,7 @@ mod common;
 use lobe::compare::{self, Bins, Comparison, Options, Side};
 use lobe::grid::Grid;
 use lobe::integrate::Settings;
-use lobe::{ParamSet, Session, SessionOptions};
+use lobe::{ParamSet, Session};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
