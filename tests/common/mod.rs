@@ -39,6 +39,9 @@ fn open_device(test: &str, gpu_kernels: bool) -> Option<Device> {
     };
     match Device::open(&opts) {
         Ok(d) => Some(d),
+        Err(e @ lobe::gpu::GpuError::NoValidationLayer) => {
+            panic!("{test}: LOBE_VALIDATION=1 asks for the validation layer: {e}")
+        }
         Err(e) => {
             panic!("{test} needs a Vulkan device: {e}\n(set LOBE_SKIP_GPU=1 to skip GPU tests)")
         }
