@@ -38,7 +38,7 @@ mod exr_header;
 
 use crate::interrupt::Interrupted;
 use anyhow::{bail, Context, Result};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -312,11 +312,9 @@ impl Pending {
 
     /// Renames the finished file onto its destination: a [`FileSet`] of one.
     pub fn commit(self) -> Result<()> {
-        FileSet {
-            files: vec![self],
-            folders: Vec::new(),
-        }
-        .commit()
+        let mut set = FileSet::empty();
+        set.files.push(self);
+        set.commit()
     }
 
     /// Puts the header attributes of this finished EXR in name order: see
@@ -413,6 +411,9 @@ pub fn write_exr(
 /// all of them replace their destinations, or none does.
 pub struct FileSet {
     files: Vec<Pending>,
+    /// Each file's destination as it resolves on disk ([`resolve`], made once as it is added),
+    /// with its index: a set of thousands of files finds a repeated destination in one look-up.
+    resolved: HashMap<PathBuf, usize>,
     /// Folders this set created, removed again (when empty) if it is not committed.
     folders: Vec<PathBuf>,
 }
@@ -436,6 +437,7 @@ impl FileSet {
     pub fn empty() -> FileSet {
         FileSet {
             files: Vec::new(),
+            resolved: HashMap::new(),
             folders: Vec::new(),
         }
     }
@@ -444,14 +446,15 @@ impl FileSet {
     /// destination already in the set, however written (`./t.json` and `t.json`), is refused.
     pub fn add(&mut self, dest: &Path) -> Result<usize> {
         let resolved = resolve(dest);
-        if let Some(other) = self.files.iter().find(|p| resolve(&p.dest) == resolved) {
+        if let Some(&other) = self.resolved.get(&resolved) {
             bail!(
                 "cannot write {}: the same file as {} in one set",
                 dest.display(),
-                other.dest.display()
+                self.files[other].dest.display()
             );
         }
         self.files.push(Pending::new(dest)?);
+        self.resolved.insert(resolved, self.files.len() - 1);
         Ok(self.files.len() - 1)
     }
 
@@ -527,6 +530,8 @@ impl std::ops::Index<usize> for FileSet {
 /// `path` as it resolves on disk: its folder's canonical path and its name (the file itself may
 /// not exist yet); `path` itself when its folder cannot be resolved.
 pub fn resolve(path: &Path) -> PathBuf {
+    #[cfg(test)]
+    RESOLVES.with(|n| n.set(n.get() + 1));
     match (std::fs::canonicalize(folder_of(path)), path.file_name()) {
         (Ok(dir), Some(name)) => dir.join(name),
         _ => path.to_path_buf(),
@@ -615,6 +620,13 @@ struct Backup {
     path: PathBuf,
     /// Moved aside (the destination is missing until the new file arrives), rather than linked.
     aside: bool,
+}
+
+#[cfg(test)]
+thread_local! {
+    /// How many times [`resolve`] ran on this thread (each is a `canonicalize`, a walk of the
+    /// path on disk).
+    static RESOLVES: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 #[cfg(test)]
@@ -862,6 +874,24 @@ mod tests {
             .collect();
         v.sort();
         v
+    }
+
+    /// A scene writes thousands of files in one set: each destination is resolved on disk
+    /// once, as it is added, so the set's cost grows linearly (resolving every earlier member
+    /// again at each addition made 3000 tiny tables take minutes).
+    #[test]
+    fn a_set_resolves_each_destination_once() -> Result<()> {
+        const FILES: usize = 200;
+        let dir = tempfile::tempdir()?;
+        let before = RESOLVES.with(|n| n.get());
+        let mut set = FileSet::empty();
+        for k in 0..FILES {
+            set.add(&dir.path().join(format!("t{k}.json")))?;
+        }
+        assert_eq!(RESOLVES.with(|n| n.get()) - before, FILES);
+        let again = set.add(&dir.path().join(".").join("t7.json"));
+        assert!(again.is_err_and(|e| e.to_string().contains("the same file as")));
+        Ok(())
     }
 
     #[test]

@@ -6,6 +6,7 @@ use crate::preview::{self, Sheet};
 use crate::{integrate, output, table};
 use anyhow::{bail, Context, Result};
 use output::FileSet;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 impl Scene {
@@ -94,7 +95,7 @@ impl Scene {
     /// lobe would refuse to replace.
     fn check_outputs(&self, out_dir: &Path, what: Outputs) -> Result<()> {
         let root = resolve_on_disk(out_dir);
-        let mut seen: Vec<(PathBuf, &Path)> = Vec::new();
+        let mut seen: HashMap<PathBuf, &Path> = HashMap::new();
         for (rel, output) in self.planned_files(what) {
             let path = out_dir.join(&rel);
             let resolved = resolve_on_disk(&path);
@@ -107,7 +108,7 @@ impl Scene {
                     out_dir.display()
                 );
             }
-            if let Some((_, first)) = seen.iter().find(|(r, _)| *r == resolved) {
+            if let Some(first) = seen.get(&resolved) {
                 bail!(
                     "{}: outputs '{}' and '{}' both write {}",
                     self.file,
@@ -117,7 +118,7 @@ impl Scene {
                 );
             }
             output::check_destination(&path)?;
-            seen.push((resolved, output));
+            seen.insert(resolved, output);
         }
         Ok(())
     }
