@@ -3,7 +3,7 @@
 //! θ may run to 180° (a direction below the horizon is a valid question whose answer is f = 0);
 //! |φ| is at most a million degrees. A pairs file is read a chunk at a time ([`PairsReader`]).
 
-use crate::grid::direction;
+use crate::grid::direction_deg;
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use std::io::{BufRead, Read};
@@ -197,12 +197,7 @@ fn read_all<R: BufRead>(mut reader: PairsReader<R>) -> Result<Vec<[f64; 4]>> {
 pub fn directions(angles: &[[f64; 4]]) -> Vec<(DVec3, DVec3)> {
     angles
         .iter()
-        .map(|[ti, pi, to, po]| {
-            (
-                direction(ti.to_radians(), pi.to_radians()),
-                direction(to.to_radians(), po.to_radians()),
-            )
-        })
+        .map(|[ti, pi, to, po]| (direction_deg(*ti, *pi), direction_deg(*to, *po)))
         .collect()
 }
 
