@@ -56,3 +56,41 @@ fn a_direction_on_the_horizon_gives_zero_on_both_backends() {
         }
     }
 }
+
+/// Runs lobe and returns (success, stderr).
+fn lobe(args: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(args)
+        .output()
+        .expect("run lobe");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A spec that names one parameter twice is refused (which value wins is a guess), naming the
+/// key and both values; an rgb triple's commas are not taken for more keys.
+#[test]
+fn a_parameter_given_twice_in_one_spec_is_refused() {
+    let at = ["--wi-deg", "30,0", "--wo-deg", "30,180", "--backend", "cpu"];
+    for spec in [
+        "phong{shininess=1,shininess=2}",
+        "phong{ shininess=1 , diffuse=0.1,0.2,0.3, shininess =2}",
+    ] {
+        let (ok, err) = lobe(&[&["eval", "--model", spec], &at[..]].concat());
+        assert!(!ok, "{spec} was accepted");
+        assert!(
+            err.contains("'shininess' is given twice") && err.contains("shininess=1"),
+            "{spec}: {err}"
+        );
+    }
+    let (ok, err) = lobe(
+        &[
+            &["eval", "--model", "phong{diffuse=0.1,0.2,0.3,shininess=5}"],
+            &at[..],
+        ]
+        .concat(),
+    );
+    assert!(ok, "{err}");
+}

@@ -110,6 +110,16 @@ pub fn split_spec(spec: &str) -> Result<(&str, Vec<String>)> {
             _ => sets.push(piece.to_string()),
         }
     }
+    // One spec names a value once: which of two would win is not for lobe to guess.
+    let key = |set: &str| set.split('=').next().unwrap_or_default().trim().to_string();
+    for (k, set) in sets.iter().enumerate() {
+        if let Some(again) = sets[k + 1..].iter().find(|s| key(s) == key(set)) {
+            bail!(
+                "model '{spec}': '{}' is given twice ({set} and {again}); give each parameter once",
+                key(set)
+            );
+        }
+    }
     Ok((spec[..open].trim(), sets))
 }
 
