@@ -165,7 +165,7 @@ pub fn missing_bins(path: &std::path::Path) -> Result<Option<Arc<Vec<bool>>>> {
     if table.missing == 0 {
         return Ok(None);
     }
-    let raw = std::fs::read(path)?;
+    let raw = crate::input::read_regular(path, "MERL file", crate::merl::FILE_BYTES as u64)?;
     let stored = |k: usize| {
         let at = merl::HEADER_BYTES + 8 * k;
         f64::from_le_bytes(raw[at..at + 8].try_into().unwrap_or([0; 8]))

@@ -1,6 +1,12 @@
 //! Refused request values, tagged with the option they came from. A job's messages name the
 //! value and its valid range in the library's own words; the tag lets a front end (the command
 //! line, a form) point at its own spelling of that option without parsing the sentence.
+//! Input files are read through [`open_regular`] and [`read_regular`]: regular files only, each
+//! with a bound on what is read.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
 
 /// A request value a job refuses. `option` is the library's name for the input (a field of the
 /// job's options, such as `"theta_i_deg"` or `"samples"`); the message is a whole sentence.
@@ -30,10 +36,122 @@ pub fn option_of(e: &anyhow::Error) -> Option<&'static str> {
         .map(|b| b.option)
 }
 
+/// What kind of thing a path that is not a regular file is, for a message.
+fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if meta.is_dir() {
+        "a folder"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Opens `path` for reading when it is a regular file once symbolic links are followed, and
+/// returns it with its length; `what` names the input in messages ("scene", "table target").
+/// Anything else (a folder, a FIFO, a device such as /dev/zero, a socket) is refused before a
+/// byte is read, so no input can block the process or feed it without end. The file is opened
+/// without blocking (a path swapped for a FIFO after the check cannot hang the open) and
+/// checked again through the open handle.
+pub fn open_regular(path: &Path, what: &str) -> anyhow::Result<(File, u64)> {
+    let refuse =
+        |problem: String| anyhow::anyhow!("cannot read {what} {}: {problem}", path.display());
+    let meta = std::fs::metadata(path).map_err(|e| refuse(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(refuse(format!(
+            "{}; only a regular file can be read",
+            kind_of(&meta)
+        )));
+    }
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path).map_err(|e| refuse(e.to_string()))?;
+    let meta = file.metadata().map_err(|e| refuse(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(refuse(format!(
+            "{}; only a regular file can be read",
+            kind_of(&meta)
+        )));
+    }
+    Ok((file, meta.len()))
+}
+
+/// The bytes of the regular file `path` ([`open_regular`]), refused when it holds more than
+/// `max_bytes` (checked from its length before reading, and again while reading, should it
+/// grow).
+pub fn read_regular(path: &Path, what: &str, max_bytes: u64) -> anyhow::Result<Vec<u8>> {
+    let (file, len) = open_regular(path, what)?;
+    let too_large = |n: u64| {
+        anyhow::anyhow!(
+            "{what} {} is {n} bytes; at most {max_bytes} bytes are read",
+            path.display()
+        )
+    };
+    if len > max_bytes {
+        return Err(too_large(len));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| anyhow::anyhow!("cannot read {what} {}: {e}", path.display()))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use anyhow::Context;
+
+    #[test]
+    fn only_regular_files_within_their_bound_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("a.txt");
+        std::fs::write(&file, "12345").unwrap();
+        assert_eq!(read_regular(&file, "test input", 5).unwrap(), b"12345");
+        let e = read_regular(&file, "test input", 4)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is 5 bytes; at most 4"), "{e}");
+        let e = read_regular(dir.path(), "test input", 4)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a folder"), "{e}");
+        #[cfg(unix)]
+        {
+            let e = read_regular(Path::new("/dev/zero"), "test input", 4).unwrap_err();
+            assert!(e.to_string().contains("a device"), "{e}");
+            let link = dir.path().join("zero.npy");
+            std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+            let e = read_regular(&link, "test input", 4).unwrap_err();
+            assert!(e.to_string().contains("a device"), "{e}");
+            let fifo = dir.path().join("fifo");
+            let c_path = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+            // SAFETY: a valid NUL-terminated path; mkfifo only creates the node.
+            assert_eq!(unsafe { libc::mkfifo(c_path.as_ptr(), 0o600) }, 0);
+            let e = read_regular(&fifo, "test input", 4).unwrap_err();
+            assert!(e.to_string().contains("FIFO"), "{e}");
+        }
+    }
 
     #[test]
     fn the_tag_is_found_under_added_context() {

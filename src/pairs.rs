@@ -177,7 +177,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<[f64; 4]>> {
 
 /// Reads and parses a whole pairs file (for a few pairs; [`PairsReader`] streams a large one).
 pub fn read_csv(path: &Path) -> Result<Vec<[f64; 4]>> {
-    let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let (file, _) = crate::input::open_regular(path, "pairs file")?;
     let reader = std::io::BufReader::new(file);
     read_all(PairsReader::new(reader, &path.display().to_string())?)
 }

@@ -4,7 +4,7 @@
 //! check the shape of `lobe models`, `lobe eval` (CSV, JSON, --pairs) against the library.
 //! Everything here runs on the CPU reference (`--backend cpu`) and needs no Vulkan device.
 
-use lobe::grid::direction;
+use lobe::grid::direction_deg;
 use lobe::model::{Model, Reference};
 use lobe::{material, resolve_params};
 use std::collections::BTreeSet;
@@ -603,9 +603,9 @@ fn models_lists_every_model() {
 fn reference_ct(angles: [f64; 4]) -> [f64; 3] {
     let params = resolve_params("cook_torrance", None, &["roughness=0.3".to_string()])
         .expect("valid parameters");
-    let [ti, pi, to, po] = angles.map(f64::to_radians);
+    let [ti, pi, to, po] = angles;
     Reference::new(&params, false)
-        .eval(direction(ti, pi), direction(to, po))
+        .eval(direction_deg(ti, pi), direction_deg(to, po))
         .to_array()
 }
 

@@ -94,3 +94,129 @@ fn a_parameter_given_twice_in_one_spec_is_refused() {
     );
     assert!(ok, "{err}");
 }
+
+/// Runs lobe, killing it if it has not finished within `limit`: (finished, success, stderr).
+fn lobe_within(args: &[&std::ffi::OsStr], limit: std::time::Duration) -> (bool, bool, String) {
+    use std::io::Read;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run lobe");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait for lobe") {
+            break Some(s);
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    let _ = child.stderr.take().map(|mut e| e.read_to_string(&mut err));
+    (status.is_some(), status.is_some_and(|s| s.success()), err)
+}
+
+/// Makes a named pipe at `path`.
+fn mkfifo(path: &std::path::Path) {
+    let made = std::process::Command::new("mkfifo").arg(path).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo {}", path.display());
+}
+
+/// Every input path is read only when it is a regular file (links followed), within a bound:
+/// a table target whose .npy or sidecar links to /dev/zero grew the process to 20 GB, and a FIFO
+/// as a table target, its sidecar, a scene or a pairs file blocked forever. Each is refused at
+/// once, naming the file and what it is.
+#[test]
+fn devices_and_pipes_are_refused_as_inputs() {
+    // Long enough for a refusal on a loaded machine; a read of /dev/zero or a blocked FIFO never
+    // finishes.
+    const LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("t.exr");
+    let (ok, err) = lobe(&[
+        "table",
+        "--model",
+        "lambert",
+        "--backend",
+        "cpu",
+        "--grid",
+        "isotropic",
+        "--res",
+        "4,4,4",
+        "-o",
+        table.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let fit = |target: &std::path::Path| {
+        let args = [
+            "fit",
+            "--target",
+            target.to_str().unwrap(),
+            "--model",
+            "lambert",
+            "--free",
+            "albedo",
+            "--backend",
+            "cpu",
+        ];
+        let args: Vec<_> = args.iter().map(std::ffi::OsStr::new).collect();
+        lobe_within(&args, LIMIT)
+    };
+    let npy = dir.path().join("t.npy");
+    let json = dir.path().join("t.json");
+    let (good_npy, good_json) = (dir.path().join("good.npy"), dir.path().join("good.json"));
+    std::fs::rename(&npy, &good_npy).unwrap();
+    std::fs::rename(&json, &good_json).unwrap();
+    for broken in [&npy, &json] {
+        std::fs::copy(&good_npy, &npy).unwrap();
+        std::fs::copy(&good_json, &json).unwrap();
+        std::fs::remove_file(broken).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", broken).unwrap();
+        let name = broken.file_name().unwrap().to_str().unwrap();
+        let (finished, ok, err) = fit(&npy);
+        assert!(
+            finished && !ok,
+            "{name} -> /dev/zero: finished {finished}, {err}"
+        );
+        assert!(err.contains("a device") && err.contains(name), "{err}");
+        std::fs::remove_file(broken).unwrap();
+        mkfifo(broken);
+        let (finished, ok, err) = fit(&npy);
+        assert!(finished && !ok, "{name} a FIFO: finished {finished}, {err}");
+        assert!(err.contains("FIFO") && err.contains(name), "{err}");
+        std::fs::remove_file(broken).unwrap();
+    }
+    std::fs::copy(&good_npy, &npy).unwrap();
+    std::fs::copy(&good_json, &json).unwrap();
+    let (finished, ok, err) = fit(&npy);
+    assert!(finished && ok, "the table itself: {err}");
+    let fifo = dir.path().join("in.fifo");
+    mkfifo(&fifo);
+    for args in [
+        vec![
+            "run".as_ref(),
+            fifo.as_os_str(),
+            "--output-dir".as_ref(),
+            dir.path().join("out").as_os_str(),
+        ],
+        vec![
+            "eval".as_ref(),
+            "--pairs".as_ref(),
+            fifo.as_os_str(),
+            "--backend".as_ref(),
+            "cpu".as_ref(),
+        ],
+    ] {
+        let (finished, ok, err) = lobe_within(&args, LIMIT);
+        assert!(finished && !ok, "{args:?}: finished {finished}, {err}");
+        assert!(
+            err.contains("FIFO") && err.contains("in.fifo"),
+            "{args:?}: {err}"
+        );
+    }
+}

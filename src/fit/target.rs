@@ -216,7 +216,7 @@ fn model_samples(params: &ParamSet, eval: &Evaluator, max_bins: usize) -> Result
 fn merl_samples(path: &Path, max_bins: usize) -> Result<Samples> {
     let table = merl::read(path)?;
     // The reader keeps missing values as 0; which bins they were is in the raw stored values.
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let bytes = crate::input::read_regular(path, "MERL file", merl::FILE_BYTES as u64)?;
     let stored = |c: usize, k: usize| {
         let at = merl::HEADER_BYTES + 8 * (c * merl::BINS + k);
         let mut b = [0u8; 8];
@@ -284,13 +284,15 @@ fn table_samples(path: &Path, max_bins: usize) -> Result<Samples> {
     let npy = path.with_extension("npy");
     let json = path.with_extension("json");
     let refuse = |problem: String| BadInput::new("target", problem);
-    let text = std::fs::read_to_string(&json).map_err(|e| {
-        refuse(format!(
-            "table target {}: cannot read its JSON sidecar {}: {e}",
-            path.display(),
-            json.display()
-        ))
-    })?;
+    let text = crate::input::read_regular(&json, "JSON sidecar", crate::table::MAX_SIDECAR_BYTES)
+        .and_then(|b| Ok(String::from_utf8(b)?))
+        .map_err(|e| {
+            refuse(format!(
+                "table target {}: cannot read its JSON sidecar {}: {e:#}",
+                path.display(),
+                json.display()
+            ))
+        })?;
     let sidecar: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
         refuse(format!(
             "table target {}: its sidecar is not JSON: {e}",

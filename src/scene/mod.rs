@@ -240,30 +240,7 @@ pub struct Scene {
 
 /// Reads and parses the scene at `path`.
 pub fn load(path: &Path) -> Result<Scene> {
-    let meta =
-        std::fs::metadata(path).with_context(|| format!("cannot read scene {}", path.display()))?;
-    if meta.is_dir() {
-        bail!("cannot read scene {}: it is a folder", path.display());
-    }
-    if meta.len() > MAX_SCENE_BYTES {
-        bail!(
-            "scene {} is {} bytes; a scene file is at most {MAX_SCENE_BYTES} bytes",
-            path.display(),
-            meta.len()
-        );
-    }
-    // Read at most one byte past the limit: a device or pipe (/dev/zero) has no length to check.
-    use std::io::Read;
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_end(&mut bytes))
-        .with_context(|| format!("cannot read scene {}", path.display()))?;
-    if bytes.len() as u64 > MAX_SCENE_BYTES {
-        bail!(
-            "scene {} is more than {MAX_SCENE_BYTES} bytes; a scene file is at most that",
-            path.display()
-        );
-    }
+    let bytes = crate::input::read_regular(path, "scene", MAX_SCENE_BYTES)?;
     let text = String::from_utf8(bytes).map_err(|e| {
         let (line, column) = line_column(
             &String::from_utf8_lossy(e.as_bytes()),

@@ -23,6 +23,10 @@ use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// The most a table's JSON sidecar may hold when it is read back (one is a few KiB: axes,
+/// model, parameters).
+pub const MAX_SIDECAR_BYTES: u64 = 1 << 20;
+
 /// Cells above which a table is refused before any work starts: 2^32 − 1, the GPU kernel's 32-bit
 /// cell index (48 GiB of float32 RGB).
 pub const MAX_TABLE_CELLS: u64 = u32::MAX as u64;

@@ -3,7 +3,7 @@
 //! Format: <https://numpy.org/doc/stable/reference/generated/numpy.lib.format.html>.
 
 use anyhow::{bail, Context, Result};
-use std::io::{Read, Write};
+use std::io::Write;
 
 const MAGIC: &[u8] = b"\x93NUMPY";
 
@@ -37,14 +37,22 @@ pub fn write_f32(w: &mut impl Write, values: &[f32]) -> std::io::Result<()> {
     }
 }
 
-/// Reads a float32 C-order `.npy`: (shape, data offset in bytes, values).
+/// The largest `.npy` that [`read`] takes in, header and data: 2^28 float32 values (a full grid
+/// of 64 × 64 × 128 × 128 RGB cells is a quarter of it), so that reading one stays well within a
+/// process's memory whatever the file claims.
+pub const MAX_READ_BYTES: u64 = 1 << 30;
+
+/// Reads a float32 C-order `.npy` (a regular file, at most [`MAX_READ_BYTES`]): (shape, values).
+/// The header's shape must account for the file's length exactly.
 pub fn read(path: &std::path::Path) -> Result<(Vec<usize>, Vec<f32>)> {
-    let mut f = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let mut bytes = Vec::new();
-    f.read_to_end(&mut bytes)?;
+    let bytes = crate::input::read_regular(path, "NumPy file", MAX_READ_BYTES)?;
     let (shape, offset) = parse_header(&bytes)
         .with_context(|| format!("reading the header of {}", path.display()))?;
-    let n: usize = shape.iter().product();
+    let n = shape
+        .iter()
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .filter(|n| n.checked_mul(4).is_some())
+        .with_context(|| format!("{}: the shape {shape:?} is too large", path.display()))?;
     let data = &bytes[offset..];
     if data.len() != 4 * n {
         bail!(
