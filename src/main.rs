@@ -100,8 +100,34 @@ fn install_stdout_hook() {
     }));
 }
 
+/// Whether standard output was closed when lobe started (`lobe models >&-`). Rust's runtime
+/// puts /dev/null, opened read-write, on a closed standard descriptor before `main` (so that no
+/// file the process opens takes its place), and a report written there is lost without an
+/// error: the command ended with status 0 and printed nothing. A shell's `> /dev/null` opens it
+/// write-only, so the read-write /dev/null is the runtime's.
+fn stdout_was_closed() -> bool {
+    // SAFETY: fstat and fcntl(F_GETFL) only read descriptor 1's state into `st`.
+    unsafe {
+        let mut st: libc::stat = std::mem::zeroed();
+        if libc::fstat(1, &mut st) != 0 {
+            return true;
+        }
+        let null = (st.st_mode & libc::S_IFMT) == libc::S_IFCHR
+            && libc::major(st.st_rdev) == 1
+            && libc::minor(st.st_rdev) == 3;
+        null && libc::fcntl(1, libc::F_GETFL) & libc::O_ACCMODE == libc::O_RDWR
+    }
+}
+
 fn main() {
     install_stdout_hook();
+    if stdout_was_closed() {
+        eprintln!(
+            "lobe: error: standard output is closed, and lobe reports on it; redirect it to a \
+             file or to /dev/null instead"
+        );
+        std::process::exit(1);
+    }
     let command = Cli::parse().command;
     // Ctrl-C, SIGTERM and SIGHUP set the cancellation token every session carries and stop all
     // output, for every command that writes files; the others (eval, models: standard output

@@ -220,3 +220,37 @@ fn devices_and_pipes_are_refused_as_inputs() {
         );
     }
 }
+
+/// With standard output closed (`>&-`), a report would be lost without a word (status 0):
+/// every command refuses, saying so on stderr. `> /dev/null` is the way to discard it.
+#[test]
+fn a_closed_standard_output_is_refused() {
+    let lobe = env!("CARGO_BIN_EXE_lobe");
+    for args in [
+        "models",
+        "eval --backend cpu --wi-deg 30,0 --wo-deg 30,180",
+        "albedo --backend cpu --model lambert",
+    ] {
+        let run = |redirect: &str| {
+            std::process::Command::new("sh")
+                .arg("-c")
+                .arg(format!("exec \"$0\" {args} {redirect}"))
+                .arg(lobe)
+                .output()
+                .expect("run sh")
+        };
+        let closed = run(">&-");
+        let err = String::from_utf8_lossy(&closed.stderr);
+        assert!(!closed.status.success(), "lobe {args} >&-: {err}");
+        assert!(
+            err.contains("standard output is closed"),
+            "lobe {args} >&-: {err}"
+        );
+        let null = run("> /dev/null");
+        assert!(
+            null.status.success(),
+            "lobe {args} > /dev/null: {}",
+            String::from_utf8_lossy(&null.stderr)
+        );
+    }
+}
