@@ -242,11 +242,7 @@ impl Pending {
         }
         let dir = folder_of(dest);
         if !dir.is_dir() {
-            bail!(
-                "cannot write {}: the folder {} does not exist",
-                dest.display(),
-                dir.display()
-            );
+            bail!("cannot write {}: {}", dest.display(), why_not_a_folder(dir));
         }
         check_replaceable(dest)?;
         let name = dest
@@ -265,11 +261,16 @@ impl Pending {
                         name.len()
                     )
                 } else {
-                    anyhow::Error::new(e).context(format!(
-                        "cannot write {}: creating a file in {} failed",
+                    // The temporary-file error repeats its path once per attempt: the OS error
+                    // alone says what went wrong.
+                    let cause = e
+                        .raw_os_error()
+                        .map_or(e.kind().into(), io::Error::from_raw_os_error);
+                    anyhow::anyhow!(
+                        "cannot write {}: creating a file in {} failed: {cause}",
                         dest.display(),
                         dir.display()
-                    ))
+                    )
                 }
             })?;
         let id = register(tmp.path(), false);
@@ -535,6 +536,28 @@ pub fn resolve(path: &Path) -> PathBuf {
     match (std::fs::canonicalize(folder_of(path)), path.file_name()) {
         (Ok(dir), Some(name)) => dir.join(name),
         _ => path.to_path_buf(),
+    }
+}
+
+/// Why `dir`, which is not a folder, cannot hold a file: it is something else, or the first of
+/// its ancestors that exists is a file, or it is missing.
+fn why_not_a_folder(dir: &Path) -> String {
+    if dir.exists() {
+        return format!("{} is not a folder", dir.display());
+    }
+    let file_above = dir
+        .ancestors()
+        .skip(1)
+        .filter(|a| !a.as_os_str().is_empty())
+        .find(|a| a.exists())
+        .filter(|a| !a.is_dir());
+    match file_above {
+        Some(file) => format!(
+            "the folder {} cannot exist: {} is a file, not a folder",
+            dir.display(),
+            file.display()
+        ),
+        None => format!("the folder {} does not exist", dir.display()),
     }
 }
 

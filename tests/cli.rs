@@ -403,6 +403,26 @@ fn can_create_in(dir: &Path) -> bool {
 }
 
 #[cfg(unix)]
+/// An output whose folder is a file, or lies under a file, is refused naming that file (it was
+/// reported as a missing folder), and nothing is written.
+#[test]
+fn output_under_a_file_names_the_file() {
+    let dir = tempfile::tempdir().expect("temporary folder");
+    std::fs::write(dir.path().join("plain"), "x").expect("write a file");
+    for (target, says) in [
+        ("plain/t.exr", "plain is not a folder"),
+        ("plain/sub/t.exr", "plain is a file, not a folder"),
+        ("missing/sub/t.exr", "does not exist"),
+    ] {
+        assert_fails_in(
+            dir.path(),
+            &[],
+            &strs(&table_args_to("lambert", target)),
+            &["cannot write", says],
+        );
+    }
+}
+
 #[test]
 fn output_in_a_read_only_folder_is_refused() {
     use std::os::unix::fs::PermissionsExt;
@@ -431,12 +451,20 @@ fn output_in_a_read_only_folder_is_refused() {
     let target_text = target.to_str().expect("utf-8 path").to_string();
     let folder_text = folder.to_str().expect("utf-8 path").to_string();
     let result = std::panic::catch_unwind(|| {
-        assert_fails_in(
+        let out = assert_fails_in(
             dir.path(),
             &[&folder],
             &strs(&table_args_to("lambert", &target_text)),
             &["cannot write", &folder_text],
         );
+        // Said once: the temporary file's own error had repeated "at path …" per attempt.
+        assert_eq!(
+            out.stderr.matches(&folder_text).count(),
+            2,
+            "{}",
+            out.stderr
+        );
+        assert!(!out.stderr.contains("at path"), "{}", out.stderr);
     });
     std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).expect("chmod 755");
     if let Err(e) = result {
