@@ -473,6 +473,8 @@ fn the_command_line_writes_and_reads_merl_files() {
         let o = run(format!("table --backend cpu -o {bad} {args}"));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains(says), "{args}: {err}");
+        // No grid of a MERL file holds an anisotropic BRDF: none is suggested.
+        assert!(!err.contains("NTHETA_H,NPHI_H"), "{args}: {err}");
         assert!(
             !d.path().join("refused.binary").exists(),
             "{args} left a file"

@@ -29,6 +29,19 @@ pub const GRID: Grid = Grid::HalfDiff {
 /// Checks a request before any work: the parameter set is isotropic and the path ends in
 /// `.binary`. Refusals are [`BadInput`]s tagged `grid` or `path`.
 pub fn check_request(params: &ParamSet, path: &Path) -> Result<()> {
+    if !params.is_isotropic() {
+        // The table check would suggest a four-angle grid, which no MERL file can hold.
+        return Err(BadInput::new(
+            "grid",
+            format!(
+                "a MERL file holds an isotropic BRDF (θh, θd, φd), but {} with {} is anisotropic; \
+                 write a lobe table on the full grid or the four-angle halfdiff grid instead",
+                params.model().name(),
+                params.to_text()
+            ),
+        )
+        .into());
+    }
     crate::table::check_grid(params, &GRID)?;
     if path.extension().and_then(|e| e.to_str()) != Some("binary") {
         return Err(BadInput::new(
