@@ -244,6 +244,7 @@ impl Pending {
         if !dir.is_dir() {
             bail!("cannot write {}: {}", dest.display(), why_not_a_folder(dir));
         }
+        open_folder_lock(dir).with_context(|| format!("cannot write {}", dest.display()))?;
         check_replaceable(dest)?;
         let name = dest
             .file_name()
@@ -486,7 +487,7 @@ impl FileSet {
                 to: p.dest.clone(),
             })
             .collect();
-        let locks = lock_folders(moves.iter().map(|m| folder_of(&m.to)));
+        let locks = lock_folders(moves.iter().map(|m| folder_of(&m.to)))?;
         let mut reg = registry();
         let result = if is_interrupted() {
             Err(Interrupted.into())
@@ -604,12 +605,12 @@ fn remove_created(made: &[PathBuf]) {
 
 /// Advisory locks (`flock`, released when the files close) on each distinct folder of `dirs`,
 /// taken in one order (by device and inode) so that processes locking overlapping folders cannot
-/// deadlock. A folder that cannot be opened or locked is passed over: the lock only orders lobe's
-/// own writers.
-fn lock_folders<'a>(dirs: impl Iterator<Item = &'a Path>) -> Vec<File> {
+/// deadlock. The lock is what keeps two runs writing one set from mixing their files, so a folder
+/// that cannot be opened or locked is refused ([`open_folder_lock`]), never passed over.
+fn lock_folders<'a>(dirs: impl Iterator<Item = &'a Path>) -> Result<Vec<File>> {
     let mut open: Vec<((u64, u64), File)> = Vec::new();
     for d in dirs {
-        let Ok(f) = File::open(d) else { continue };
+        let f = open_folder_lock(d)?;
         let key = folder_key(&f);
         if !open.iter().any(|(k, _)| *k == key) {
             open.push((key, f));
@@ -617,8 +618,23 @@ fn lock_folders<'a>(dirs: impl Iterator<Item = &'a Path>) -> Vec<File> {
     }
     open.sort_by_key(|(k, _)| *k);
     open.into_iter()
-        .filter_map(|(_, f)| f.lock().is_ok().then_some(f))
-        .collect()
+        .map(|(_, f)| f.lock().map(|()| f))
+        .collect::<io::Result<Vec<File>>>()
+        .context("cannot lock an output folder against other lobe runs")
+}
+
+/// The folder `dir` opened for its lock. A folder that can be written but not read (mode 733)
+/// cannot be opened, and with no lock two runs could each commit part of one set: refused, as
+/// early as a file is staged there and again at the commit.
+fn open_folder_lock(dir: &Path) -> Result<File> {
+    File::open(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot lock the output folder {} ({e}): lobe locks the folder it writes in, so that \
+             two runs cannot mix their files, and needs to read the folder for that; make it \
+             readable or write elsewhere",
+            dir.display()
+        )
+    })
 }
 
 #[cfg(unix)]
@@ -786,6 +802,16 @@ impl StagingFolder {
         let parent = folder_of(dest);
         let mut folders = Vec::new();
         create_folders(parent, &mut folders)?;
+        let lockable = open_folder_lock(parent)
+            .and_then(|_| match dest.is_dir() {
+                true => open_folder_lock(dest).map(drop),
+                false => Ok(()),
+            })
+            .with_context(|| format!("cannot write the folder {}", dest.display()));
+        if let Err(e) = lockable {
+            remove_created(&folders);
+            return Err(e);
+        }
         let prefix = format!(".lobe-{name}-");
         let mut b = tempfile::Builder::new();
         b.prefix(&prefix);
@@ -827,7 +853,7 @@ impl StagingFolder {
     pub fn commit<S: AsRef<str>>(mut self, files: &[S]) -> Result<()> {
         let root = self.root().to_path_buf();
         if !self.dest.exists() {
-            let locks = lock_folders([folder_of(&self.dest)].into_iter());
+            let locks = lock_folders([folder_of(&self.dest)].into_iter())?;
             let mut reg = registry();
             if is_interrupted() {
                 return Err(Interrupted.into());
@@ -860,7 +886,7 @@ impl StagingFolder {
             .iter()
             .try_for_each(|m| create_folders(folder_of(&m.to), &mut made));
         let result = prepared.and_then(|()| {
-            let _locks = lock_folders(moves.iter().map(|m| folder_of(&m.to)));
+            let _locks = lock_folders(moves.iter().map(|m| folder_of(&m.to)))?;
             let _reg = registry();
             if is_interrupted() {
                 return Err(Interrupted.into());

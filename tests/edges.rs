@@ -254,3 +254,56 @@ fn a_closed_standard_output_is_refused() {
         );
     }
 }
+
+/// A folder that can be written but not listed (mode 733) cannot be opened for its lock, and
+/// lobe went on without it: two runs could each commit part of one set. Such a folder is refused
+/// before any work, naming it, and nothing is left in it. Run as an unprivileged user (root can
+/// open any folder): under root through `setpriv` as `nobody`, with a copy of lobe that user can
+/// run.
+#[test]
+fn a_folder_that_cannot_be_locked_is_refused() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+    let lobe = dir.path().join("lobe");
+    std::fs::copy(env!("CARGO_BIN_EXE_lobe"), &lobe).unwrap();
+    let unlisted = dir.path().join("unlisted");
+    std::fs::create_dir(&unlisted).unwrap();
+    std::fs::set_permissions(&unlisted, std::fs::Permissions::from_mode(0o733)).unwrap();
+    // SAFETY: geteuid only reads the process's effective user id.
+    let root = unsafe { libc::geteuid() } == 0;
+    let mut cmd = if root {
+        let mut c = std::process::Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(&lobe);
+        c
+    } else {
+        std::process::Command::new(&lobe)
+    };
+    let out = cmd
+        .args([
+            "table",
+            "--backend",
+            "cpu",
+            "--grid",
+            "isotropic",
+            "--res",
+            "4,4,4",
+            "-o",
+        ])
+        .arg(unlisted.join("t.exr"))
+        .output()
+        .expect("run lobe");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("cannot lock the output folder") && err.contains("unlisted"),
+        "{err}"
+    );
+    std::fs::set_permissions(&unlisted, std::fs::Permissions::from_mode(0o755)).unwrap();
+    assert_eq!(
+        std::fs::read_dir(&unlisted).unwrap().count(),
+        0,
+        "files were left behind"
+    );
+}
