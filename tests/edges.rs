@@ -57,6 +57,19 @@ fn a_direction_on_the_horizon_gives_zero_on_both_backends() {
     }
 }
 
+/// A table of a few cells on the CPU, short of its `-o`.
+const TINY_TABLE: &[&str] = &[
+    "table",
+    "--model",
+    "lambert",
+    "--backend",
+    "cpu",
+    "--grid",
+    "isotropic",
+    "--res",
+    "4,4,4",
+];
+
 /// Runs lobe and returns (success, stderr).
 fn lobe(args: &[&str]) -> (bool, String) {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
@@ -138,19 +151,7 @@ fn devices_and_pipes_are_refused_as_inputs() {
     const LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
     let dir = tempfile::tempdir().unwrap();
     let table = dir.path().join("t.exr");
-    let (ok, err) = lobe(&[
-        "table",
-        "--model",
-        "lambert",
-        "--backend",
-        "cpu",
-        "--grid",
-        "isotropic",
-        "--res",
-        "4,4,4",
-        "-o",
-        table.to_str().unwrap(),
-    ]);
+    let (ok, err) = lobe(&[TINY_TABLE, &["-o", table.to_str().unwrap()]].concat());
     assert!(ok, "{err}");
     let fit = |target: &std::path::Path| {
         let args = [
@@ -281,16 +282,8 @@ fn a_folder_that_cannot_be_locked_is_refused() {
         std::process::Command::new(&lobe)
     };
     let out = cmd
-        .args([
-            "table",
-            "--backend",
-            "cpu",
-            "--grid",
-            "isotropic",
-            "--res",
-            "4,4,4",
-            "-o",
-        ])
+        .args(TINY_TABLE)
+        .arg("-o")
         .arg(unlisted.join("t.exr"))
         .output()
         .expect("run lobe");
