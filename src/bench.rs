@@ -22,6 +22,8 @@ pub struct Throughput {
     pub task: &'static str,
     /// The backend timed, as [`Evaluator::name`] says.
     pub backend: String,
+    /// The GPU's driver and its version ([`Evaluator::driver`]); None on the CPU.
+    pub driver: Option<String>,
     /// Integrand evaluations in one run.
     pub evaluations: u64,
     /// Evaluations per second by wall clock, read-back included.
@@ -75,6 +77,7 @@ fn time_task(
         model: params.model().name().to_string(),
         task,
         backend: eval.name(),
+        driver: eval.driver(),
         evaluations,
         wall_per_s: median(walls),
         kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),

@@ -109,6 +109,14 @@ impl<'a> Evaluator<'a> {
         }
     }
 
+    /// The GPU's driver and its version ("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"); None on the CPU.
+    pub fn driver(&self) -> Option<String> {
+        match self.backend {
+            Backend::Gpu(g) => Some(g.device().driver().to_string()),
+            Backend::Cpu => None,
+        }
+    }
+
     /// f at each (ωi, ωo) pair, for one parameter set.
     pub fn eval_pairs(
         &self,

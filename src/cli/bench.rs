@@ -144,6 +144,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 lobe::bench::LUT_RES,
                 lobe::bench::LUT_SAMPLES
             )?;
+            let mut drivers: Vec<(&str, &str)> = rows
+                .iter()
+                .filter_map(|r| Some((r.backend.as_str(), r.driver.as_deref()?)))
+                .collect();
+            drivers.dedup();
+            for (backend, driver) in drivers {
+                writeln!(out, "{backend}: driver {driver}")?;
+            }
             writeln!(
                 out,
                 "{:<18} {:<7} {:<44} {:>14} {:>16}",

@@ -66,6 +66,8 @@ pub struct Device {
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) limits: vk::PhysicalDeviceLimits,
     name: String,
+    /// The driver and its version ([`Device::driver`]).
+    driver: String,
     device_type: vk::PhysicalDeviceType,
     /// Held around every queue submission (Vulkan requires the queue externally synchronised).
     pub(crate) queue_lock: Mutex<()>,
@@ -89,6 +91,40 @@ fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
         .device_name_as_c_str()
         .map(|c| c.to_string_lossy().into_owned())
         .unwrap_or_else(|_| "?".into())
+}
+
+/// The driver and its version: "llvmpipe Mesa 22.3.6 (LLVM 15.0.6)" from the driver properties
+/// (Vulkan 1.2, or VK_KHR_driver_properties), else the version number the device reports, whose
+/// encoding is the vendor's.
+fn driver_name(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    props: &vk::PhysicalDeviceProperties,
+) -> String {
+    // SAFETY: enumeration on a live instance and physical device.
+    let extensions = unsafe { instance.enumerate_device_extension_properties(physical) };
+    let has_extension = extensions.is_ok_and(|list| {
+        list.iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::driver_properties::NAME))
+    });
+    if props.api_version >= vk::API_VERSION_1_2 || has_extension {
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        // SAFETY: the chained struct is one the device supports (checked above).
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        let text = |c: std::result::Result<&std::ffi::CStr, std::ffi::FromBytesUntilNulError>| {
+            c.map(|c| c.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        let (name, info) = (
+            text(driver.driver_name_as_c_str()),
+            text(driver.driver_info_as_c_str()),
+        );
+        if !name.is_empty() || !info.is_empty() {
+            return format!("{name} {info}").trim().to_string();
+        }
+    }
+    format!("driver version {:#x}", props.driver_version)
 }
 
 /// Real GPUs first, then virtual, then CPU drivers such as lavapipe.
@@ -218,6 +254,7 @@ impl Device {
                         instance.get_physical_device_properties(physical),
                     )
                 };
+                let driver = driver_name(&instance, physical, &props);
                 Ok(Device {
                     _entry: entry,
                     instance,
@@ -229,6 +266,7 @@ impl Device {
                     memory,
                     limits: props.limits,
                     name: device_name(&props),
+                    driver,
                     device_type: props.device_type,
                     queue_lock: Mutex::new(()),
                     inject_device_lost: opts.inject_device_lost,
@@ -286,6 +324,11 @@ impl Device {
     /// The device's name as the driver reports it.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The driver and its version, e.g. "llvmpipe Mesa 22.3.6 (LLVM 15.0.6)".
+    pub fn driver(&self) -> &str {
+        &self.driver
     }
 
     /// How many warnings and errors the validation layer has reported on this device so far
