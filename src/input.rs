@@ -30,6 +30,11 @@ pub fn option_of(e: &anyhow::Error) -> Option<&'static str> {
         .map(|b| b.option)
 }
 
+/// Text without the UTF-8 byte-order mark some editors put at its start.
+pub fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

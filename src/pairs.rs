@@ -126,7 +126,7 @@ impl<R: BufRead> PairsReader<R> {
                 anyhow::anyhow!("{} line {}: not UTF-8 text", self.source, self.line)
             })?;
             if self.line == 1 {
-                text = text.strip_prefix('\u{feff}').unwrap_or(text);
+                text = crate::input::without_bom(text);
             }
             let text = text.trim_end_matches(['\n', '\r']);
             if !text.trim().is_empty() {

@@ -14,7 +14,10 @@
 //! returns stops the job with a message instead of hanging it.
 
 pub mod glsl;
+mod lex;
 pub mod parse;
+mod rename;
+pub mod validate;
 
 pub use glsl::SIGNATURE;
 pub use parse::{parse, BrdfFile, Param, ParamType, MAX_FILE_BYTES};
@@ -67,6 +70,17 @@ pub enum BrdfError {
         /// The line of the first error (from 1).
         line: usize,
         /// The compiler's messages, one a line, as `FILE:LINE: message`.
+        message: String,
+    },
+    /// The shader compiles but adds to lobe's kernels what a `.brdf` shader may not (a
+    /// resource, a barrier, an atomic, too much memory: [`mod@validate`]).
+    #[error("{file}:{line}: {message}")]
+    Refused {
+        /// The path as given.
+        file: String,
+        /// The line of the offending declaration or function, or the shader's first line.
+        line: usize,
+        /// What is not allowed, in words.
         message: String,
     },
     /// The parameter table or the name was refused.
@@ -139,7 +153,7 @@ pub fn read(path: &Path) -> Result<BrdfFile, BrdfError> {
         BrdfError::Parse {
             file: file.clone(),
             line: 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count(),
-            message: format!("not UTF-8 text (an invalid byte at offset {at})"),
+            message: format!("not UTF-8 text (an invalid byte at offset {at}); a .brdf file is text, not a binary file"),
         }
     })?;
     parse(&file, &text)
