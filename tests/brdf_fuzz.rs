@@ -208,14 +208,14 @@ fn mutated_files_load_or_fail_with_a_message() {
         failure_persistence: None,
         ..ProptestConfig::default()
     });
-    let mut count = 0;
+    let count = std::cell::Cell::new(0);
     runner
         .run(&case(), |bytes| {
             if begun.elapsed() > budget() {
                 return Ok(());
             }
-            count += 1;
-            let path = dir.path().join(format!("m{count}.brdf"));
+            count.set(count.get() + 1);
+            let path = dir.path().join(format!("m{}.brdf", count.get()));
             std::fs::write(&path, &bytes).unwrap();
             let lines = bytes.split(|&b| b == b'\n').count();
             let shown = path.display().to_string();

@@ -117,6 +117,17 @@ fn errors_in_a_file_with_built_in_names_keep_its_lines_and_names() {
     );
 }
 
+/// A character beyond ASCII in the code (not in a comment) is the compiler's error at its line.
+#[test]
+fn a_character_beyond_ascii_in_the_code_is_a_compile_error() {
+    let (_dir, path) = file_with(
+        "accent.brdf",
+        "// é in a comment is fine\nSIG { return vec3(a); } é",
+    );
+    let e = load_err(&path);
+    assert!(matches!(e, BrdfError::Compile { line: 7, .. }), "{e}");
+}
+
 /// One attack: its file name, shader (from line 6), and the line and words of the refusal.
 struct Attack {
     name: &'static str,

@@ -33,9 +33,9 @@ pub(super) fn lex(text: &str) -> Vec<Lexeme<'_>> {
             i += 1;
         } else if c.is_ascii_whitespace() {
             i += 1;
-        } else if text[i..].starts_with("//") {
+        } else if b[i..].starts_with(b"//") {
             i = text[i..].find('\n').map_or(b.len(), |e| i + e);
-        } else if text[i..].starts_with("/*") {
+        } else if b[i..].starts_with(b"/*") {
             i = text[i + 2..].find("*/").map_or(b.len(), |e| i + 2 + e + 2);
             line_start = false;
         } else if c.is_ascii_alphabetic() || c == b'_' {
@@ -94,4 +94,23 @@ pub(super) fn tokens(text: &str) -> (Vec<Tok<'_>>, Vec<String>) {
         .map(|l| l.tok)
         .collect();
     (toks, macros)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Characters beyond ASCII outside comments are punctuation to GLSL (and an error there);
+    /// the tokenizer steps over them byte by byte without cutting one in half.
+    #[test]
+    fn text_beyond_ascii_is_stepped_over() {
+        let names: Vec<_> = lex("a é/ b // ü\n\u{feff}/*ß*/c")
+            .into_iter()
+            .filter_map(|l| match l.tok {
+                Tok::Ident(n) => Some(n),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(names, ["a", "b", "c"]);
+    }
 }
