@@ -10,8 +10,8 @@ use std::path::Path;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-/// Wall time each fuzz test may take by default: with the parser at tens of microseconds a
-/// case the case count ends it first here; the bound keeps a slow machine's CI short.
+/// Wall time each fuzz test may take by default. Here the case counts end both tests first
+/// (about a second in all); the bound keeps a slow machine's CI short.
 const DEFAULT_SECONDS: u64 = 10;
 
 /// Parser cases: enough to reach each seed with several mutations (a second or two here).

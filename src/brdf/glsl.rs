@@ -10,7 +10,8 @@
 //! kernel     glsl/kernels/<kernel>.comp (common.glsl, eval.glsl; model.glsl = struct + prototype)
 //! tail       #undef of each of those names and of the kernel's own macros
 //!            float rough; bool useX; vec3 kd;   one global per parameter (#line: its line)
-//!            the shader section                 (#line: its first line in the file)
+//!            the shader section                 (#line: its first line in the file; its
+//!                                               functions renamed: rename.rs)
 //!            lobe_model(): copies the block into those globals, calls BRDF(L, V, N, X, Y)
 //! ```
 //!

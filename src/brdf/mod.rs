@@ -8,6 +8,11 @@
 //! vec3 X, vec3 Y)` is called with L = ωi, V = ωo, N = +z, X = +x, Y = +y, behind lobe's
 //! one-sided rule (f = 0 unless both cosines are positive).
 //!
+//! The shader is untrusted code inside lobe's kernels: it may define functions and constants and
+//! read its parameters, and [`mod@validate`] refuses anything more in the compiled kernels (a
+//! buffer, image or `shared` variable, a barrier, an atomic, large arrays) before a driver sees
+//! them.
+//!
 //! Such a model has no f64 twin: the CPU backend and the jobs that need the reference (the
 //! adaptive integrator, the stability sweep's GPU-vs-CPU parity) refuse it with a sentence. Its
 //! GPU work is bounded per chunk ([`LoadOptions::chunk_timeout`]), so a shader that never
