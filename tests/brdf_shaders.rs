@@ -1,9 +1,10 @@
 //! What a `.brdf` file's shader may hold. Helpers named like GLSL built-ins (as old desktop
 //! GLSL allowed and BRDF Explorer files use) compile and are the ones the file's code calls.
 //! The shader is untrusted code inside lobe's kernels: a resource of its own or one of lobe's
-//! bindings, an image, a sampler, `shared` memory, a barrier, an atomic, a huge array, NUL
-//! bytes, text that is not UTF-8 and ranges beyond f32 are refused with the file, the line and
-//! the construct, through the library and the command line; a byte-order mark is skipped.
+//! bindings, an image, a sampler, `shared` memory, a built-in input, a barrier, an atomic, a
+//! huge array, NUL bytes, text that is not UTF-8 and ranges beyond f32 are refused with the
+//! file, the line and the construct, through the library and the command line; a byte-order
+//! mark is skipped.
 
 mod common;
 
@@ -186,6 +187,12 @@ fn attacks() -> Vec<Attack> {
             "shared.brdf",
             "\nshared float s[64];\nSIG { s[0] = a; return vec3(s[0]); }",
             &["'s' declares 'shared' memory"],
+        ),
+        // A built-in input lobe's kernels do not read.
+        buffer(
+            "input.brdf",
+            "\nSIG { return vec3(gl_NumWorkGroups); }",
+            &["'gl_NumWorkGroups' declares a shader input (built-in NumWorkgroups)"],
         ),
         // A barrier in a helper: the helper is named, at its line.
         buffer(
