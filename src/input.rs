@@ -1,11 +1,11 @@
 //! Refused request values, tagged with the option they came from. A job's messages name the
 //! value and its valid range in the library's own words; the tag lets a front end (the command
 //! line, a form) point at its own spelling of that option without parsing the sentence.
-//! Input files are read through [`open_regular`] and [`read_regular`]: regular files only, each
+//! Input files are read through [`open_input`] and [`read_regular`]: regular files only, each
 //! with a bound on what is read.
 
 use std::fs::File;
-use std::io::Read;
+use std::io::{self, Read};
 use std::path::Path;
 
 /// A request value a job refuses. `option` is the library's name for the input (a field of the
@@ -60,20 +60,21 @@ fn kind_of(meta: &std::fs::Metadata) -> &'static str {
 }
 
 /// Opens `path` for reading when it is a regular file once symbolic links are followed, and
-/// returns it with its length; `what` names the input in messages ("scene", "table target").
-/// Anything else (a folder, a FIFO, a device such as /dev/zero, a socket) is refused before a
-/// byte is read, so no input can block the process or feed it without end. The file is opened
-/// without blocking (a path swapped for a FIFO after the check cannot hang the open) and
-/// checked again through the open handle.
-pub fn open_regular(path: &Path, what: &str) -> anyhow::Result<(File, u64)> {
-    let refuse =
-        |problem: String| anyhow::anyhow!("cannot read {what} {}: {problem}", path.display());
-    let meta = std::fs::metadata(path).map_err(|e| refuse(e.to_string()))?;
+/// returns it with its length. Anything else (a folder, a FIFO, a device such as /dev/zero, a
+/// socket) is refused before a byte is read, with an error of kind `InvalidInput` that says what
+/// it is, so no input can block the process or feed it without end. The file is opened without
+/// blocking (a path swapped for a FIFO after the check cannot hang the open) and checked again
+/// through the open handle.
+pub fn open_regular(path: &Path) -> io::Result<(File, u64)> {
+    let not_regular = |meta: &std::fs::Metadata| {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{}; only a regular file can be read", kind_of(meta)),
+        )
+    };
+    let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
-        return Err(refuse(format!(
-            "{}; only a regular file can be read",
-            kind_of(&meta)
-        )));
+        return Err(not_regular(&meta));
     }
     let mut options = std::fs::OpenOptions::new();
     options.read(true);
@@ -82,22 +83,25 @@ pub fn open_regular(path: &Path, what: &str) -> anyhow::Result<(File, u64)> {
         use std::os::unix::fs::OpenOptionsExt;
         options.custom_flags(libc::O_NONBLOCK);
     }
-    let file = options.open(path).map_err(|e| refuse(e.to_string()))?;
-    let meta = file.metadata().map_err(|e| refuse(e.to_string()))?;
+    let file = options.open(path)?;
+    let meta = file.metadata()?;
     if !meta.is_file() {
-        return Err(refuse(format!(
-            "{}; only a regular file can be read",
-            kind_of(&meta)
-        )));
+        return Err(not_regular(&meta));
     }
     Ok((file, meta.len()))
 }
 
-/// The bytes of the regular file `path` ([`open_regular`]), refused when it holds more than
+/// [`open_regular`] with a message naming the input: "cannot read scene x.toml: a folder; …";
+/// `what` is the input's kind ("scene", "pairs file").
+pub fn open_input(path: &Path, what: &str) -> anyhow::Result<(File, u64)> {
+    open_regular(path).map_err(|e| anyhow::anyhow!("cannot read {what} {}: {e}", path.display()))
+}
+
+/// The bytes of the regular file `path` ([`open_input`]), refused when it holds more than
 /// `max_bytes` (checked from its length before reading, and again while reading, should it
 /// grow).
 pub fn read_regular(path: &Path, what: &str, max_bytes: u64) -> anyhow::Result<Vec<u8>> {
-    let (file, len) = open_regular(path, what)?;
+    let (file, len) = open_input(path, what)?;
     let too_large = |n: u64| {
         anyhow::anyhow!(
             "{what} {} is {n} bytes; at most {max_bytes} bytes are read",
@@ -115,6 +119,11 @@ pub fn read_regular(path: &Path, what: &str, max_bytes: u64) -> anyhow::Result<V
         return Err(too_large(bytes.len() as u64));
     }
     Ok(bytes)
+}
+
+/// Text without the UTF-8 byte-order mark some editors put at its start.
+pub fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
 #[cfg(test)]

@@ -126,7 +126,7 @@ impl<R: BufRead> PairsReader<R> {
                 anyhow::anyhow!("{} line {}: not UTF-8 text", self.source, self.line)
             })?;
             if self.line == 1 {
-                text = text.strip_prefix('\u{feff}').unwrap_or(text);
+                text = crate::input::without_bom(text);
             }
             let text = text.trim_end_matches(['\n', '\r']);
             if !text.trim().is_empty() {
@@ -177,7 +177,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<[f64; 4]>> {
 
 /// Reads and parses a whole pairs file (for a few pairs; [`PairsReader`] streams a large one).
 pub fn read_csv(path: &Path) -> Result<Vec<[f64; 4]>> {
-    let (file, _) = crate::input::open_regular(path, "pairs file")?;
+    let (file, _) = crate::input::open_input(path, "pairs file")?;
     let reader = std::io::BufReader::new(file);
     read_all(PairsReader::new(reader, &path.display().to_string())?)
 }

@@ -197,26 +197,39 @@ fn devices_and_pipes_are_refused_as_inputs() {
     let (finished, ok, err) = fit(&npy);
     assert!(finished && ok, "the table itself: {err}");
     let fifo = dir.path().join("in.fifo");
+    let brdf_fifo = dir.path().join("in.brdf");
     mkfifo(&fifo);
-    for args in [
-        vec![
-            "run".as_ref(),
-            fifo.as_os_str(),
-            "--output-dir".as_ref(),
-            dir.path().join("out").as_os_str(),
-        ],
-        vec![
-            "eval".as_ref(),
-            "--pairs".as_ref(),
-            fifo.as_os_str(),
-            "--backend".as_ref(),
-            "cpu".as_ref(),
-        ],
+    mkfifo(&brdf_fifo);
+    let out = dir.path().join("out");
+    for (args, name) in [
+        (
+            vec![
+                "run".as_ref(),
+                fifo.as_os_str(),
+                "--output-dir".as_ref(),
+                out.as_os_str(),
+            ],
+            "in.fifo",
+        ),
+        (
+            vec![
+                "eval".as_ref(),
+                "--pairs".as_ref(),
+                fifo.as_os_str(),
+                "--backend".as_ref(),
+                "cpu".as_ref(),
+            ],
+            "in.fifo",
+        ),
+        (
+            vec!["eval".as_ref(), "--model".as_ref(), brdf_fifo.as_os_str()],
+            "in.brdf",
+        ),
     ] {
         let (finished, ok, err) = lobe_within(&args, LIMIT);
         assert!(finished && !ok, "{args:?}: finished {finished}, {err}");
         assert!(
-            err.contains("FIFO") && err.contains("in.fifo"),
+            err.contains("FIFO") && err.contains(name),
             "{args:?}: {err}"
         );
     }

@@ -10,7 +10,8 @@
 //! kernel     glsl/kernels/<kernel>.comp (common.glsl, eval.glsl; model.glsl = struct + prototype)
 //! tail       #undef of each of those names and of the kernel's own macros
 //!            float rough; bool useX; vec3 kd;   one global per parameter (#line: its line)
-//!            the shader section                 (#line: its first line in the file)
+//!            the shader section                 (#line: its first line in the file; its
+//!                                               functions renamed: rename.rs)
 //!            lobe_model(): copies the block into those globals, calls BRDF(L, V, N, X, Y)
 //! ```
 //!
@@ -22,7 +23,10 @@
 //! The desktop GLSL 4.50 of the kernels keeps old-style implicit int→float conversions
 //! (`1/PI`, `max(0, x)`, `clamp(1-u, 0, 1)`).
 
+use super::lex::{tokens, Tok};
 use super::parse::{BrdfFile, ParamType};
+use super::rename::{original_names, rename_functions};
+use super::validate::{self, Inventory};
 use super::BrdfError;
 use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
 use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderSource, ShaderStage};
@@ -77,65 +81,6 @@ fn kernel_names() -> &'static (BTreeSet<String>, BTreeSet<String>) {
         macros.insert("MODEL_EVAL".into());
         (globals, macros)
     })
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Tok<'a> {
-    Ident(&'a str),
-    Punct(u8),
-}
-
-/// The tokens of GLSL text outside comments and preprocessor lines, and the macro names that
-/// `#define` lines define.
-fn tokens(text: &str) -> (Vec<Tok<'_>>, Vec<String>) {
-    let b = text.as_bytes();
-    let (mut out, mut macros) = (Vec::new(), Vec::new());
-    let mut i = 0;
-    let mut line_start = true;
-    while i < b.len() {
-        let c = b[i];
-        if c == b'\n' {
-            line_start = true;
-            i += 1;
-        } else if c.is_ascii_whitespace() {
-            i += 1;
-        } else if c == b'#' && line_start {
-            let end = text[i..].find('\n').map_or(b.len(), |e| i + e);
-            let mut words = text[i + 1..end].split_whitespace();
-            if words.next() == Some("define") {
-                if let Some(name) = words.next() {
-                    let name: String = name
-                        .chars()
-                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                        .collect();
-                    macros.push(name);
-                }
-            }
-            i = end;
-        } else if text[i..].starts_with("//") {
-            i = text[i..].find('\n').map_or(b.len(), |e| i + e);
-        } else if text[i..].starts_with("/*") {
-            i = text[i + 2..].find("*/").map_or(b.len(), |e| i + 2 + e + 2);
-            line_start = false;
-        } else if c.is_ascii_alphabetic() || c == b'_' {
-            let start = i;
-            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
-                i += 1;
-            }
-            out.push(Tok::Ident(&text[start..i]));
-            line_start = false;
-        } else if c.is_ascii_digit() {
-            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'.') {
-                i += 1;
-            }
-            line_start = false;
-        } else {
-            out.push(Tok::Punct(c));
-            i += 1;
-            line_start = false;
-        }
-    }
-    (out, macros)
 }
 
 /// Qualifiers that can stand where a declared name would (`layout(...) in;`).
@@ -343,7 +288,8 @@ fn tail(file: &BrdfFile) -> String {
     let _ = write!(
         s,
         "#line {} \"{FILE_TAG}\"\n{}",
-        file.shader_line, file.shader
+        file.shader_line,
+        rename_functions(&file.shader)
     );
     let _ = writeln!(
         s,
@@ -396,9 +342,21 @@ impl IncludeHandler for Includes<'_> {
     }
 }
 
+/// The shader lobe's own inventory is taken with ([`mod@validate`]).
+const STAND_IN: &str = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(0.0); }\n";
+
 /// Compiles every kernel for `file`: (kernel name, SPIR-V bytes). A compiler message names the
-/// `.brdf` file and its line.
+/// `.brdf` file and its line; a shader that adds to a kernel more than functions, constants
+/// and its parameters is refused ([`mod@validate`]).
 pub fn compile(file: &BrdfFile) -> Result<Vec<(&'static str, Vec<u8>)>, BrdfError> {
+    // glslang takes C strings: a NUL would cut the source short (the reader refuses such files).
+    if let Some(at) = file.shader.find('\0') {
+        return Err(BrdfError::Parse {
+            file: file.file.clone(),
+            line: file.shader_line + file.shader[..at].matches('\n').count(),
+            message: "a NUL byte in the shader; a .brdf file is text".into(),
+        });
+    }
     // One compilation at a time: glslang's process-wide state is shared.
     static LOCK: Mutex<()> = Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
@@ -407,6 +365,67 @@ pub fn compile(file: &BrdfFile) -> Result<Vec<(&'static str, Vec<u8>)>, BrdfErro
         line: file.shader_line,
         message: "the GLSL compiler (glslang) could not start".into(),
     })?;
+    // Lobe's own inventory of each kernel, taken once (the compiler is held here).
+    static LOBE: OnceLock<Result<Vec<Inventory>, String>> = OnceLock::new();
+    let lobe = LOBE.get_or_init(|| {
+        let stand_in = BrdfFile {
+            file: "stand-in.brdf".into(),
+            params: Vec::new(),
+            shader: STAND_IN.into(),
+            shader_line: 1,
+            notes: Vec::new(),
+        };
+        KERNELS
+            .iter()
+            .map(|&(_, text)| {
+                let words = compile_kernel(compiler, &stand_in, text).map_err(|e| e.1)?;
+                validate::inventory(&words)
+            })
+            .collect()
+    });
+    let lobe = lobe.as_ref().map_err(|e| BrdfError::Compile {
+        file: file.file.clone(),
+        line: file.shader_line,
+        message: format!("lobe's own kernels did not compile: {e}"),
+    })?;
+    let mut out = Vec::new();
+    for (&(kernel, text), own) in KERNELS.iter().zip(lobe) {
+        let words =
+            compile_kernel(compiler, file, text).map_err(|(line, message)| BrdfError::Compile {
+                file: file.file.clone(),
+                line,
+                message,
+            })?;
+        let refused = |message: String, line: usize| BrdfError::Refused {
+            file: file.file.clone(),
+            line,
+            message,
+        };
+        let user = validate::inventory(&words).map_err(|m| refused(m, file.shader_line))?;
+        let refusals = validate::check(&user, own);
+        if !refusals.is_empty() {
+            let at = |r: &validate::Refusal| {
+                let line = r.name.as_deref().and_then(|n| line_of(file, n));
+                line.unwrap_or(file.shader_line)
+            };
+            let mut message = refusals[0].message.clone();
+            for r in &refusals[1..] {
+                let _ = write!(message, "\n{}:{}: {}", file.file, at(r), r.message);
+            }
+            return Err(refused(message, at(&refusals[0])));
+        }
+        out.push((kernel, words.iter().flat_map(|w| w.to_le_bytes()).collect()));
+    }
+    Ok(out)
+}
+
+/// One kernel with `file`'s shader, as SPIR-V words; or the first error's line in the file and
+/// the compiler's messages ([`map_log`]).
+fn compile_kernel(
+    compiler: &Compiler,
+    file: &BrdfFile,
+    text: &str,
+) -> Result<Vec<u32>, (usize, String)> {
     let options = CompilerOptions::default();
     // The renames go right after `#version` (macros from glslang's preamble cannot be
     // undefined), and `#line 2` keeps the kernel's own line numbers.
@@ -420,34 +439,28 @@ pub fn compile(file: &BrdfFile) -> Result<Vec<(&'static str, Vec<u8>)>, BrdfErro
         "#define MODEL_PARAMS {PARAMS_STRUCT}\n#define MODEL_EVAL {MODEL_FN}\n#line 2"
     );
     let model = model_glsl(file);
-    let tail = tail(file);
-    let mut out = Vec::new();
-    for &(kernel, text) in KERNELS {
-        let (version, body) = text.split_once('\n').unwrap_or((text, ""));
-        let source = ShaderSource::from(format!("{version}\n{renames}{body}{tail}"));
-        let mut includes = Includes { model: &model };
-        let result = ShaderInput::new(
-            &source,
-            ShaderStage::Compute,
-            &options,
-            None,
-            Some(&mut includes),
-        )
-        .and_then(|input| glslang::Shader::new(compiler, input).parse())
-        .and_then(|shader| shader.compile());
-        match result {
-            Ok(words) => out.push((kernel, words.iter().flat_map(|w| w.to_le_bytes()).collect())),
-            Err(e) => {
-                let (line, message) = map_log(file, &e.to_string());
-                return Err(BrdfError::Compile {
-                    file: file.file.clone(),
-                    line,
-                    message,
-                });
-            }
-        }
-    }
-    Ok(out)
+    let (version, body) = text.split_once('\n').unwrap_or((text, ""));
+    let source = ShaderSource::from(format!("{version}\n{renames}{body}{}", tail(file)));
+    let mut includes = Includes { model: &model };
+    ShaderInput::new(
+        &source,
+        ShaderStage::Compute,
+        &options,
+        None,
+        Some(&mut includes),
+    )
+    .and_then(|input| glslang::Shader::new(compiler, input).parse())
+    .and_then(|shader| shader.compile())
+    .map_err(|e| map_log(file, &e.to_string()))
+}
+
+/// The file's line of the first place its shader names `name` (outside comments).
+fn line_of(file: &BrdfFile, name: &str) -> Option<usize> {
+    let at = super::lex::lex(&file.shader)
+        .into_iter()
+        .find(|l| l.tok == Tok::Ident(name))?
+        .at;
+    Some(file.shader_line + file.shader[..at].matches('\n').count())
 }
 
 /// glslang's messages with the tags replaced: the first error's line in the file, and every
@@ -462,7 +475,7 @@ fn map_log(file: &BrdfFile, log: &str) -> (usize, String) {
             // A line the file sets itself with `#line` may be 0; files count from 1.
             let n: usize = n.trim().parse().unwrap_or(file.shader_line).max(1);
             first.get_or_insert(n);
-            let text = text.trim();
+            let text = original_names(text.trim());
             if text != "'' : compilation terminated" {
                 lines.push(format!("{}:{n}: {text}", file.file));
             }
@@ -471,7 +484,7 @@ fn map_log(file: &BrdfFile, log: &str) -> (usize, String) {
                 continue;
             }
             first.get_or_insert(file.shader_line.saturating_sub(1).max(1));
-            let text = rest.split_once(':').map_or(rest, |r| r.1).trim();
+            let text = original_names(rest.split_once(':').map_or(rest, |r| r.1).trim());
             lines.push(format!(
                 "the shader section (line {}) must define {SIGNATURE}; calling it failed: {text}",
                 file.shader_line.saturating_sub(1).max(1)

@@ -8,13 +8,21 @@
 //! vec3 X, vec3 Y)` is called with L = ωi, V = ωo, N = +z, X = +x, Y = +y, behind lobe's
 //! one-sided rule (f = 0 unless both cosines are positive).
 //!
+//! The shader is untrusted code inside lobe's kernels: it may define functions and constants and
+//! read its parameters, and [`mod@validate`] refuses anything more in the compiled kernels (a
+//! buffer, image or `shared` variable, a barrier, an atomic, large arrays) before a driver sees
+//! them.
+//!
 //! Such a model has no f64 twin: the CPU backend and the jobs that need the reference (the
 //! adaptive integrator, the stability sweep's GPU-vs-CPU parity) refuse it with a sentence. Its
 //! GPU work is bounded per chunk ([`LoadOptions::chunk_timeout`]), so a shader that never
 //! returns stops the job with a message instead of hanging it.
 
 pub mod glsl;
+mod lex;
 pub mod parse;
+mod rename;
+pub mod validate;
 
 pub use glsl::SIGNATURE;
 pub use parse::{parse, BrdfFile, Param, ParamType, MAX_FILE_BYTES};
@@ -67,6 +75,17 @@ pub enum BrdfError {
         /// The line of the first error (from 1).
         line: usize,
         /// The compiler's messages, one a line, as `FILE:LINE: message`.
+        message: String,
+    },
+    /// The shader compiles but adds to lobe's kernels what a `.brdf` shader may not (a
+    /// resource, a barrier, an atomic, too much memory: [`mod@validate`]).
+    #[error("{file}:{line}: {message}")]
+    Refused {
+        /// The path as given.
+        file: String,
+        /// The line of the offending declaration or function, or the shader's first line.
+        line: usize,
+        /// What is not allowed, in words.
         message: String,
     },
     /// The parameter table or the name was refused.
@@ -125,8 +144,8 @@ pub fn read(path: &Path) -> Result<BrdfFile, BrdfError> {
         source,
     };
     let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes))
+    crate::input::open_regular(path)
+        .and_then(|(f, _)| f.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes))
         .map_err(read_err)?;
     if bytes.len() > MAX_FILE_BYTES {
         return Err(BrdfError::TooLarge {
@@ -139,7 +158,7 @@ pub fn read(path: &Path) -> Result<BrdfFile, BrdfError> {
         BrdfError::Parse {
             file: file.clone(),
             line: 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count(),
-            message: format!("not UTF-8 text (an invalid byte at offset {at})"),
+            message: format!("not UTF-8 text (an invalid byte at offset {at}); a .brdf file is text, not a binary file"),
         }
     })?;
     parse(&file, &text)

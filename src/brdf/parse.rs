@@ -89,6 +89,13 @@ pub fn parse(file: &str, text: &str) -> Result<BrdfFile, BrdfError> {
             bytes: text.len() as u64,
         });
     }
+    let text = crate::input::without_bom(text);
+    if let Some(at) = text.find('\0') {
+        return Err(err(
+            1 + text[..at].matches('\n').count(),
+            format!("a NUL byte at offset {at}; a .brdf file is text, not a binary file"),
+        ));
+    }
     let mut header = false;
     // The section being read: its name and the line of its `::begin`.
     let mut section: Option<(String, usize)> = None;
@@ -287,9 +294,15 @@ fn parse_param(content: &str, line: usize) -> Result<Param, String> {
     }
     let name = words[1];
     check_name(name)?;
+    // The GPU computes in f32: a bound or default beyond its range would be infinite there.
     let number = |what: &str, text: &str| -> Result<f64, String> {
         match text.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
+            Ok(v) if v.abs() <= f64::from(f32::MAX) => Ok(v),
+            Ok(v) if v.is_finite() => Err(format!(
+                "{} '{name}': {what} {text} is beyond the 32-bit floats the GPU computes in (at most {:e} in magnitude)",
+                words[0],
+                f32::MAX
+            )),
             _ => Err(format!(
                 "{} '{name}': cannot read {what} '{text}' as a finite number",
                 words[0]
@@ -447,6 +460,17 @@ mod tests {
                 3,
                 "finite",
             ),
+            (
+                "analytic\n::begin parameters\nfloat k 0 1e39 1e39\n",
+                3,
+                "float 'k': MAX 1e39 is beyond the 32-bit floats",
+            ),
+            (
+                "analytic\n::begin parameters\nfloat k -3.5e38 0 0\n",
+                3,
+                "MIN -3.5e38 is beyond",
+            ),
+            ("analytic\n::begin shader\nvec3\0 x;\n", 3, "a NUL byte"),
             ("analytic\n::begin parameters\nbool b 2\n", 3, "not 0 or 1"),
             (
                 "analytic\n::begin parameters\ncolor c 0 0.5 2\n",
@@ -517,6 +541,19 @@ mod tests {
         let (line, m) = parse_err(&text);
         assert_eq!(line, 2 + MAX_VALUES / 3 + 1, "{m}");
         assert!(m.contains(&format!("at most {MAX_VALUES}")), "{m}");
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_skipped() {
+        let f = parse(
+            "t.brdf",
+            "\u{feff}analytic\n::begin shader\nvec3 x;\n::end shader\n",
+        )
+        .unwrap();
+        assert_eq!((f.shader_line, f.shader.as_str()), (3, "vec3 x;\n"));
+        // Only at the start: elsewhere it is text like any other.
+        let (line, m) = parse_err("analytic\n\u{feff}::begin shader\n");
+        assert!(line == 2 && m.contains("outside a section"), "{m}");
     }
 
     #[test]

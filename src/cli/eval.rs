@@ -86,7 +86,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
             let (reader, source): (Box<dyn BufRead>, String) = if path.as_os_str() == "-" {
                 (Box::new(std::io::stdin().lock()), "stdin".to_string())
             } else {
-                let (file, _) = lobe::input::open_regular(path, "pairs file")?;
+                let (file, _) = lobe::input::open_input(path, "pairs file")?;
                 (
                     Box::new(std::io::BufReader::new(file)),
                     path.display().to_string(),
