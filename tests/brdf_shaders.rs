@@ -194,6 +194,13 @@ fn attacks() -> Vec<Attack> {
             "\nSIG { return vec3(gl_NumWorkGroups); }",
             &["'gl_NumWorkGroups' declares a shader input (built-in NumWorkgroups)"],
         ),
+        // A pointer made from an integer (this one crashed the driver).
+        Attack {
+            name: "pointer.brdf",
+            shader: "#extension GL_EXT_buffer_reference : require\n#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require\nlayout(buffer_reference) buffer P { float x; };\nSIG { P p = P(uint64_t(4096)); p.x = 1.0; return vec3(a); }",
+            line: 6,
+            words: &["the shader needs the SPIR-V capability", "which lobe's kernels do not use"],
+        },
         // A barrier in a helper: the helper is named, at its line.
         buffer(
             "barrier.brdf",

@@ -252,9 +252,25 @@ const ONLY: &str =
     "a .brdf shader may define functions and constants and read its parameters, nothing else";
 
 /// Whether `user` (a kernel compiled with the file's shader) holds nothing beyond `lobe` (the
-/// same kernel with the stand-in shader): every refusal, resources first.
+/// same kernel with the stand-in shader): every refusal. A capability or extension of its own
+/// changes how the whole kernel compiles (lobe's blocks too), so then only those are named.
 pub(super) fn check(user: &Inventory, lobe: &Inventory) -> Vec<Refusal> {
     let mut out = Vec::new();
+    for c in user.capabilities.difference(&lobe.capabilities) {
+        out.push(Refusal {
+            name: None,
+            message: format!("the shader needs the SPIR-V capability {c}, which lobe's kernels do not use (an extension or a type such as double or int64 lobe does not allow); {ONLY}"),
+        });
+    }
+    for e in user.extensions.difference(&lobe.extensions) {
+        out.push(Refusal {
+            name: None,
+            message: format!("the shader needs the SPIR-V extension {e}; {ONLY}"),
+        });
+    }
+    if !out.is_empty() {
+        return out;
+    }
     for (r, n) in &user.resources {
         if *n > lobe.resources.get(r).copied().unwrap_or(0) {
             let name = original_names(&r.name);
@@ -273,18 +289,6 @@ pub(super) fn check(user: &Inventory, lobe: &Inventory) -> Vec<Refusal> {
                 name: Some(function),
             });
         }
-    }
-    for c in user.capabilities.difference(&lobe.capabilities) {
-        out.push(Refusal {
-            name: None,
-            message: format!("the shader needs the SPIR-V capability {c}, which lobe's kernels do not use (an extension or a type such as double or int64 lobe does not allow); {ONLY}"),
-        });
-    }
-    for e in user.extensions.difference(&lobe.extensions) {
-        out.push(Refusal {
-            name: None,
-            message: format!("the shader needs the SPIR-V extension {e}; {ONLY}"),
-        });
     }
     // Lobe's own variables, taken out one by one; what remains is the shader's.
     let mut own = lobe.variables.clone();
