@@ -11,6 +11,30 @@ pub fn is_valid(v: f64) -> bool {
     v.is_finite() && v >= 0.0
 }
 
+/// Whether every channel of an RGB value is valid.
+pub fn is_valid_rgb(v: DVec3) -> bool {
+    is_valid(v.x) && is_valid(v.y) && is_valid(v.z)
+}
+
+/// The refusal of `model`'s values at `pairs` for `job`, counted one by one with `f`: the slow
+/// path of a job whose fast path (a sum) only noticed that some value was invalid.
+pub fn refuse_pairs(
+    model: &str,
+    job: &str,
+    pairs: impl Iterator<Item = (DVec3, DVec3)>,
+    f: impl Fn(DVec3, DVec3) -> DVec3,
+) -> InvalidValues {
+    let mut count = InvalidCount::default();
+    for (k, (wi, wo)) in pairs.enumerate() {
+        count.add(k as u64, f(wi, wo).to_array(), || (Some((wi, wo)), None));
+    }
+    InvalidValues {
+        model: model.to_string(),
+        job: job.to_string(),
+        count,
+    }
+}
+
 /// The first invalid value a counter saw: where, and what it was.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FirstInvalid {
