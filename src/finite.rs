@@ -11,6 +11,16 @@ pub fn is_valid(v: f64) -> bool {
     v.is_finite() && v >= 0.0
 }
 
+/// The larger of `a` and `b`, or NaN where either is: `f64::max` drops a NaN, so a largest
+/// error estimate taken with it would pass a limit it does not meet.
+pub fn max_or_nan(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
 /// Whether every channel of an RGB value is valid.
 pub fn is_valid_rgb(v: DVec3) -> bool {
     is_valid(v.x) && is_valid(v.y) && is_valid(v.z)

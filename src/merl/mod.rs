@@ -119,7 +119,7 @@ pub fn parse(bytes: &[u8]) -> Result<MerlTable, String> {
         if !stored.is_finite() || stored * SCALE[k / BINS] > f32::MAX as f64 {
             let (c, bin) = (k / BINS, k % BINS);
             return Err(format!(
-                "value {stored} at {} bin {bin} (theta_h {}, theta_d {}, phi_d {}); a MERL value is a finite number whose f = value x {} is at most {:e} (the largest f32)",
+                "value {stored:e} at {} bin {bin} (theta_h {}, theta_d {}, phi_d {}); a MERL value is a finite number whose f = value x {} is at most {:e} (the largest f32)",
                 ["red", "green", "blue"][c],
                 bin / (DIMS[1] * DIMS[2]),
                 bin / DIMS[2] % DIMS[1],
