@@ -514,7 +514,7 @@ pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
         GpuError::NoMatchingDevice { .. } => {
             "--device SUBSTRING picks a device by name; leave it out for the best device"
         }
-        GpuError::NoValidationLayer => return None,
+        GpuError::NoValidationLayer | GpuError::InvalidValues(_) => return None,
         GpuError::DeviceLost(_) => {
             "rerun, pick another device with --device SUBSTRING, or use --backend cpu"
         }
