@@ -101,7 +101,7 @@ fn a_lut_with_a_max_error_is_refused_not_written_full_of_nan() {
 }
 
 #[test]
-fn plots_compare_and_preview_refuse_invalid_shaders() {
+fn plots_compare_energy_and_preview_refuse_invalid_shaders() {
     for (name, kind) in SHADERS {
         let dir = tempfile::tempdir().expect("tempdir");
         let m = shader(name);
@@ -121,6 +121,13 @@ fn plots_compare_and_preview_refuse_invalid_shaders() {
             "8,8,8",
         ];
         assert_refused(p, &compare, name, kind);
+        assert_refused(p, &["energy", "--models", m], name, kind);
+        let o = lobe(p, &["energy", "--models", m]);
+        assert!(
+            !stderr(&o).contains("--backend cpu"),
+            "energy {name}: the hint offers the CPU, which refuses a .brdf model: {}",
+            stderr(&o)
+        );
         // A preview refuses by pixel: the message names the pixel, not directions; a pixel of
         // the Inf shader may be NaN (Inf times a zero light term).
         let o = lobe(p, &["preview", "--model", m, "-o", "v.png", "--cell", "32"]);
