@@ -5,6 +5,11 @@
 //! `.brdf` files in testdata/brdf/invalid/ (GPU only); a MERL file of 1e300 is refused when read,
 //! on both backends.
 
+mod common;
+
+use lobe::brdf::{self, LoadOptions};
+use lobe::glam::DVec3;
+use lobe::{AlbedoSettings, Error, ParamSet};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -347,4 +352,50 @@ fn a_nan_error_estimate_fails_the_max_error_check() {
     assert!(lobe::lut::check_max_error(f64::NAN, Some(1e-3)).is_err());
     assert!(lobe::lut::check_max_error(1e-4, Some(1e-3)).is_ok());
     assert!(lobe::finite::max_or_nan(0.0, f64::NAN).is_nan());
+}
+
+#[test]
+fn the_library_refuses_with_the_count_and_counts_when_asked() {
+    let Some(session) = common::gpu_session("nonfinite library") else {
+        return;
+    };
+    let model = brdf::load(&shader("nan"), &LoadOptions::default())
+        .expect("load nan.brdf")
+        .model;
+    let params = ParamSet::defaults(model);
+    let dir = |theta_deg: f64| {
+        let t = theta_deg.to_radians();
+        DVec3::new(t.sin(), 0.0, t.cos())
+    };
+    // sqrt(cos(theta_i) - 0.2) is NaN beyond 78.5 deg: the second pair of three.
+    let pairs = [
+        (dir(10.0), dir(10.0)),
+        (dir(80.0), dir(10.0)),
+        (dir(30.0), dir(40.0)),
+    ];
+    match session.eval_pairs(&params, false, &pairs) {
+        Err(Error::InvalidValues(v)) => {
+            assert_eq!(
+                (v.count.evaluated, v.count.invalid, v.count.nan),
+                (3, 1, 1),
+                "{v}"
+            );
+            assert_eq!(v.count.first.as_ref().map(|f| f.index), Some(1), "{v}");
+        }
+        other => panic!("eval_pairs: expected InvalidValues, got {other:?}"),
+    }
+    let (f, count) = session
+        .eval_pairs_counting(&params, false, &pairs)
+        .expect("counting keeps the values");
+    assert!(f[1][0].is_nan() && f[0][0].is_finite());
+    assert_eq!((count.invalid, count.nan), (1, 1));
+    match session.directional_albedo(&params, &AlbedoSettings::default(), &[(0.5, 0.0)]) {
+        Err(Error::InvalidValues(v)) => {
+            assert!(v.count.invalid > 0 && v.count.first.is_some(), "{v}")
+        }
+        other => panic!(
+            "directional_albedo: expected InvalidValues, got {:?}",
+            other.map(|_| ())
+        ),
+    }
 }
