@@ -389,6 +389,15 @@ fn the_library_refuses_with_the_count_and_counts_when_asked() {
         .expect("counting keeps the values");
     assert!(f[1][0].is_nan() && f[0][0].is_finite());
     assert_eq!((count.invalid, count.nan), (1, 1));
+    // Both layouts of the albedo kernel count: a CPU driver's partial per invocation, and a
+    // GPU's workgroup tree (forced on any device).
+    common::on_gpu("nonfinite albedo tree", true, |gpu| {
+        let e = lobe::Evaluator::gpu(gpu);
+        let r =
+            lobe::integrate::directional(&e, &params, &AlbedoSettings::default(), &[(0.5, 0.0)]);
+        let err = format!("{:#}", r.map(|_| ()).expect_err("the NaN shader's albedo"));
+        assert!(err.contains(INVALID) && err.contains("NaN"), "{err}");
+    });
     match session.directional_albedo(&params, &AlbedoSettings::default(), &[(0.5, 0.0)]) {
         Err(Error::InvalidValues(v)) => {
             assert!(v.count.invalid > 0 && v.count.first.is_some(), "{v}")
