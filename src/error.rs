@@ -1,6 +1,7 @@
 //! The library's error type: one enum that callers can match, with messages that name the
 //! parameter, the value and the valid range (never a command-line flag; the CLI adds those).
 
+use crate::finite::InvalidValues;
 use crate::gpu::GpuError;
 use crate::input::BadInput;
 use crate::interrupt::Interrupted;
@@ -34,6 +35,10 @@ pub enum Error {
     /// The job needs the f64 CPU reference, which this model (defined at run time) lacks.
     #[error(transparent)]
     NoReference(#[from] NoReference),
+    /// The model gave NaN, ±Inf or negative values where the job needs valid ones
+    /// (docs/design.md §2.1); nothing was written.
+    #[error(transparent)]
+    InvalidValues(#[from] InvalidValues),
     /// Reading or writing a file.
     #[error("{what}: {source}")]
     Io {
@@ -55,6 +60,14 @@ impl Error {
     pub(crate) fn from_job(e: anyhow::Error) -> Error {
         if e.downcast_ref::<Interrupted>().is_some() {
             return Error::Cancelled(Interrupted);
+        }
+        if let Some(v) = e.chain().find_map(|c| c.downcast_ref::<InvalidValues>()) {
+            return Error::InvalidValues(v.clone());
+        }
+        if let Some(GpuError::InvalidValues(v)) =
+            e.chain().find_map(|c| c.downcast_ref::<GpuError>())
+        {
+            return Error::InvalidValues(v.clone());
         }
         let e = match e.downcast::<ParamError>() {
             Ok(p) => return Error::Param(p),

@@ -1,5 +1,6 @@
 //! One interface over the two backends: the Vulkan kernels (f32) and the CPU reference (f64).
 
+use crate::finite::InvalidCount;
 use crate::gpu::{Gpu, GpuPair, TableSwitches};
 use crate::grid::Grid;
 use crate::interrupt::{CancelToken, Interrupted};
@@ -7,6 +8,7 @@ use crate::model::{Brdf, ParamSet, Reference};
 use anyhow::Result;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// Cells per CPU chunk of a table: bounded memory, enough work for every thread.
 const CPU_CHUNK_CELLS: u64 = 1 << 22;
@@ -30,6 +32,8 @@ pub struct Evaluator<'a> {
     backend: Backend<'a>,
     cancel: Option<&'a CancelToken>,
     fast_pow: bool,
+    /// Where invalid values are counted instead of refused ([`Evaluator::counting_invalid`]).
+    tally: Option<&'a Mutex<InvalidCount>>,
 }
 
 fn f32x4(v: DVec3) -> [f32; 4] {
@@ -43,6 +47,7 @@ impl<'a> Evaluator<'a> {
             backend: Backend::Gpu(gpu),
             cancel: None,
             fast_pow: false,
+            tally: None,
         }
     }
 
@@ -52,6 +57,7 @@ impl<'a> Evaluator<'a> {
             backend: Backend::Cpu,
             cancel: None,
             fast_pow: false,
+            tally: None,
         }
     }
 
@@ -68,6 +74,30 @@ impl<'a> Evaluator<'a> {
     /// `lobe tradeoff` measures. The CPU reference ignores it.
     pub fn with_fast_pow(self, fast_pow: bool) -> Evaluator<'a> {
         Evaluator { fast_pow, ..self }
+    }
+
+    /// The same backend, counting NaN, ±Inf and negative values into `tally` and handing them
+    /// on, as `eval` and `table` do (docs/design.md §2.1). Without it, [`Evaluator::eval_pairs`]
+    /// and [`Evaluator::eval_table`] refuse such values with
+    /// [`crate::finite::InvalidValues`] at the first chunk that holds one.
+    pub fn counting_invalid(self, tally: &'a Mutex<InvalidCount>) -> Evaluator<'a> {
+        Evaluator {
+            tally: Some(tally),
+            ..self
+        }
+    }
+
+    /// Applies the policy to a chunk's count: added to the tally, or refused.
+    fn check_invalid(&self, params: &ParamSet, count: InvalidCount, job: &str) -> Result<()> {
+        match self.tally {
+            Some(t) => {
+                t.lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner)
+                    .merge(count);
+                Ok(())
+            }
+            None => Ok(count.refuse(params.model().name(), job)?),
+        }
     }
 
     /// The backend.
@@ -124,6 +154,19 @@ impl<'a> Evaluator<'a> {
         white_furnace: bool,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
+        let f = self.eval_pairs_unchecked(params, white_furnace, pairs)?;
+        let mut count = InvalidCount::default();
+        count.add_pairs(0, &f, pairs);
+        self.check_invalid(params, count, "evaluating f at direction pairs")?;
+        Ok(f)
+    }
+
+    fn eval_pairs_unchecked(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<[f64; 3]>> {
         match self.backend {
             Backend::Gpu(gpu) => {
                 let block = Brdf::new(params).gpu_block();
@@ -159,6 +202,12 @@ impl<'a> Evaluator<'a> {
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
+        let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
+            let mut count = InvalidCount::default();
+            count.add_f32(first, values, |cell| grid.pair_at(cell));
+            self.check_invalid(params, count, "evaluating a table")?;
+            sink(first, values)
+        };
         if !grid.is_product() {
             return self.eval_table_by_pairs(params, white_furnace, grid, sink);
         }
@@ -223,7 +272,7 @@ impl<'a> Evaluator<'a> {
                 .into_par_iter()
                 .map(|cell| grid.pair_at(cell))
                 .collect();
-            let f = self.eval_pairs(params, white_furnace, &pairs)?;
+            let f = self.eval_pairs_unchecked(params, white_furnace, &pairs)?;
             let buf: Vec<f32> = f.iter().flat_map(|v| v.map(|x| x as f32)).collect();
             sink(first, &buf)?;
             first += count;

@@ -22,6 +22,7 @@ pub mod demo;
 pub mod energy;
 pub mod error;
 pub mod eval;
+pub mod finite;
 pub mod fit;
 pub mod gpu;
 pub mod grid;

@@ -452,11 +452,11 @@ pub fn compute(
         let phi = spec.with_avg.then_some(spec.phi);
         for (dir, h) in albedo_rows(eval, &rows, &settings, &points, phi)? {
             for pt in dir {
-                max_error = max_error.max(pt.error.max_element());
+                max_error = crate::finite::max_or_nan(max_error, pt.error.max_element());
                 e.push(pt.albedo);
             }
             if let Some(h) = h {
-                max_error = max_error.max(h.e_avg_error.max_element());
+                max_error = crate::finite::max_or_nan(max_error, h.e_avg_error.max_element());
                 e_avg.push(h.e_avg);
             }
         }

@@ -13,6 +13,7 @@
 
 use crate::error::{Error, IntoLobe, Result};
 use crate::eval::Evaluator;
+use crate::finite::InvalidCount;
 use crate::gpu::{Device, DeviceOptions, Gpu, LogSink};
 use crate::grid::Grid;
 use crate::integrate::{self, AlbedoReport, HemiAlbedo, PointAlbedo};
@@ -152,7 +153,28 @@ impl Session {
             .map_or(0, |g| g.device().validation_messages())
     }
 
-    /// f at each (ωi, ωo) pair, in 1/sr, without the cosine (0 below the horizon).
+    /// [`Session::eval_pairs`] that keeps NaN, ±Inf and negative values and counts them
+    /// instead of refusing them.
+    pub fn eval_pairs_counting(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<(Vec<[f64; 3]>, InvalidCount)> {
+        let tally = std::sync::Mutex::new(InvalidCount::default());
+        let f = self
+            .evaluator()
+            .counting_invalid(&tally)
+            .eval_pairs(params, white_furnace, pairs)
+            .lobe()?;
+        let count = tally
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        Ok((f, count))
+    }
+
+    /// f at each (ωi, ωo) pair, in 1/sr, without the cosine (0 below the horizon); refuses
+    /// NaN, ±Inf and negative values ([`Error::InvalidValues`]).
     pub fn eval_pairs(
         &self,
         params: &ParamSet,
@@ -192,15 +214,18 @@ impl Session {
     }
 
     /// Writes the table set `PATH.exr`, `PATH.npy`, `PATH.json` (all or nothing), streaming
-    /// chunk by chunk; `progress` gets (cells done, cells).
+    /// chunk by chunk; `progress` gets (cells done, cells). Returns the count of invalid values
+    /// (NaN, ±Inf, negative), which the table keeps; a table with any replaces an existing set
+    /// only with `replace_invalid` ([`crate::table::stage_table_with`]).
     pub fn write_table(
         &self,
         params: &ParamSet,
         white_furnace: bool,
         grid: Grid,
         exr_path: &Path,
+        replace_invalid: bool,
         progress: &mut dyn FnMut(u64, u64),
-    ) -> Result<()> {
+    ) -> Result<InvalidCount> {
         crate::table::check_request(params, &grid, exr_path).lobe()?;
         let meta = TableMeta {
             params,
@@ -208,7 +233,14 @@ impl Session {
             grid,
             backend: self.backend_name(),
         };
-        crate::table::write_table(&self.evaluator(), &meta, exr_path, progress).lobe()
+        crate::table::write_table_with(
+            &self.evaluator(),
+            &meta,
+            exr_path,
+            replace_invalid,
+            progress,
+        )
+        .lobe()
     }
 
     /// Writes `params` as a MERL file at `path` ([`crate::merl::write`]); `progress` receives
@@ -380,7 +412,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.exr");
         let e = s
-            .write_table(&p, false, grid, &path, &mut |_, _| {})
+            .write_table(&p, false, grid, &path, false, &mut |_, _| {})
             .unwrap_err();
         match &e {
             Error::Input { input, .. } => assert_eq!(input.option, "grid", "{e}"),

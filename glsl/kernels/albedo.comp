@@ -42,8 +42,9 @@ struct Span {
     uint pad1;
 };
 layout(std430, set = 0, binding = 2) readonly buffer Spans { Span spans[]; };
-// One rgb partial sum (w = 0) per workgroup at gl_WorkGroupID.x, or with LANE_PARTIALS one per
-// invocation at gl_GlobalInvocationID.x.
+// One rgb partial sum per workgroup at gl_WorkGroupID.x, or with LANE_PARTIALS one per
+// invocation at gl_GlobalInvocationID.x; w counts the invalid values f it summed (NaN, +-Inf or
+// negative, docs/design.md §2.1), exact in f32 up to 2^24, which no span reaches.
 layout(std430, set = 0, binding = 3) writeonly buffer Partials { vec4 partial_out[]; };
 layout(set = 0, binding = 4) uniform samplerBuffer node_texels;
 
@@ -56,12 +57,19 @@ layout(push_constant) uniform AlbedoJob {
     uint pad1;
 } job;
 
-shared vec3 sums[gl_WorkGroupSize.x];
+shared vec4 sums[gl_WorkGroupSize.x];
 
 // docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
 vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
     return MODEL_EVAL(p, wi, wo);
+}
+
+// w * f in xyz, and in w 1 where f is invalid (a NaN, an infinity or a negative channel), so that
+// a sum of these counts them beside the weighted sum.
+vec4 term(vec4 node, vec3 f) {
+    bool bad = any(isnan(f)) || any(isinf(f)) || any(lessThan(f, vec3(0.0)));
+    return vec4(node.w * f, bad ? 1.0 : 0.0);
 }
 
 vec4 node_at(uint k) {
@@ -79,30 +87,30 @@ void main() {
     if (LANE_PARTIALS) {
         // Four running sums over interleaved nodes (at most 16 terms each in a span of
         // 64 x 64 nodes), added pairwise: fewer partials per evaluation, the same rounding depth.
-        vec3 a0 = vec3(0.0), a1 = vec3(0.0), a2 = vec3(0.0), a3 = vec3(0.0);
+        vec4 a0 = vec4(0.0), a1 = vec4(0.0), a2 = vec4(0.0), a3 = vec4(0.0);
         for (uint k = span.begin + lid; k < span.end; k += 4u * W) {
             vec4 n0 = node_at(k);
-            a0 += n0.w * brdf(p, n0.xyz, wo);
+            a0 += term(n0, brdf(p, n0.xyz, wo));
             if (k + W < span.end) {
                 vec4 n1 = node_at(k + W);
-                a1 += n1.w * brdf(p, n1.xyz, wo);
+                a1 += term(n1, brdf(p, n1.xyz, wo));
             }
             if (k + 2u * W < span.end) {
                 vec4 n2 = node_at(k + 2u * W);
-                a2 += n2.w * brdf(p, n2.xyz, wo);
+                a2 += term(n2, brdf(p, n2.xyz, wo));
             }
             if (k + 3u * W < span.end) {
                 vec4 n3 = node_at(k + 3u * W);
-                a3 += n3.w * brdf(p, n3.xyz, wo);
+                a3 += term(n3, brdf(p, n3.xyz, wo));
             }
         }
-        partial_out[gl_GlobalInvocationID.x] = vec4((a0 + a1) + (a2 + a3), 0.0);
+        partial_out[gl_GlobalInvocationID.x] = (a0 + a1) + (a2 + a3);
         return;
     }
-    vec3 acc = vec3(0.0);
+    vec4 acc = vec4(0.0);
     for (uint k = span.begin + lid; k < span.end; k += W) {
         vec4 node = node_at(k);
-        acc += node.w * brdf(p, node.xyz, wo);
+        acc += term(node, brdf(p, node.xyz, wo));
     }
     sums[lid] = acc;
     barrier();
@@ -113,5 +121,5 @@ void main() {
         barrier();
         width = half_width;
     }
-    if (lid == 0u) partial_out[gl_WorkGroupID.x] = vec4(sums[0], 0.0);
+    if (lid == 0u) partial_out[gl_WorkGroupID.x] = sums[0];
 }

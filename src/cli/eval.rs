@@ -120,13 +120,21 @@ pub fn run(a: EvalArgs) -> Result<()> {
     out.write_all(head.as_bytes())?;
     let mut rows = 0usize;
     let mut text = String::new();
+    let mut invalid = lobe::finite::InvalidCount::default();
     loop {
         let angles = input.next_chunk()?;
         if angles.is_empty() {
             break;
         }
-        let values =
-            session.eval_pairs(&params, a.model.white_furnace, &pairs::directions(&angles))?;
+        let (values, mut count) = session.eval_pairs_counting(
+            &params,
+            a.model.white_furnace,
+            &pairs::directions(&angles),
+        )?;
+        if let Some(f) = &mut count.first {
+            f.index += rows as u64;
+        }
+        invalid.merge(count);
         text.clear();
         for (&[ti, pi, to, po], &rgb) in angles.iter().zip(&values) {
             match a.format {
@@ -154,5 +162,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         let tail = if rows == 0 { "]\n}\n" } else { "\n  ]\n}\n" };
         out.write_all(tail.as_bytes())?;
     }
-    Ok(out.flush()?)
+    out.flush()?;
+    super::warn_invalid(params.model().name(), &invalid);
+    Ok(())
 }

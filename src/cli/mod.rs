@@ -418,6 +418,14 @@ pub fn with_flag<T>(r: anyhow::Result<T>, flag_of: impl Fn(&str) -> Option<Strin
     })
 }
 
+/// Says on stderr how many of `model`'s values were NaN, ±Inf or negative and where the first
+/// was, when any were (`eval` and `table` keep them; docs/design.md §2.1).
+pub fn warn_invalid(model: &str, count: &lobe::finite::InvalidCount) {
+    if !count.is_clean() {
+        eprintln!("lobe: warning: the model {model} gives invalid BRDF values (a BRDF is finite and not negative): {count}");
+    }
+}
+
 /// Parses `WIDTHxHEIGHT` for `flag`; `example` shows the form.
 pub fn parse_size(flag: &str, text: &str, example: &str) -> Result<(u32, u32)> {
     let size = text
@@ -516,7 +524,7 @@ pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
         GpuError::NoMatchingDevice { .. } => {
             "--device SUBSTRING picks a device by name; leave it out for the best device"
         }
-        GpuError::NoValidationLayer => return None,
+        GpuError::NoValidationLayer | GpuError::InvalidValues(_) => return None,
         GpuError::DeviceLost(_) => {
             "rerun, pick another device with --device SUBSTRING, or use --backend cpu"
         }

@@ -74,6 +74,10 @@ pub struct TableArgs {
     /// With --scene: the folder the scene's output paths are relative to.
     #[arg(long, value_name = "DIR")]
     output_dir: Option<PathBuf>,
+    /// Let a table with NaN, Inf or negative values replace an existing table of the same name
+    /// (without it such a table is written only where none exists).
+    #[arg(long)]
+    allow_invalid: bool,
 }
 
 pub fn run(a: TableArgs) -> Result<()> {
@@ -116,14 +120,22 @@ pub fn run(a: TableArgs) -> Result<()> {
     let progress = bar(cells, "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}");
     progress.set_message(format!("{} table", params.model().name()));
     let started = std::time::Instant::now();
-    session.write_table(
+    let written = session.write_table(
         &params,
         a.model.white_furnace,
         grid,
         output,
+        a.allow_invalid,
         &mut |done, _| progress.set_position(done),
-    )?;
+    );
     progress.finish_and_clear();
+    let invalid = written.map_err(|e| match &e {
+        lobe::Error::Input { input, .. } if input.option == "allow_invalid" => {
+            anyhow!("{e} (--allow-invalid lets it replace the existing table)")
+        }
+        _ => e.into(),
+    })?;
+    super::warn_invalid(params.model().name(), &invalid);
     let (npy, json) = lobe::table::sibling_paths(output);
     eprintln!(
         "lobe: wrote {} ({} cells, {:.2} s on {}), {} and {}",

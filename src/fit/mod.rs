@@ -211,6 +211,18 @@ impl<'a> Objective<'a> {
 
     /// The fit's values at the samples for each parameter set (all of one model).
     pub fn values(&self, sets: &[ParamSet]) -> Result<Vec<Vec<[f64; 3]>>> {
+        let values = self.values_unchecked(sets)?;
+        // NaN, ±Inf and negative values are refused (docs/design.md §2.1): a loss of them
+        // would steer the search by garbage.
+        for (p, v) in sets.iter().zip(&values) {
+            let mut count = crate::finite::InvalidCount::default();
+            count.add_pairs(0, v, &self.samples.pairs);
+            count.refuse(p.model().name(), &format!("fit at {}", p.to_text()))?;
+        }
+        Ok(values)
+    }
+
+    fn values_unchecked(&self, sets: &[ParamSet]) -> Result<Vec<Vec<[f64; 3]>>> {
         self.eval.check_cancelled()?;
         let n = self.samples.pairs.len();
         match self.eval.backend() {

@@ -190,8 +190,7 @@ fn model_samples(params: &ParamSet, eval: &Evaluator, max_bins: usize) -> Result
     let values = eval
         .eval_pairs(params, false, &pairs)
         .with_context(|| format!("evaluating the target {}", params.model().name()))?;
-    // A model's value is data everywhere; a negative or non-finite one would be a model bug,
-    // and is left out rather than fitted.
+    // A model's value is data everywhere (eval_pairs refuses NaN, ±Inf and negative values).
     let mut s = Samples {
         grid_bins: merl::BINS,
         grid: merl_grid_text(),

@@ -5,8 +5,10 @@
 
 use super::buffer::Buffer;
 use super::pipeline::{albedo_lane_partials, ChunkPush, Dispatcher, Kernel, LOCAL_SIZE};
-use super::{Gpu, GpuError, Result};
+use super::{Gpu, GpuError, GpuPair, Result};
+use crate::finite::InvalidCount;
 use crate::model::Model;
+use glam::DVec3;
 
 /// Nodes one invocation sums on a GPU (a workgroup's span is [`LOCAL_SIZE`] times this): 16
 /// terms in f32, then log2(64) = 6 levels of the workgroup's tree, so at most 22 roundings
@@ -190,6 +192,26 @@ impl Gpu {
             };
             dispatcher.run_one(&bytemuck::cast::<AlbedoPush, ChunkPush>(push))?;
             let partials = out_buf.read_f32(4 * partials_per_span * groups);
+            // The kernel counts invalid values in each partial's w (docs/design.md §2.1).
+            let invalid = partials.chunks_exact(4).map(|q| q[3] as f64).sum::<f64>();
+            if invalid != 0.0 {
+                let bad = partials
+                    .chunks_exact(4 * partials_per_span)
+                    .position(|p| p.chunks_exact(4).any(|q| q[3] != 0.0))
+                    .unwrap_or(0);
+                let evaluated = spans[..first + groups]
+                    .iter()
+                    .map(|s| (s.end - s.begin) as u64)
+                    .sum();
+                return Err(self.invalid_in_span(
+                    model,
+                    blocks,
+                    white_furnace,
+                    nodes,
+                    &spans[first + bad],
+                    (invalid as u64, evaluated),
+                ));
+            }
             for (p, &i) in partials
                 .chunks_exact(4 * partials_per_span)
                 .zip(&owner[first..first + groups])
@@ -206,6 +228,66 @@ impl Gpu {
             }
         }
         Ok(out)
+    }
+}
+
+impl Gpu {
+    /// The refusal of an albedo job whose kernel counted `(invalid, evaluated)` values: the span
+    /// that held the first is evaluated again as pairs (a few thousand at most) to find which
+    /// node it was and what kinds its span holds.
+    fn invalid_in_span(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        white_furnace: bool,
+        nodes: &AlbedoNodes<'_>,
+        span: &AlbedoSpan,
+        (invalid, evaluated): (u64, u64),
+    ) -> GpuError {
+        let all: &[f32] = nodes.buf.read_f32(4 * nodes.len);
+        let (begin, end) = (span.begin as usize, span.end as usize);
+        let pairs: Vec<GpuPair> = all[4 * begin..4 * end]
+            .chunks_exact(4)
+            .map(|n| GpuPair {
+                wi: [n[0], n[1], n[2]],
+                param_index: 0,
+                wo: span.wo,
+                pad: 0,
+            })
+            .collect();
+        let block = [blocks[span.param_index as usize].clone()];
+        let f = match self.eval_pairs(model, &block, &pairs, white_furnace) {
+            Ok(f) => f,
+            Err(e) => return e,
+        };
+        let dir = |v: [f32; 3]| DVec3::from_array(v.map(f64::from));
+        let mut span_count = InvalidCount::default();
+        for (k, (v, p)) in f.iter().zip(&pairs).enumerate() {
+            span_count.add(begin as u64 + k as u64, v.map(f64::from), || {
+                (Some((dir(p.wi), dir(p.wo))), None)
+            });
+        }
+        // The kernel counts values, not kinds: the kinds are told for the first span.
+        let mut count = InvalidCount {
+            evaluated,
+            invalid,
+            ..InvalidCount::default()
+        };
+        if let Some(mut first) = span_count.first.take() {
+            first.place = Some(format!(
+                "a quadrature node; its span of {} nodes at this view direction holds {}",
+                pairs.len(),
+                crate::finite::kinds_text(&span_count)
+            ));
+            count.first = Some(first);
+        }
+        // Without a first (the pairs kernel found none where the reduction did: only a driver
+        // that rounds the two differently could), the refusal stands on the kernel's count.
+        GpuError::InvalidValues(crate::finite::InvalidValues {
+            model: model.name().to_string(),
+            job: "albedo".to_string(),
+            count,
+        })
     }
 }
 

@@ -65,6 +65,9 @@ pub enum GpuError {
     /// unreadable; the text is a sentence saying which.
     #[error("{0}")]
     Limit(String),
+    /// A kernel saw NaN, ±Inf or negative BRDF values where the job needs valid ones.
+    #[error(transparent)]
+    InvalidValues(crate::finite::InvalidValues),
     /// No SPIR-V for this (kernel, model) pair was built into the binary or given at run time.
     #[error("no SPIR-V kernel '{kernel}' for model '{model}' was built into this binary")]
     MissingKernel {

@@ -5,6 +5,7 @@ use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::{Node, Rule};
 use crate::eval::{Backend, Evaluator};
+use crate::finite;
 use crate::model::{Brdf, ParamSet, Reference};
 use anyhow::Result;
 use glam::DVec3;
@@ -400,9 +401,10 @@ pub fn sum_rules_rows(
         .iter()
         .map(|p| Reference::new(p, white_furnace))
         .collect();
+    let name = first.model().name();
     rules
         .iter()
-        .map(|&rule| cpu_sum_rule_rows(backend, &refs, rule, wo))
+        .map(|&rule| cpu_sum_rule_rows(backend, name, &refs, rule, wo))
         .collect()
 }
 
@@ -411,6 +413,7 @@ pub fn sum_rules_rows(
 /// summing them for every row: one list per running thread, made once for all rows.
 fn cpu_sum_rule_rows(
     backend: &Evaluator,
+    model: &str,
     refs: &[Reference],
     rule: Rule,
     wo: &[DVec3],
@@ -429,13 +432,25 @@ fn cpu_sum_rule_rows(
                     &own
                 }
             };
-            Ok(refs
-                .iter()
+            refs.iter()
                 .map(|r| {
-                    let sum = weighted_sum(nodes, |n| n.weight * r.eval(n.wi, o));
-                    (sum, nodes.len() as u64)
+                    // NaN, ±Inf and negative values are refused (docs/design.md §2.1).
+                    let bad = std::sync::atomic::AtomicBool::new(false);
+                    let sum = weighted_sum(nodes, |n| {
+                        let f = r.eval(n.wi, o);
+                        if !finite::is_valid_rgb(f) {
+                            bad.store(true, std::sync::atomic::Ordering::Relaxed);
+                        }
+                        n.weight * f
+                    });
+                    if bad.into_inner() {
+                        let pairs = nodes.iter().map(|n| (n.wi, o));
+                        let eval = |wi, wo| r.eval(wi, wo);
+                        return Err(finite::refuse_pairs(model, "albedo", pairs, eval).into());
+                    }
+                    Ok((sum, nodes.len() as u64))
                 })
-                .collect())
+                .collect()
         })
         .collect::<Result<_>>()?;
     Ok((0..refs.len())

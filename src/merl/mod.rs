@@ -103,7 +103,8 @@ fn check_length(len: u64) -> Result<(), String> {
 }
 
 /// A whole file's bytes as a table: the header ([`parse_header`]), the length, then the values
-/// (a NaN or infinite value is refused; a negative one is missing).
+/// (a NaN or infinite value, or one whose f exceeds the largest f32, is refused; a negative one
+/// is missing).
 pub fn parse(bytes: &[u8]) -> Result<MerlTable, String> {
     parse_header(bytes)?;
     check_length(bytes.len() as u64)?;
@@ -113,14 +114,18 @@ pub fn parse(bytes: &[u8]) -> Result<MerlTable, String> {
         let mut b = [0u8; 8];
         b.copy_from_slice(chunk);
         let stored = f64::from_le_bytes(b);
-        if !stored.is_finite() {
+        // f must fit f32, as the GPU kernels and the tables hold it (docs/design.md §2.1);
+        // negative values stay the format's marker of a missing bin.
+        if !stored.is_finite() || stored * SCALE[k / BINS] > f32::MAX as f64 {
             let (c, bin) = (k / BINS, k % BINS);
             return Err(format!(
-                "value {stored} at {} bin {bin} (theta_h {}, theta_d {}, phi_d {}); a MERL value is a finite number",
+                "value {stored:e} at {} bin {bin} (theta_h {}, theta_d {}, phi_d {}); a MERL value is a finite number whose f = value x {} is at most {:e} (the largest f32)",
                 ["red", "green", "blue"][c],
                 bin / (DIMS[1] * DIMS[2]),
                 bin / DIMS[2] % DIMS[1],
-                bin % DIMS[2]
+                bin % DIMS[2],
+                SCALE[c],
+                f32::MAX
             ));
         }
         if stored < 0.0 {

@@ -366,6 +366,22 @@ pub fn render(
                     render_cells_cpu(&refs, scene)
                 }
             };
+            // A pixel is a sum of f cosθi E over the lights: NaN, ±Inf or a negative f shows
+            // in it (docs/design.md §2.1), and the preview is refused.
+            let mut invalid = crate::finite::InvalidCount::default();
+            for (k, px) in pixels.iter().enumerate() {
+                invalid.add(k as u64, px.map(f64::from), || {
+                    let (cell, rest) = (k / (w * h), k % (w * h));
+                    let place = format!(
+                        "pixel ({}, {}) of material {}",
+                        rest % w,
+                        rest / w,
+                        sheet.materials[group[cell]]
+                    );
+                    (None, Some(place))
+                });
+            }
+            invalid.refuse(model.name(), "preview")?;
             for (k, px) in pixels.into_iter().enumerate() {
                 let (cell, rest) = (k / (w * h), k % (w * h));
                 let (y, x) = (rest / w, rest % w);

@@ -13,6 +13,7 @@
 pub mod npy;
 
 use crate::eval::Evaluator;
+use crate::finite::InvalidCount;
 use crate::grid::Grid;
 use crate::input::BadInput;
 use crate::model::ParamSet;
@@ -22,6 +23,7 @@ use exr::prelude::*;
 use serde_json::json;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// The most a table's JSON sidecar may hold when it is read back (one is a few KiB: axes,
 /// model, parameters).
@@ -190,10 +192,23 @@ pub fn write_table(
     meta: &TableMeta,
     exr_path: &Path,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<()> {
+) -> Result<InvalidCount> {
+    write_table_with(eval, meta, exr_path, false, progress)
+}
+
+/// [`write_table`], where `replace_invalid` lets a table with invalid values replace an
+/// existing set of the same name (see [`stage_table_with`]).
+pub fn write_table_with(
+    eval: &Evaluator,
+    meta: &TableMeta,
+    exr_path: &Path,
+    replace_invalid: bool,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<InvalidCount> {
     let mut set = FileSet::empty();
-    stage_table(eval, meta, exr_path, &mut set, progress)?;
-    set.commit()
+    let count = stage_table_with(eval, meta, exr_path, &mut set, replace_invalid, progress)?;
+    set.commit()?;
+    Ok(count)
 }
 
 /// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json` into `set`,
@@ -206,7 +221,25 @@ pub fn stage_table(
     exr_path: &Path,
     set: &mut FileSet,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<()> {
+) -> Result<InvalidCount> {
+    stage_table_with(eval, meta, exr_path, set, false, progress)
+}
+
+/// [`stage_table`] with the choice for invalid values (NaN, ±Inf, negative; docs/design.md
+/// §2.1). The table keeps them, and returns and records their count in its sidecar; but
+/// unless `replace_invalid`, a table holding any is refused (a [`BadInput`] tagged
+/// `allow_invalid`, nothing written) where a file of the set exists already, so that it
+/// never replaces a good table of the same name.
+pub fn stage_table_with(
+    eval: &Evaluator,
+    meta: &TableMeta,
+    exr_path: &Path,
+    set: &mut FileSet,
+    replace_invalid: bool,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<InvalidCount> {
+    let tally = Mutex::new(InvalidCount::default());
+    let eval = &eval.counting_invalid(&tally);
     let (npy_path, json_path) = sibling_paths(exr_path);
     let cells = meta.grid.cells().context("the grid has too many cells")?;
     let mut shape = meta.grid.shape();
@@ -237,15 +270,35 @@ pub fn stage_table(
         )?;
         w.finish()?;
     }
+    let count = tally
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if !count.is_clean() && !replace_invalid {
+        if let Some(old) = [exr_path, &npy_path, &json_path]
+            .into_iter()
+            .find(|p| p.exists())
+        {
+            return Err(BadInput::new(
+                "allow_invalid",
+                format!(
+                    "the {} table holds invalid values, so it does not replace {}: {count}",
+                    meta.params.model().name(),
+                    old.display()
+                ),
+            )
+            .into());
+        }
+    }
     write_exr_from_npy(npy_tmp.path(), meta, exr_tmp)?;
-    let sidecar = sidecar_json(meta, exr_path);
+    let sidecar = sidecar_json(meta, exr_path, &count);
     let mut w = json_tmp.writer();
     w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
         .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
-    w.finish()
+    w.finish()?;
+    Ok(count)
 }
 
-fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
+fn sidecar_json(meta: &TableMeta, exr_path: &Path, invalid: &InvalidCount) -> serde_json::Value {
     json!({
         "model": meta.params.model().name(),
         "parameters": meta.params.to_json(),
@@ -260,6 +313,7 @@ fn sidecar_json(meta: &TableMeta, exr_path: &Path) -> serde_json::Value {
         "backend": meta.backend,
         "exr": exr_path.file_name().map(|n| n.to_string_lossy().into_owned()),
         "exr_layout": layout_text(&meta.grid),
+        "invalid_values": invalid.to_json(),
     })
 }
 
