@@ -228,6 +228,7 @@ pub fn write_plots(
     let polar_opts = PolarOptions {
         theta_i_deg: opts.theta_i_deg.clone(),
         samples: polar::DEFAULT_SAMPLES,
+        radius: polar::Radius::Auto,
     };
     let polar = polar::polar_data(eval, &both, &opts.common, &polar_opts)?;
     let polar_bytes = polar::polar_picture(&polar, &both, &opts.common, &polar_opts, format)?;
