@@ -528,7 +528,7 @@ pub(super) fn white_furnace(
         }
         p.advance(col as u64 + 1);
     }
-    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost. Left to right: oren_nayar (sigma = 0.5), eon (r = 1), ggx: microfacet GGX alpha = 1; ggx+kc: the same with multiscatter=kulla_conty.";
+    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost; left to right: oren_nayar (sigma = 0.5), eon (r = 1), ggx: microfacet GGX alpha = 1; ggx+kc: the same with multiscatter=kulla_conty";
     let size = preview::write_png(
         &image,
         &sheet,
@@ -540,11 +540,12 @@ pub(super) fn white_furnace(
     Ok((
         size,
         format!(
-            "{} spheres, largest |E - 1|: {}",
+            "{} spheres, largest |E - 1| over mu_o: {}",
             worst.len(),
-            worst
+            FURNACE_ROW
                 .iter()
-                .map(|v| format!("{v:.1e}"))
+                .zip(&worst)
+                .map(|((label, ..), v)| format!("{label} {v:.1e}"))
                 .collect::<Vec<_>>()
                 .join(", ")
         ),

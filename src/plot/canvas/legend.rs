@@ -21,73 +21,61 @@ pub struct LegendEntry {
 
 /// The width in pixels a legend of `entries` needs: the sample, the widest label and margins.
 pub(crate) fn legend_width<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
+    _area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
 ) -> u32 {
-    let style = anchored(LEGEND_TEXT, HPos::Left, VPos::Center);
     let widest = entries
         .iter()
-        .map(|e| {
-            area.estimate_text_size(&e.label, &style)
-                .map(|(w, _)| w)
-                .unwrap_or(0)
-        })
-        .max()
-        .unwrap_or(0);
-    widest + 72
-}
-
-/// `text`, shortened with "…" until it fits in `width` pixels at `size`.
-fn fit_text<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    text: &str,
-    width: u32,
-    size: u32,
-) -> String {
-    let style = anchored(size, HPos::Left, VPos::Center);
-    let fits = |t: &str| {
-        area.estimate_text_size(t, &style)
-            .map(|(w, _)| w <= width)
-            .unwrap_or(true)
-    };
-    if fits(text) {
-        return text.to_string();
-    }
-    let chars: Vec<char> = text.chars().collect();
-    (1..chars.len())
-        .rev()
-        .map(|n| chars[..n].iter().collect::<String>() + "…")
-        .find(|t| fits(t))
-        .unwrap_or_else(|| "…".to_string())
+        .map(|e| text_width(&e.label, svg_em(LEGEND_TEXT), false))
+        .fold(0.0, f64::max);
+    widest.ceil() as u32 + LABEL_X + LABEL_MARGIN
 }
 
 /// Text size of legend labels, in pixels.
 const LEGEND_TEXT: u32 = 14;
 
+/// Where a label starts, from the legend's left edge: after the 40-pixel line sample.
+const LABEL_X: u32 = 56;
+
+/// Space kept right of the longest label, in pixels.
+const LABEL_MARGIN: u32 = 8;
+
+/// Height of a legend row of one line, and of each further line of a wrapped label, in pixels.
+const ROW: i32 = 22;
+const LINE: i32 = 16;
+
 /// A legend in its own column: a sample of each entry's curve (colour, pattern and marker) and
-/// its label.
+/// its label, wrapped to the column's width (never shortened).
 pub(crate) fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     ink: &mut Ink,
     entries: &[LegendEntry],
 ) -> Result<()> {
     let size = LEGEND_TEXT;
-    let row = 22;
     let (w, h) = area.dim_in_pixel();
     let (ox, oy) = area.get_base_pixel();
-    let top = ((h as i32 - row * entries.len() as i32) / 2).max(10);
-    for (k, e) in entries.iter().enumerate() {
-        let y = top + row * k as i32 + row / 2;
-        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 48) as f64, (oy + y) as f64);
+    let room = w.saturating_sub(LABEL_X + LABEL_MARGIN) as f64;
+    let wrapped: Vec<Vec<String>> = entries
+        .iter()
+        .map(|e| wrap_to_width(&e.label, room, size, false))
+        .collect();
+    let height = |lines: &Vec<String>| ROW + LINE * (lines.len().max(1) as i32 - 1);
+    let total: i32 = wrapped.iter().map(height).sum();
+    let mut y = ((h as i32 - total) / 2).max(10);
+    for (e, lines) in entries.iter().zip(&wrapped) {
+        let mid = y + ROW / 2;
+        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 48) as f64, (oy + mid) as f64);
         ink.line(&[(x0, yy), (x1, yy)], e.colour, 2.0, e.dash, 1.0);
         ink.marker(((x0 + x1) / 2.0, yy), e.marker, e.colour, 4.0);
-        let label = fit_text(area, &e.label, w.saturating_sub(60), size);
-        area.draw(&Text::new(
-            label,
-            (56, y),
-            anchored(size, HPos::Left, VPos::Center),
-        ))
-        .drawing("the legend")?;
+        for (k, line) in lines.iter().enumerate() {
+            area.draw(&Text::new(
+                line.clone(),
+                (LABEL_X as i32, mid + LINE * k as i32),
+                anchored(size, HPos::Left, VPos::Center),
+            ))
+            .drawing("the legend")?;
+        }
+        y += height(lines);
     }
     Ok(())
 }

@@ -65,17 +65,21 @@ pub enum Marker {
     Diamond,
 }
 
-/// How one series is drawn: its colour and the marker along it.
+/// How one series is drawn: its colour, line pattern and the marker along it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SeriesStyle {
     /// The line's colour.
     pub colour: RGBColor,
+    /// The line's pattern, where a plot has no other use for it (albedo curves).
+    pub dash: Dash,
     /// The symbol along the line.
     pub marker: Marker,
 }
 
-/// The k-th series style: the seven colours of [`PALETTE`] with no marker, then again with
-/// circles, squares, triangles and diamonds: 35 distinct styles.
+/// The k-th series style: the seven colours of [`PALETTE`] solid with no marker, then again
+/// dashed with circles, dotted with squares, long-dashed with triangles and solid with
+/// diamonds. Colour and pattern together tell 28 series apart without the markers, which a
+/// plot that uses the pattern for something else (polar θi) still has.
 pub fn series_style(k: usize) -> SeriesStyle {
     const MARKERS: [Marker; 5] = [
         Marker::None,
@@ -84,9 +88,11 @@ pub fn series_style(k: usize) -> SeriesStyle {
         Marker::Triangle,
         Marker::Diamond,
     ];
+    let round = k / PALETTE.len();
     SeriesStyle {
         colour: palette(k),
-        marker: MARKERS[(k / PALETTE.len()) % MARKERS.len()],
+        dash: Dash::nth(round),
+        marker: MARKERS[round % MARKERS.len()],
     }
 }
 

@@ -76,28 +76,73 @@ impl Scale {
         }
     }
 
-    /// Tick values inside the range: powers of ten (log) or round steps (linear).
+    /// Tick values inside the range, at least [`MIN_TICKS`] of them: powers of ten (log; then
+    /// 1, 2 and 5 times them, then every integer multiple, on a short range) or round steps
+    /// (linear).
     pub fn ticks(&self) -> Vec<f64> {
         if self.log {
-            let a = self.lo.log10().ceil() as i32;
-            let b = self.hi.log10().floor() as i32;
-            let step = ((b - a) / 6).max(1);
-            (a..=b)
-                .step_by(step as usize)
-                .map(|e| 10f64.powi(e))
-                .collect()
-        } else {
-            let step = nice_step(self.hi - self.lo, 5);
-            let mut v = Vec::new();
-            let mut x = (self.lo / step).ceil() * step;
-            while x <= self.hi * (1.0 + 1e-9) {
-                v.push(x);
-                x += step;
+            for mantissas in [
+                &[1.0][..],
+                &[1.0, 2.0, 5.0],
+                &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+            ] {
+                let v = self.log_ticks(mantissas);
+                if v.len() >= MIN_TICKS {
+                    return v;
+                }
             }
-            v
+            // Less than a factor of about 2.5: round steps read better than a log grid.
+            Scale {
+                log: false,
+                ..*self
+            }
+            .ticks()
+        } else {
+            let mut intervals = 5;
+            loop {
+                let v = self.linear_ticks(nice_step(self.hi - self.lo, intervals));
+                if v.len() >= MIN_TICKS || intervals > 40 {
+                    return v;
+                }
+                intervals *= 2;
+            }
         }
     }
+
+    /// The mantissas times powers of ten inside the range, thinned to at most about seven.
+    fn log_ticks(&self, mantissas: &[f64]) -> Vec<f64> {
+        let a = self.lo.log10().floor() as i32;
+        let b = self.hi.log10().ceil() as i32;
+        let inside = |v: f64| v >= self.lo * (1.0 - 1e-9) && v <= self.hi * (1.0 + 1e-9);
+        if mantissas.len() == 1 {
+            let v: Vec<f64> = (a..=b)
+                .map(|e| 10f64.powi(e))
+                .filter(|v| inside(*v))
+                .collect();
+            let step = (v.len() / 7).max(1);
+            return v.into_iter().step_by(step).collect();
+        }
+        (a..=b)
+            .flat_map(|e| mantissas.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(|v| inside(*v))
+            .collect()
+    }
+
+    /// Multiples of `step` inside the range.
+    fn linear_ticks(&self, step: f64) -> Vec<f64> {
+        let mut v = Vec::new();
+        let mut k = (self.lo / step).ceil();
+        while k * step <= self.hi * (1.0 + 1e-9) + 1e-300 {
+            v.push(k * step);
+            k += 1.0;
+        }
+        v
+    }
 }
+
+/// The fewest ticks a scale shows: with fewer a reader cannot tell a log axis from a linear
+/// one, nor read a value between two labels.
+pub const MIN_TICKS: usize = 4;
 
 /// A round step (1, 2 or 5 times a power of ten) giving about `n` intervals over `span`.
 pub fn nice_step(span: f64, n: usize) -> f64 {
@@ -147,6 +192,51 @@ mod tests {
         }
         let l = Scale::from_max(0.25, false, 3.0);
         assert_eq!(l.ticks().first(), Some(&0.0));
+    }
+
+    #[test]
+    fn every_scale_has_at_least_four_ticks() {
+        // A fitted map of a dim model: 0.3 to 2 holds only the power 1 (one tick before).
+        let cases = [
+            Scale {
+                lo: 0.3,
+                hi: 2.0,
+                log: true,
+            },
+            Scale {
+                lo: 0.9,
+                hi: 1.1,
+                log: true,
+            },
+            Scale {
+                lo: 0.05,
+                hi: 0.5,
+                log: true,
+            },
+            Scale {
+                lo: 1e-4,
+                hi: 1.0,
+                log: true,
+            },
+            Scale {
+                lo: 0.0,
+                hi: 1.3,
+                log: false,
+            },
+            Scale {
+                lo: 0.17,
+                hi: 0.29,
+                log: false,
+            },
+        ];
+        for s in cases {
+            let t = s.ticks();
+            assert!(t.len() >= MIN_TICKS, "{s:?}: ticks {t:?}");
+            assert!(
+                t.iter().all(|v| *v >= s.lo * 0.999 && *v <= s.hi * 1.001),
+                "{s:?}: {t:?}"
+            );
+        }
     }
 
     #[test]
