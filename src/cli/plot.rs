@@ -298,6 +298,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
         plot_flag,
     )?;
     plot::write_params_json(&a.output, &subjects, &plotted)?;
+    plot::csv::write_data_csv(&a.output, &subjects, &plotted)?;
     let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
     println!(
         "lobe plot: wrote {} ({} bytes, parameters in {}, {} evaluations, {:.2} s): {}",

@@ -254,15 +254,18 @@ pub(super) fn plots(
         .with_context(|| format!("drawing {}", pl.file))?;
         let params = plot::params_json_path(std::path::Path::new(&pl.file));
         plot::write_params_json(&d.staging.path(&pl.file), &pl.subjects, &drawn)?;
+        plot::csv::write_data_csv(&d.staging.path(&pl.file), &pl.subjects, &drawn)?;
+        let data = plot::csv::data_csv_path(std::path::Path::new(&pl.file));
         files.push(pl.file.clone());
         files.push(params.to_string_lossy().into_owned());
+        files.push(data.to_string_lossy().into_owned());
         out.push((pl.file.clone(), drawn));
         p.advance(k as u64 + 1);
     }
     Ok((
         out,
         format!(
-            "{} PNG plots, each with its parameters in JSON",
+            "{} PNG plots, each with its parameters in JSON and its data in CSV",
             plots.len()
         ),
     ))

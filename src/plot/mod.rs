@@ -22,6 +22,7 @@
 
 pub mod albedo;
 mod canvas;
+pub mod csv;
 pub mod difference;
 pub mod hemisphere;
 pub mod pareto;
