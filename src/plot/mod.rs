@@ -511,6 +511,7 @@ pub(crate) fn bad(option: &'static str, message: String) -> anyhow::Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotters::style::RGBColor;
 
     #[test]
     fn formats_and_extensions() {
