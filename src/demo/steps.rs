@@ -304,6 +304,24 @@ pub(super) fn extend_max_e(
 
 /// Step 5, the preview contact sheet (rows materials, columns models) under the lab's lights, as
 /// PNG and EXR.
+/// "colours of tin, gold: lab report (…); granite: chosen by lobe: …": where each row's colour
+/// comes from, so that a reader takes the lab's test colours for what they are.
+fn colour_sources(materials: &[&str]) -> String {
+    let mut groups: Vec<(String, Vec<&str>)> = Vec::new();
+    for &m in materials {
+        let source = crate::material::colour_source(m).unwrap_or_else(|| "not given".into());
+        match groups.iter_mut().find(|g| g.0 == source) {
+            Some(g) => g.1.push(m),
+            None => groups.push((source, vec![m])),
+        }
+    }
+    let parts: Vec<String> = groups
+        .iter()
+        .map(|(source, names)| format!("{}: {source}", names.join(", ")))
+        .collect();
+    format!("colours of {}", parts.join("; "))
+}
+
 pub(super) fn preview(
     eval: &Evaluator,
     d: &Demo,
@@ -331,7 +349,11 @@ pub(super) fn preview(
         d.backend,
         &d.staging.path("preview/contact_sheet.exr"),
     )?;
-    let caption = preview::caption(&scene, 0.0, d.backend);
+    let caption = format!(
+        "{}; {}",
+        preview::caption(&scene, 0.0, d.backend),
+        colour_sources(d.materials)
+    );
     let size = preview::write_png(
         &image,
         &sheet,
