@@ -95,6 +95,14 @@ pub fn colour(name: &str) -> Option<[f64; 3]> {
     (c.len() == 3).then(|| [c[0], c[1], c[2]])
 }
 
+/// Where the preset's colour comes from (its `colour_source`): the lab report's value, or lobe's
+/// choice where the report gives none.
+pub fn colour_source(name: &str) -> Option<String> {
+    let (_, text) = MATERIALS.iter().find(|(n, _)| *n == name)?;
+    let table: toml::Table = text.parse().ok()?;
+    Some(table.get("colour_source")?.as_str()?.to_string())
+}
+
 fn from_toml(text: &str, model: Model) -> Result<ParamSet, ParamError> {
     let table: toml::Table = text
         .parse()

@@ -153,6 +153,7 @@ fn polar_overlay_marks_delta_lobes_with_their_albedo_and_svg_holds_the_title() {
     let opts = PolarOptions {
         theta_i_deg: vec![0.0, 60.0],
         samples: 360,
+        ..PolarOptions::default()
     };
     let Plotted::Polar(data) = run(
         &Evaluator::cpu(),
@@ -537,6 +538,7 @@ fn pngs_are_anti_aliased_and_byte_stable_and_svg_keeps_sub_pixel_coordinates() {
     let request = Request::Polar(PolarOptions {
         theta_i_deg: vec![30.0],
         samples: 360,
+        ..PolarOptions::default()
     });
     let e = Evaluator::cpu();
     let (a, b, svg) = (

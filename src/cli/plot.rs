@@ -103,13 +103,17 @@ pub struct PlotArgs {
     /// Plot f*cos(theta_i) instead of f.
     #[arg(long)]
     cos: bool,
-    /// Logarithmic radius (polar, 3d; default linear) or colour (hemisphere; the default there).
+    /// Logarithmic radius (polar, 3d) or colour (hemisphere; the default there). A polar plot
+    /// chooses a log radius by itself when its curves' peaks span more than two decades.
     /// The slice is always logarithmic.
-    #[arg(long, conflicts_with = "linear")]
+    #[arg(long, conflicts_with_all = ["linear", "normalise"])]
     log: bool,
-    /// Linear colour scale for the hemisphere map.
-    #[arg(long)]
+    /// Linear radius (polar) or colour scale (hemisphere).
+    #[arg(long, conflicts_with = "normalise")]
     linear: bool,
+    /// Polar: divide each curve by its own peak (named in the legend), to compare shapes.
+    #[arg(long)]
+    normalise: bool,
     /// Decades a logarithmic scale spans below its maximum.
     #[arg(long, default_value_t = 4.0)]
     decades: f64,
@@ -243,6 +247,13 @@ pub fn run(a: PlotArgs) -> Result<()> {
         PlotKind::Polar => Request::Polar(plot::polar::PolarOptions {
             theta_i_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
             samples: a.res.unwrap_or(plot::polar::DEFAULT_SAMPLES),
+            radius: if a.normalise {
+                plot::polar::Radius::Normalised
+            } else if a.linear {
+                plot::polar::Radius::Linear
+            } else {
+                plot::polar::Radius::Auto
+            },
         }),
         PlotKind::Hemisphere => Request::Hemisphere(plot::hemisphere::HemisphereOptions {
             theta_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
@@ -287,6 +298,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
         plot_flag,
     )?;
     plot::write_params_json(&a.output, &subjects, &plotted)?;
+    plot::csv::write_data_csv(&a.output, &subjects, &plotted)?;
     let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
     println!(
         "lobe plot: wrote {} ({} bytes, parameters in {}, {} evaluations, {:.2} s): {}",

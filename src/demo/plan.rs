@@ -50,6 +50,7 @@ pub(super) fn plan_plots(
         Request::Polar(plot::polar::PolarOptions {
             theta_i_deg: theta,
             samples: settings.polar_samples,
+            radius: plot::polar::Radius::Auto,
         })
     };
     let mut out = vec![

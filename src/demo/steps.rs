@@ -254,15 +254,18 @@ pub(super) fn plots(
         .with_context(|| format!("drawing {}", pl.file))?;
         let params = plot::params_json_path(std::path::Path::new(&pl.file));
         plot::write_params_json(&d.staging.path(&pl.file), &pl.subjects, &drawn)?;
+        plot::csv::write_data_csv(&d.staging.path(&pl.file), &pl.subjects, &drawn)?;
+        let data = plot::csv::data_csv_path(std::path::Path::new(&pl.file));
         files.push(pl.file.clone());
         files.push(params.to_string_lossy().into_owned());
+        files.push(data.to_string_lossy().into_owned());
         out.push((pl.file.clone(), drawn));
         p.advance(k as u64 + 1);
     }
     Ok((
         out,
         format!(
-            "{} PNG plots, each with its parameters in JSON",
+            "{} PNG plots, each with its parameters in JSON and its data in CSV",
             plots.len()
         ),
     ))
@@ -301,6 +304,24 @@ pub(super) fn extend_max_e(
 
 /// Step 5, the preview contact sheet (rows materials, columns models) under the lab's lights, as
 /// PNG and EXR.
+/// "colours of tin, gold: lab report (…); granite: chosen by lobe: …": where each row's colour
+/// comes from, so that a reader takes the lab's test colours for what they are.
+fn colour_sources(materials: &[&str]) -> String {
+    let mut groups: Vec<(String, Vec<&str>)> = Vec::new();
+    for &m in materials {
+        let source = crate::material::colour_source(m).unwrap_or_else(|| "not given".into());
+        match groups.iter_mut().find(|g| g.0 == source) {
+            Some(g) => g.1.push(m),
+            None => groups.push((source, vec![m])),
+        }
+    }
+    let parts: Vec<String> = groups
+        .iter()
+        .map(|(source, names)| format!("{}: {source}", names.join(", ")))
+        .collect();
+    format!("colours of {}", parts.join("; "))
+}
+
 pub(super) fn preview(
     eval: &Evaluator,
     d: &Demo,
@@ -328,7 +349,11 @@ pub(super) fn preview(
         d.backend,
         &d.staging.path("preview/contact_sheet.exr"),
     )?;
-    let caption = preview::caption(&scene, 0.0, d.backend);
+    let caption = format!(
+        "{}; {}",
+        preview::caption(&scene, 0.0, d.backend),
+        colour_sources(d.materials)
+    );
     let size = preview::write_png(
         &image,
         &sheet,
@@ -528,7 +553,7 @@ pub(super) fn white_furnace(
         }
         p.advance(col as u64 + 1);
     }
-    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost. Left to right: oren_nayar (sigma = 0.5), eon (r = 1), ggx: microfacet GGX alpha = 1; ggx+kc: the same with multiscatter=kulla_conty.";
+    let caption = "White furnace: each sphere under a uniform white sky of radiance 1 with colours at 1 and F = 1, so a pixel reads its albedo E(mu_o); darker is energy lost; left to right: oren_nayar (sigma = 0.5), eon (r = 1), ggx: microfacet GGX alpha = 1; ggx+kc: the same with multiscatter=kulla_conty";
     let size = preview::write_png(
         &image,
         &sheet,
@@ -540,11 +565,12 @@ pub(super) fn white_furnace(
     Ok((
         size,
         format!(
-            "{} spheres, largest |E - 1|: {}",
+            "{} spheres, largest |E - 1| over mu_o: {}",
             worst.len(),
-            worst
+            FURNACE_ROW
                 .iter()
-                .map(|v| format!("{v:.1e}"))
+                .zip(&worst)
+                .map(|((label, ..), v)| format!("{label} {v:.1e}"))
                 .collect::<Vec<_>>()
                 .join(", ")
         ),

@@ -153,6 +153,10 @@ pub fn plot_albedo(
     Ok(data)
 }
 
+/// Pixels of curve between two markers: several per curve where curves cross and bunch near
+/// grazing μ, so a reader can follow one through the bunch.
+const MARKER_SPACING: f64 = 36.0;
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     ink: &mut Ink,
@@ -174,7 +178,7 @@ fn draw<DB: DrawingBackend>(
         .map(|(s, st)| LegendEntry {
             label: s.label.clone(),
             colour: st.colour,
-            dash: Dash::Solid,
+            dash: st.dash,
             marker: st.marker,
         })
         .chain(std::iter::once(LegendEntry {
@@ -229,9 +233,9 @@ fn draw<DB: DrawingBackend>(
                 .zip(&c.albedo)
                 .map(|(&m, &e)| px((m, e)))
                 .collect();
-        ink.line(&pts, st.colour, 2.0, Dash::Solid, 1.0);
+        ink.line(&pts, st.colour, 2.0, st.dash, 1.0);
         let phase = (c.subject % 4) as f64 / 4.0;
-        ink.markers_along(&pts, st.marker, st.colour, 80.0, phase);
+        ink.markers_along(&pts, st.marker, st.colour, MARKER_SPACING, phase);
     }
     legend(&legend_area, ink, &entries)?;
     Ok(())

@@ -201,6 +201,24 @@ pub fn plot_paths(prefix: &Path, format: Format) -> (PathBuf, PathBuf) {
     (with("polar"), with("difference"))
 }
 
+/// `subject` with every `{…}` of its label left out: `A: microfacet{alpha=0.2}` → `A: microfacet`.
+fn short_label(subject: &Subject) -> Subject {
+    let mut label = String::new();
+    let mut depth = 0usize;
+    for c in subject.label.chars() {
+        match c {
+            '{' => depth += 1,
+            '}' => depth = depth.saturating_sub(1),
+            _ if depth == 0 => label.push(c),
+            _ => {}
+        }
+    }
+    Subject {
+        label,
+        params: subject.params.clone(),
+    }
+}
+
 /// Draws A and B overlaid (their labels say which is which: `lobe compare` uses `A: SPEC`) in the plane of incidence and the relative difference of B from A
 /// over the hemisphere (module docs), and writes them as `PREFIX_polar.EXT` and
 /// `PREFIX_difference.EXT` (see [`plot_paths`]), each with the full parameters of A and B in a
@@ -228,9 +246,13 @@ pub fn write_plots(
     let polar_opts = PolarOptions {
         theta_i_deg: opts.theta_i_deg.clone(),
         samples: polar::DEFAULT_SAMPLES,
+        radius: polar::Radius::Auto,
     };
-    let polar = polar::polar_data(eval, &both, &opts.common, &polar_opts)?;
-    let polar_bytes = polar::polar_picture(&polar, &both, &opts.common, &polar_opts, format)?;
+    // Drawn with short labels (`A: microfacet`): the header names each side's parameters and
+    // the JSON keeps the full labels, so a model spec in the legend and title adds only length.
+    let drawn = [short_label(a), short_label(b)];
+    let polar = polar::polar_data(eval, &drawn, &opts.common, &polar_opts)?;
+    let polar_bytes = polar::polar_picture(&polar, &drawn, &opts.common, &polar_opts, format)?;
     let hemi_opts = HemisphereOptions {
         theta_deg: opts.theta_i_deg.clone(),
         res: opts.res,
@@ -241,8 +263,9 @@ pub fn write_plots(
         log: false,
         ..opts.common.clone()
     };
-    let difference = difference_data(eval, a, b, &common, &hemi_opts)?;
-    let difference_bytes = difference_picture(&difference, a, b, &common, &hemi_opts, format)?;
+    let [da, db] = &drawn;
+    let difference = difference_data(eval, da, db, &common, &hemi_opts)?;
+    let difference_bytes = difference_picture(&difference, da, db, &common, &hemi_opts, format)?;
     let json = |title: &str| -> Result<Vec<u8>> {
         Ok((serde_json::to_string_pretty(&super::params_json(&both, title))? + "\n").into_bytes())
     };

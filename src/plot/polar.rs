@@ -30,6 +30,8 @@ pub struct PolarOptions {
     pub theta_i_deg: Vec<f64>,
     /// View angles per curve.
     pub samples: usize,
+    /// How values map to the radius; [`Common::log`] forces [`Radius::Log`].
+    pub radius: Radius,
 }
 
 impl Default for PolarOptions {
@@ -37,9 +39,28 @@ impl Default for PolarOptions {
         PolarOptions {
             theta_i_deg: vec![0.0, 30.0, 60.0, 80.0],
             samples: DEFAULT_SAMPLES,
+            radius: Radius::Auto,
         }
     }
 }
+
+/// How a polar plot maps values to its radius.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Radius {
+    /// Logarithmic when the curves' peaks span more than [`AUTO_LOG_DECADES`], else linear.
+    Auto,
+    /// Linear from 0 to the largest value.
+    Linear,
+    /// Logarithmic over [`Common::decades`] below the largest value.
+    Log,
+    /// Each curve divided by its own peak, linear from 0 to 1: shapes compared, sizes not.
+    Normalised,
+}
+
+/// Peaks spanning more decades than this put a polar plot on a log radius ([`Radius::Auto`]):
+/// on a linear radius a curve 100 times below the largest peaks at 1 % of the radius, a few
+/// pixels at any usable size.
+pub const AUTO_LOG_DECADES: f64 = 2.0;
 
 /// One plotted curve.
 #[derive(Clone, Debug)]
@@ -91,8 +112,14 @@ pub struct PolarData {
     pub series: Vec<PolarSeries>,
     /// One arrow per delta lobe and θi, for models that have one.
     pub deltas: Vec<DeltaMark>,
-    /// The radial scale the curves were drawn with.
+    /// The radial scale the curves were drawn with ([0, 1] when normalised).
     pub scale: Scale,
+    /// The radius mapping used: never [`Radius::Auto`], which resolves to linear or log.
+    pub radius: Radius,
+    /// Each series' largest finite value (the divisor of a normalised curve), in series order.
+    pub peaks: Vec<f64>,
+    /// Words on the plot saying which radius is drawn and, when chosen automatically, why.
+    pub radius_note: String,
 }
 
 /// ωi for θi (light at φi = 180°).
@@ -176,13 +203,25 @@ pub fn polar_data(
             }
         }
     }
-    let max = series
+    let peaks: Vec<f64> = series
         .iter()
-        .flat_map(|s| s.value.iter())
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
-    let scale = Scale::from_max(max, common.log, common.decades);
+        .map(|s| {
+            s.value
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let (radius, radius_note) = resolve_radius(opts.radius, common, &peaks);
+    let scale = match radius {
+        Radius::Normalised => Scale::from_max(1.0, false, common.decades),
+        _ => Scale::from_max(
+            peaks.iter().copied().fold(0.0, f64::max),
+            radius == Radius::Log,
+            common.decades,
+        ),
+    };
     let angles: Vec<String> = opts
         .theta_i_deg
         .iter()
@@ -199,7 +238,37 @@ pub fn polar_data(
         series,
         deltas,
         scale,
+        radius,
+        peaks,
+        radius_note,
     })
+}
+
+/// The radius a polar plot draws with, and the words that say so: `Auto` resolves by the
+/// decades between the largest and the smallest positive peak.
+fn resolve_radius(asked: Radius, common: &Common, peaks: &[f64]) -> (Radius, String) {
+    let log_note = format!("log radius, {} decades", fmt_value(common.decades));
+    let positive: Vec<f64> = peaks.iter().copied().filter(|p| *p > 0.0).collect();
+    let hi = positive.iter().copied().fold(0.0, f64::max);
+    let lo = positive.iter().copied().fold(f64::INFINITY, f64::min);
+    let span = if hi > 0.0 { (hi / lo).log10() } else { 0.0 };
+    match asked {
+        _ if common.log => (Radius::Log, log_note),
+        Radius::Log => (Radius::Log, log_note),
+        Radius::Linear => (Radius::Linear, "linear radius".into()),
+        Radius::Normalised => (
+            Radius::Normalised,
+            "each curve divided by its own peak (legend)".into(),
+        ),
+        Radius::Auto if span > AUTO_LOG_DECADES => (
+            Radius::Log,
+            format!(
+                "{log_note} (the peaks span {} decades)",
+                fmt_value((span * 10.0).round() / 10.0)
+            ),
+        ),
+        Radius::Auto => (Radius::Linear, "linear radius".into()),
+    }
 }
 
 /// Evaluates and draws the polar plot into `path` (.png or .svg); returns what it drew.
@@ -261,8 +330,13 @@ fn legend_entries(
     let mut entries = Vec::new();
     if subjects.len() == 1 {
         for (k, &t) in angles.iter().enumerate() {
+            let label = if data.radius == Radius::Normalised {
+                format!("{}, peak {}/sr", theta(t), fmt_value(data.peaks[k]))
+            } else {
+                theta(t)
+            };
             entries.push(LegendEntry {
-                label: theta(t),
+                label,
                 colour: palette(k),
                 dash: Dash::Solid,
                 marker: Marker::None,
@@ -321,10 +395,16 @@ fn legend_entries(
 /// The most legend rows that list every curve on its own.
 const LEGEND_ROWS: usize = 16;
 
-/// Radius in chart units (the horizon circle is radius 1) of a plotted value.
-fn radius(scale: &Scale, v: f64) -> f64 {
+/// Radius in chart units (the horizon circle is radius 1) of a plotted value of the series
+/// whose peak is `peak`.
+fn radius(data: &PolarData, peak: f64, v: f64) -> f64 {
+    let v = if data.radius == Radius::Normalised && peak > 0.0 {
+        v / peak
+    } else {
+        v
+    };
     if v.is_finite() {
-        scale.unit(v)
+        data.scale.unit(v)
     } else {
         0.0
     }
@@ -419,13 +499,9 @@ fn draw<DB: DrawingBackend>(
         1.0,
     );
     let axis_caption = format!(
-        "radius: {}{}   ·   angles: signed θo in degrees",
+        "radius: {}, {}   ·   angles: signed θo in degrees",
         common.quantity(),
-        if data.scale.log {
-            format!(", log, {} decades", fmt_value(common.decades))
-        } else {
-            String::new()
-        }
+        data.radius_note
     );
     pa.draw(&Text::new(
         axis_caption,
@@ -451,13 +527,13 @@ fn draw<DB: DrawingBackend>(
         .drawing("an incidence label")?;
     }
     // Curves, in canvas pixels with sub-pixel precision.
-    for s in &data.series {
+    for (s, &peak) in data.series.iter().zip(&data.peaks) {
         let (colour, marker, dash) = style_of(s, &styles, angle_index(s.theta_i_deg));
         let pts: Vec<(f64, f64)> = s
             .theta_o_deg
             .iter()
             .zip(&s.value)
-            .map(|(&a, &v)| px(at(radius(&data.scale, v), a)))
+            .map(|(&a, &v)| px(at(radius(data, peak, v), a)))
             .collect();
         ink.line(&pts, colour, 2.0, dash, 1.0);
         let phase = (s.subject % 3) as f64 / 3.0;

@@ -138,8 +138,8 @@ impl Typeface {
         }
     }
 
-    /// Splits `text` at "; " into lines at most `width` pixels wide at `size` (a part longer than
-    /// a line gets a line of its own and is cut when drawn).
+    /// Splits `text` at "; " into lines at most `width` pixels wide at `size`; a part wider than
+    /// a line is broken between words (a single word wider than a line keeps a line of its own).
     pub fn wrap(&self, text: &str, width: usize, size: f32) -> Vec<String> {
         let mut lines: Vec<String> = Vec::new();
         for part in text.split("; ") {
@@ -148,7 +148,22 @@ impl Typeface {
                     last.push_str("; ");
                     last.push_str(part);
                 }
-                _ => lines.push(part.to_string()),
+                _ => lines.extend(self.wrap_words(part, width, size)),
+            }
+        }
+        lines
+    }
+
+    /// `part` broken greedily between words into lines at most `width` pixels wide.
+    fn wrap_words(&self, part: &str, width: usize, size: f32) -> Vec<String> {
+        let mut lines: Vec<String> = Vec::new();
+        for word in part.split(' ') {
+            match lines.last_mut() {
+                Some(last) if self.width(&format!("{last} {word}"), size) <= width => {
+                    last.push(' ');
+                    last.push_str(word);
+                }
+                _ => lines.push(word.to_string()),
             }
         }
         lines
@@ -219,9 +234,23 @@ mod tests {
             "4 point lights (0,0,1) (0,1,1), camera at 0; exposure +0.0 ev; ambient none; cpu";
         let lines = face.wrap(text, 150, 12.0);
         assert!(lines.len() > 1);
-        assert_eq!(lines.join("; "), text);
+        // Lines break at "; " or between words: nothing but those separators is lost.
+        let bare = |t: &str| t.replace([';', ' '], "");
+        assert_eq!(bare(&lines.concat()), bare(text));
         for l in &lines {
-            assert!(face.width(l, 12.0) <= 150 || !l.contains("; "), "{l}");
+            assert!(face.width(l, 12.0) <= 150, "{l}");
+        }
+    }
+
+    #[test]
+    fn wrap_breaks_a_part_wider_than_a_line_between_words() {
+        let face = Typeface::dejavu_sans().unwrap();
+        let text = "White furnace: each sphere under a uniform white sky of radiance 1, so a pixel reads its albedo";
+        let lines = face.wrap(text, 200, 12.0);
+        assert!(lines.len() > 2, "{lines:?}");
+        assert_eq!(lines.join(" "), text);
+        for l in &lines {
+            assert!(face.width(l, 12.0) <= 200, "{l} is wider than 200 px");
         }
     }
 }

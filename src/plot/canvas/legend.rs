@@ -1,0 +1,125 @@
+//! Keys beside a plot: the legend of overlaid series and the colour bar of a heat map.
+
+use super::*;
+use anyhow::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// One entry of a hand-drawn legend: a sample of a curve that the plot draws, and its label.
+#[derive(Clone, Debug)]
+pub struct LegendEntry {
+    /// The text drawn beside the line sample.
+    pub label: String,
+    /// The line's colour.
+    pub colour: RGBColor,
+    /// The line's pattern.
+    pub dash: Dash,
+    /// The symbol along the line.
+    pub marker: Marker,
+}
+
+/// The width in pixels a legend of `entries` needs: the sample, the widest label and margins.
+pub(crate) fn legend_width<DB: DrawingBackend>(
+    _area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+) -> u32 {
+    let widest = entries
+        .iter()
+        .map(|e| text_width(&e.label, svg_em(LEGEND_TEXT), false))
+        .fold(0.0, f64::max);
+    widest.ceil() as u32 + LABEL_X + LABEL_MARGIN
+}
+
+/// Text size of legend labels, in pixels.
+const LEGEND_TEXT: u32 = 14;
+
+/// Where a label starts, from the legend's left edge: after the 40-pixel line sample.
+const LABEL_X: u32 = 56;
+
+/// Space kept right of the longest label, in pixels.
+const LABEL_MARGIN: u32 = 8;
+
+/// Height of a legend row of one line, and of each further line of a wrapped label, in pixels.
+const ROW: i32 = 22;
+const LINE: i32 = 16;
+
+/// A legend in its own column: a sample of each entry's curve (colour, pattern and marker) and
+/// its label, wrapped to the column's width (never shortened).
+pub(crate) fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
+    entries: &[LegendEntry],
+) -> Result<()> {
+    let size = LEGEND_TEXT;
+    let (w, h) = area.dim_in_pixel();
+    let (ox, oy) = area.get_base_pixel();
+    let room = w.saturating_sub(LABEL_X + LABEL_MARGIN) as f64;
+    let wrapped: Vec<Vec<String>> = entries
+        .iter()
+        .map(|e| wrap_to_width(&e.label, room, size, false))
+        .collect();
+    let height = |lines: &Vec<String>| ROW + LINE * (lines.len().max(1) as i32 - 1);
+    let total: i32 = wrapped.iter().map(height).sum();
+    let mut y = ((h as i32 - total) / 2).max(10);
+    for (e, lines) in entries.iter().zip(&wrapped) {
+        let mid = y + ROW / 2;
+        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 48) as f64, (oy + mid) as f64);
+        ink.line(&[(x0, yy), (x1, yy)], e.colour, 2.0, e.dash, 1.0);
+        ink.marker(((x0 + x1) / 2.0, yy), e.marker, e.colour, 4.0);
+        for (k, line) in lines.iter().enumerate() {
+            area.draw(&Text::new(
+                line.clone(),
+                (LABEL_X as i32, mid + LINE * k as i32),
+                anchored(size, HPos::Left, VPos::Center),
+            ))
+            .drawing("the legend")?;
+        }
+        y += height(lines);
+    }
+    Ok(())
+}
+
+/// A vertical colour bar with tick labels and a caption, filling `area`.
+pub(crate) fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: &Scale,
+    caption: &str,
+) -> Result<()> {
+    let (w, h) = area.dim_in_pixel();
+    let (x0, x1) = (10i32, 34i32);
+    let (y0, y1) = (30i32, h as i32 - 30);
+    let steps = (y1 - y0).max(1);
+    for k in 0..steps {
+        let t = 1.0 - (k as f64 + 0.5) / steps as f64;
+        area.draw(&Rectangle::new(
+            [(x0, y0 + k), (x1, y0 + k + 1)],
+            colour_map(t).filled(),
+        ))
+        .drawing("the colour bar")?;
+    }
+    area.draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))
+        .drawing("the colour bar")?;
+    for v in scale.ticks() {
+        let t = scale.unit(v);
+        let y = y1 - (t * (y1 - y0) as f64).round() as i32;
+        area.draw(&PathElement::new(vec![(x1, y), (x1 + 5, y)], BLACK))
+            .drawing("the colour bar")?;
+        area.draw(&Text::new(
+            fmt_value(v),
+            (x1 + 8, y),
+            anchored(13, HPos::Left, VPos::Center),
+        ))
+        .drawing("the colour bar")?;
+    }
+    let style = text_style(14, BLACK)
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Bottom));
+    area.draw(&Text::new(
+        caption.to_string(),
+        (w as i32 - 4, (y0 + y1) / 2),
+        style,
+    ))
+    .drawing("the colour bar")?;
+    Ok(())
+}
