@@ -151,6 +151,67 @@ pub struct LutSpec {
 /// coarser than the 16-bit texture an engine stores it in: `lobe albedo` warns about it.
 pub const LARGE_ERROR: f64 = 1.0 / 1024.0;
 
+/// Where a table's largest error estimate is: the entry, its indices and its axes' values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEntry {
+    /// The estimate, absolute.
+    pub error: f64,
+    /// The column j and μ_j of an E entry; None for an E_avg entry.
+    pub mu: Option<(usize, f64)>,
+    /// The row k and the parameter p_k.
+    pub p: (usize, f64),
+}
+
+impl ErrorEntry {
+    /// "E at mu = 0.015625 (column 0), alpha = 0.0002441 (row 0)", with `key` the axis's name.
+    pub fn describe(&self, key: &str) -> String {
+        let (k, p) = self.p;
+        match self.mu {
+            Some((j, mu)) => format!("E at mu = {mu} (column {j}), {key} = {p:.7} (row {k})"),
+            None => format!("E_avg at {key} = {p:.7} (row {k})"),
+        }
+    }
+}
+
+/// The entry with the largest of `e_error` (E, row-major over `ps` × `mus`) and `avg_error`
+/// (E_avg, one per row); None when both are empty.
+pub fn largest_entry(
+    mus: &[f64],
+    ps: &[f64],
+    e_error: &[f64],
+    avg_error: &[f64],
+) -> Option<ErrorEntry> {
+    let n_mu = mus.len().max(1);
+    let e = e_error.iter().enumerate().map(|(i, &error)| ErrorEntry {
+        error,
+        mu: Some((i % n_mu, mus[i % n_mu])),
+        p: (i / n_mu, ps[i / n_mu]),
+    });
+    let avg = avg_error.iter().enumerate().map(|(k, &error)| ErrorEntry {
+        error,
+        mu: None,
+        p: (k, ps[k]),
+    });
+    // A NaN estimate counts as the largest: it is no bound at all.
+    e.chain(avg).reduce(|a, b| {
+        if b.error > a.error || b.error.is_nan() {
+            b
+        } else {
+            a
+        }
+    })
+}
+
+/// The warning `lobe albedo` prints when an estimate exceeds [`LARGE_ERROR`], naming where the
+/// largest is (`at`); None when none does.
+pub fn large_error_warning(largest: f64, at: &str) -> Option<String> {
+    (!(largest <= LARGE_ERROR)).then(|| {
+        format!(
+            "warning: the largest error estimate is {largest:.3e}, at {at}, above {LARGE_ERROR:.3e} (the step of half floats below 1); use more --samples, another --method, or --max-error to refuse such results"
+        )
+    })
+}
+
 /// Refuses a result whose largest error estimate `largest` exceeds `limit` (`--max-error`), with
 /// a [`BadInput`] tagged `max-error` that names both.
 pub fn check_max_error(largest: f64, limit: Option<f64>) -> Result<()> {
@@ -347,6 +408,10 @@ pub struct LutSummary {
     pub e_avg: Vec<DVec3>,
     /// The largest error estimate of any entry (E or E_avg), absolute.
     pub max_error: f64,
+    /// The error estimate of each E entry (largest channel), indexed as `e`.
+    pub e_error: Vec<f64>,
+    /// The error estimate of each E_avg entry (largest channel), indexed as `e_avg`.
+    pub e_avg_error: Vec<f64>,
     /// Wall-clock time of the computation, seconds.
     pub seconds: f64,
     /// The files written (empty for [`compute`]).
@@ -354,6 +419,11 @@ pub struct LutSummary {
 }
 
 impl LutSummary {
+    /// The entry with the largest error estimate (None for an empty table).
+    pub fn largest_error(&self) -> Option<ErrorEntry> {
+        largest_entry(&self.mus, &self.ps, &self.e_error, &self.e_avg_error)
+    }
+
     /// (smallest, largest) channel of E over the table.
     pub fn e_range(&self) -> (f64, f64) {
         channel_range(&self.e)
@@ -438,7 +508,7 @@ pub fn compute(
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, spec.phi)).collect();
     let mut e = Vec::with_capacity(mus.len() * ps.len());
     let mut e_avg = Vec::with_capacity(ps.len());
-    let mut max_error: f64 = 0.0;
+    let (mut e_error, mut e_avg_error) = (Vec::new(), Vec::new());
     // Rows in batches: each batch shares its directions' nodes and its dispatches
     // (integrate::albedo_rows); progress and Ctrl-C act between batches.
     let mut done = 0;
@@ -452,23 +522,26 @@ pub fn compute(
         let phi = spec.with_avg.then_some(spec.phi);
         for (dir, h) in albedo_rows(eval, &rows, &settings, &points, phi)? {
             for pt in dir {
-                max_error = max_error.max(pt.error.max_element());
+                e_error.push(pt.error.max_element());
                 e.push(pt.albedo);
             }
             if let Some(h) = h {
-                max_error = max_error.max(h.e_avg_error.max_element());
+                e_avg_error.push(h.e_avg_error.max_element());
                 e_avg.push(h.e_avg);
             }
         }
         done += batch.len();
         progress(done as u64, ps.len() as u64);
     }
+    let max_error = largest_entry(&mus, &ps, &e_error, &e_avg_error).map_or(0.0, |w| w.error);
     Ok(LutSummary {
         mus,
         ps,
         e,
         e_avg,
         max_error,
+        e_error,
+        e_avg_error,
         seconds: start.elapsed().as_secs_f64(),
         files: Vec::new(),
     })

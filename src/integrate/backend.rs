@@ -1,6 +1,7 @@
 //! Running a fixed rule on a backend: f64 sums on the CPU, the reduction kernel on the GPU, and
 //! the error estimate (coarse rule or replicates' spread) on top.
 
+use super::estimate::three_level_error;
 use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::{Node, Rule};
@@ -28,8 +29,8 @@ pub fn rule_albedo(
     Ok(rows.pop().unwrap_or_default())
 }
 
-/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the fine
-/// and the coarse rule's nodes (for the replicated importance rule, its replicates' nodes).
+/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the nodes
+/// of the rule and of its two coarser levels (for the replicated importance rule, its replicates' nodes).
 pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
     let count = |r: Rule| -> u64 {
         if r.depends_on_wo() {
@@ -42,7 +43,7 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
         Rule::Importance {
             replicate: None, ..
         } => count(rule),
-        _ => count(rule) + count(rule.coarse().0),
+        _ => count(rule) + count(rule.coarse()) + count(rule.coarse().coarse()),
     }
 }
 
@@ -348,21 +349,21 @@ pub fn rule_albedo_rows(
             })
             .collect());
     }
-    let (coarse, factor) = rule.coarse();
-    let mut sums = sum_rules_rows(backend, rows, white_furnace, &[rule, coarse], wo)?;
-    let coarse_e = sums.pop().unwrap_or_default();
-    let fine_e = sums.pop().unwrap_or_default();
-    Ok(fine_e
-        .into_iter()
-        .zip(coarse_e)
-        .map(|(fine, coarse)| {
-            fine.into_iter()
-                .zip(coarse)
-                .zip(wo)
-                .map(|(((v, n), (c, _)), &o)| Estimate {
-                    value: v,
-                    error: factor * (v - c).abs() + rounding(v, o),
-                    evals: n,
+    let (coarse, p) = (rule.coarse(), rule.level_exponent());
+    let levels = [rule, coarse, coarse.coarse()];
+    // [level][row][ωo]
+    let sums = sum_rules_rows(backend, rows, white_furnace, &levels, wo)?;
+    Ok((0..rows.len())
+        .map(|row| {
+            (0..wo.len())
+                .map(|o| {
+                    let at = |l: usize| sums[l][row][o];
+                    let v = at(0).0;
+                    Estimate {
+                        value: v,
+                        error: three_level_error(v, at(1).0, at(2).0, p) + rounding(v, wo[o]),
+                        evals: at(0).1,
+                    }
                 })
                 .collect()
         })

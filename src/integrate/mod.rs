@@ -31,6 +31,7 @@
 
 mod albedo;
 mod backend;
+mod estimate;
 mod gauss;
 mod importance;
 mod kept;
@@ -47,6 +48,7 @@ pub use backend::{
     rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
     GPU_ROUNDING_FACTOR,
 };
+pub use estimate::{three_level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};
