@@ -22,12 +22,14 @@
 //! - `reference` (CPU, f64): nested adaptive Gauss–Kronrod (7/15) in the same coordinates,
 //!   converged to [`REFERENCE_RTOL`]; the truth the others are tested against.
 //!
-//! Error estimates are honest upper-bound style estimates: a fixed rule is run again at a coarser
-//! resolution and the difference is reported (divided by 3 for the midpoint rule, whose h² order
-//! is known: Richardson); the adaptive reference reports Σ|K15 − G7| over its panels, which bounds
-//! the 7-point Gauss result and so, in practice, grossly over-bounds the 15-point Kronrod one.
+//! Error estimates are upper bounds with a stated safety factor: a fixed rule is run at two
+//! coarser levels too, and its error extrapolated from the three (`estimate`: geometric
+//! convergence where the levels converge steadily, the last difference where they do not, and a
+//! floor for what no level difference shows); the adaptive reference reports Σ|K15 − G7| over
+//! its panels, which bounds the 7-point Gauss result and so, in practice, grossly over-bounds the
+//! 15-point Kronrod one.
 //! On the GPU, whose sums are f32, every estimate of a fixed rule also carries an f32 rounding
-//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the coarse rule's difference misses.
+//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the differences between levels miss.
 
 mod albedo;
 mod backend;
