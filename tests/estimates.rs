@@ -248,9 +248,7 @@ fn the_half_vector_quadrature_meets_its_closed_forms() {
             assert!((n - 1.0).abs() < 1e-13, "{dist:?} alpha {alpha}: {n}");
         }
     }
-    // At normal view E = 1/(1 + Λ...) reduces to ∫ D G2 ... ; the check that needs no G: a
-    // Lambert-like constant integrand, 4 μo (ωo·h)⁻¹ D⁻¹ … is not available, so compare with the
-    // smooth limit instead: as α → 0, E → G2 → 1 at every μo.
+    // As α → 0, G2 → 1 at every μo away from grazing, so E → 1.
     for mu in [0.3, 1.0] {
         let e = half_vector_albedo(Distribution::Ggx, 1e-6, mu, |_| 1.0);
         assert!((e - 1.0).abs() < 1e-9, "GGX alpha 1e-6 at mu {mu}: {e}");
@@ -345,7 +343,7 @@ fn cap_integral(mu_o: f64, beta: f64) -> f64 {
 
 #[test]
 fn the_cap_integral_meets_its_closed_form_and_the_hemisphere() {
-    // Whole caps: the closed form from both branches; β = π/2 + θo covers the whole upper
+    // A whole cap against ∫ 2π μo cos α sin α dα; β = π/2 + θo covers the whole upper
     // hemisphere, whose ∫ cosθi dω is π.
     for mu in [0.3f64, 0.7, 1.0] {
         let beta = 0.9 * (FRAC_PI_2 - mu.acos()).max(0.05);

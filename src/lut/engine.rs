@@ -196,10 +196,9 @@ pub struct EngineTable {
     pub values: Vec<f64>,
     /// E_avg(p_k) (empty for the DFG tables).
     pub avg: Vec<f64>,
-    /// A bound on the error of any entry: the largest of [`EngineTable::largest_error`].
+    /// The largest entry of `error` and `avg_error` ([`EngineTable::largest_error`]).
     pub max_error: f64,
-    /// The error estimate of each texel (for the DFG tables the sum of both passes' estimates
-    /// of that entry: R is a difference of the two), indexed k·Nμ + j.
+    /// Each texel's error estimate, indexed k·Nμ + j (DFG: the sum of the two passes').
     pub error: Vec<f64>,
     /// The error estimate of each E_avg(p_k) (empty for the DFG tables).
     pub avg_error: Vec<f64>,
@@ -260,18 +259,15 @@ pub fn compute_engine(
         _ => grey(&done[0]),
     };
     let first = &done[0];
-    let error: Vec<f64> = match spec.kind {
-        EngineKind::Dfg | EngineKind::DfgMultiscatter => first
-            .e_error
-            .iter()
-            .zip(&done[1].e_error)
-            .map(|(a, b)| a + b)
-            .collect(),
-        _ => first.e_error.clone(),
-    };
-    let avg_error = first.e_avg_error.clone();
-    let max_error =
-        super::largest_entry(&first.mus, &first.ps, &error, &avg_error).map_or(0.0, |w| w.error);
+    let mut error = first.e_error.clone();
+    for pass in &done[1..] {
+        error
+            .iter_mut()
+            .zip(&pass.e_error)
+            .for_each(|(e, x)| *e += x);
+    }
+    let max_error = super::largest_entry(&first.mus, &first.ps, &error, &first.e_avg_error)
+        .map_or(0.0, |w| w.error);
     let axis = (0..spec.lut.n_p)
         .map(|k| {
             let t = (k as f64 + 0.5) / spec.lut.n_p as f64;
@@ -290,7 +286,7 @@ pub fn compute_engine(
         avg: first.e_avg.iter().map(|v| v.x).collect(),
         max_error,
         error,
-        avg_error,
+        avg_error: first.e_avg_error.clone(),
         seconds: start.elapsed().as_secs_f64(),
         files: Vec::new(),
     })
