@@ -52,7 +52,8 @@ fn albedo_throughput(c: &mut Criterion) {
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
         .collect();
     let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
+        + ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
+        + ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len();
     for (name, e) in [("gpu", Evaluator::gpu(&gpu)), ("cpu_f64", Evaluator::cpu())] {
         let mut group = c.benchmark_group(format!("albedo_{name}"));
         group.throughput(Throughput::Elements((per_direction * wo.len()) as u64));

@@ -131,7 +131,8 @@ pub fn measure_albedo(
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
         .collect();
     let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-        + ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len();
+        + ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
+        + ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len();
     let evaluations = (per_direction * wo.len()) as u64;
     time_task(eval, params, "albedo", evaluations, repeats, || {
         std::hint::black_box(rule_albedo(eval, params, white_furnace, ALBEDO_RULE, &wo)?);

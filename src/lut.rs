@@ -37,6 +37,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 pub mod engine;
+mod estimate;
+
+pub use estimate::{large_error_warning, largest_entry, ErrorEntry};
 
 /// How cell t ∈ (0, 1) of the parameter axis maps to a parameter value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -347,6 +350,10 @@ pub struct LutSummary {
     pub e_avg: Vec<DVec3>,
     /// The largest error estimate of any entry (E or E_avg), absolute.
     pub max_error: f64,
+    /// The error estimate of each E entry (largest channel), indexed as `e`.
+    pub e_error: Vec<f64>,
+    /// The error estimate of each E_avg entry (largest channel), indexed as `e_avg`.
+    pub e_avg_error: Vec<f64>,
     /// Wall-clock time of the computation, seconds.
     pub seconds: f64,
     /// The files written (empty for [`compute`]).
@@ -354,6 +361,11 @@ pub struct LutSummary {
 }
 
 impl LutSummary {
+    /// The entry with the largest error estimate (None for an empty table).
+    pub fn largest_error(&self) -> Option<ErrorEntry> {
+        largest_entry(&self.mus, &self.ps, &self.e_error, &self.e_avg_error)
+    }
+
     /// (smallest, largest) channel of E over the table.
     pub fn e_range(&self) -> (f64, f64) {
         channel_range(&self.e)
@@ -421,6 +433,11 @@ fn channel_range(v: &[DVec3]) -> (f64, f64) {
 /// fill a dispatch, few enough for progress to move on a large table.
 const LUT_ROW_BATCH: usize = 32;
 
+/// An RGB error estimate's largest channel, NaN if any channel is (`max_element` would drop it).
+fn worst_channel(error: glam::DVec3) -> f64 {
+    error.to_array().into_iter().fold(0.0, crate::finite::max_or_nan)
+}
+
 /// E(μ, p) and E_avg(p) on `eval`; `progress` receives (rows done, rows).
 pub fn compute(
     eval: &Evaluator,
@@ -438,7 +455,7 @@ pub fn compute(
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, spec.phi)).collect();
     let mut e = Vec::with_capacity(mus.len() * ps.len());
     let mut e_avg = Vec::with_capacity(ps.len());
-    let mut max_error: f64 = 0.0;
+    let (mut e_error, mut e_avg_error) = (Vec::new(), Vec::new());
     // Rows in batches: each batch shares its directions' nodes and its dispatches
     // (integrate::albedo_rows); progress and Ctrl-C act between batches.
     let mut done = 0;
@@ -452,23 +469,26 @@ pub fn compute(
         let phi = spec.with_avg.then_some(spec.phi);
         for (dir, h) in albedo_rows(eval, &rows, &settings, &points, phi)? {
             for pt in dir {
-                max_error = crate::finite::max_or_nan(max_error, pt.error.max_element());
+                e_error.push(worst_channel(pt.error));
                 e.push(pt.albedo);
             }
             if let Some(h) = h {
-                max_error = crate::finite::max_or_nan(max_error, h.e_avg_error.max_element());
+                e_avg_error.push(worst_channel(h.e_avg_error));
                 e_avg.push(h.e_avg);
             }
         }
         done += batch.len();
         progress(done as u64, ps.len() as u64);
     }
+    let max_error = largest_entry(&mus, &ps, &e_error, &e_avg_error).map_or(0.0, |w| w.error);
     Ok(LutSummary {
         mus,
         ps,
         e,
         e_avg,
         max_error,
+        e_error,
+        e_avg_error,
         seconds: start.elapsed().as_secs_f64(),
         files: Vec::new(),
     })

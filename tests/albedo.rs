@@ -8,7 +8,7 @@ use glam::DVec3;
 use lobe::gpu::Gpu;
 use lobe::integrate::{
     directional, hemispherical, reference_albedo, reference_albedo_mirror_frame, rule_albedo,
-    view_direction, Estimate, Method, Rule, Settings, REFERENCE_RTOL,
+    view_direction, Estimate, Method, Rule, Settings, ESTIMATE_SAFETY, REFERENCE_RTOL,
 };
 use lobe::model::terms::{pow5, r0_from_ior};
 use lobe::{resolve_params, Evaluator, ParamSet, Reference};
@@ -452,10 +452,12 @@ fn each_rule_converges_at_its_theoretical_rate() {
         (-1.1..=-0.9).contains(&k),
         "midpoint: error ~ N^{k:.3}, theory N^-1 (h²); errors {errs:?}"
     );
-    // Richardson's estimate tracks the actual error within a factor 2 once asymptotic.
+    // The estimate is ESTIMATE_SAFETY × Richardson's (three levels at h, 2h, 4h: r = ¼ gives
+    // d₁/3), which tracks the actual error within a factor 2 once asymptotic: it bounds the error
+    // and is at most 2 × ESTIMATE_SAFETY above it.
     for (e, s) in errs.iter().zip(&ests).skip(2) {
         assert!(
-            (0.5..=2.0).contains(&(s / e)),
+            (1.0..=2.0 * ESTIMATE_SAFETY).contains(&(s / e)),
             "midpoint estimate {s} vs error {e}"
         );
     }

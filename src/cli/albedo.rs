@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::integrate::{Method, Settings};
 use lobe::lut::engine::{self, EngineKind, EngineSpec};
-use lobe::lut::{self, LutSpec, Mapping, LARGE_ERROR};
+use lobe::lut::{self, LutSpec, Mapping};
 use lobe::{ParamSet, Session};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -229,7 +229,14 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     with_flag(lut::check_max_error(largest, a.max_error), |_| {
         a.max_error.map(|m| format!("--max-error {m}"))
     })?;
-    warn_large(largest);
+    let at = report
+        .points
+        .iter()
+        .find(|p| p.error.max_element() == largest)
+        .map_or("the hemispherical albedo".to_string(), |p| {
+            format!("mu = {}", p.mu)
+        });
+    warn_large(largest, &at);
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
@@ -322,7 +329,10 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
         |o| lut_flag(spec, o),
     )?;
     progress.finish_and_clear();
-    warn_large(summary.max_error);
+    warn_large(
+        summary.max_error,
+        &where_largest(summary.largest_error(), spec),
+    );
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
@@ -335,13 +345,16 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
     Ok(())
 }
 
-/// Says on stderr that an error estimate is large ([`LARGE_ERROR`]).
-fn warn_large(largest: f64) {
-    if !(largest <= LARGE_ERROR) {
-        eprintln!(
-            "warning: the largest error estimate is {largest:.3e}, above {LARGE_ERROR:.3e} (the step of half floats below 1); use more --samples, another --method, or --max-error to refuse such results"
-        );
+/// Says on stderr that an error estimate is large ([`lut::LARGE_ERROR`]), and where.
+fn warn_large(largest: f64, at: &str) {
+    if let Some(w) = lut::large_error_warning(largest, at) {
+        eprintln!("{w}");
     }
+}
+
+/// A table's entry with the largest estimate, in words.
+fn where_largest(entry: Option<lut::ErrorEntry>, spec: &LutSpec) -> String {
+    entry.map_or("no entry".to_string(), |e| e.describe(&spec.keys.join(",")))
 }
 
 /// `lobe albedo --lut PATH.exr --engine KIND`: an engine table with its C/C++ header.
@@ -380,7 +393,10 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
         |o| lut_flag(&spec.lut, o),
     )?;
     progress.finish_and_clear();
-    warn_large(table.max_error);
+    warn_large(
+        table.max_error,
+        &where_largest(table.largest_error(), &spec.lut),
+    );
     let ranges: Vec<(f64, f64)> = (0..table.channels).map(|c| table.range(c)).collect();
     let mut out = std::io::stdout().lock();
     match a.format {

@@ -133,13 +133,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
             writeln!(
                 out,
                 "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
-                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its coarse check); \
+                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
                  lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
                 a.repeats,
                 grid.cells().unwrap_or(0),
                 lobe::bench::ALBEDO_DIRECTIONS,
                 lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-                    + lobe::bench::ALBEDO_RULE.coarse().0.nodes(glam::DVec3::Z).len(),
+                    + lobe::bench::ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
+                    + lobe::bench::ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len(),
                 lobe::bench::LUT_RES,
                 lobe::bench::LUT_RES,
                 lobe::bench::LUT_SAMPLES

@@ -1,6 +1,7 @@
 //! Running a fixed rule on a backend: f64 sums on the CPU, the reduction kernel on the GPU, and
-//! the error estimate (coarse rule or replicates' spread) on top.
+//! the error estimate (three levels of the rule, or the replicates' spread) on top.
 
+use super::estimate::three_level_error;
 use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::{Node, Rule};
@@ -29,8 +30,8 @@ pub fn rule_albedo(
     Ok(rows.pop().unwrap_or_default())
 }
 
-/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the fine
-/// and the coarse rule's nodes (for the replicated importance rule, its replicates' nodes).
+/// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the nodes
+/// of the rule and of its two coarser levels (for the replicated importance rule, its replicates' nodes).
 pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
     let count = |r: Rule| -> u64 {
         if r.depends_on_wo() {
@@ -43,7 +44,7 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
         Rule::Importance {
             replicate: None, ..
         } => count(rule),
-        _ => count(rule) + count(rule.coarse().0),
+        _ => count(rule) + count(rule.coarse()) + count(rule.coarse().coarse()),
     }
 }
 
@@ -59,10 +60,11 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
 /// |fine − coarse| is 1.7e-8. The rounding of f grows at grazing view: h = ωi + ωo cancels to
 /// length 2μo about the mirror direction, so an absolute rounding of ε in its components is
 /// ε/(2μo) in its direction. Over the built-in presets and GGX and Beckmann with
-/// α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was 0.8 at μo = 1
-/// and 80 at μo = 0.02 (1.6/μo): K = 4 covers it with a margin of 2.5 (tests/engine_luts.rs
-/// `gpu_error_estimates_bound_the_f32_rounding` checks it).
-pub const GPU_ROUNDING_FACTOR: f64 = 4.0;
+/// α ∈ [0.001, 1], μo ∈ [0.02, 1], the largest |GPU − f64| / (ε Σ|w f|) seen was 0.8 at μo = 1,
+/// 53 at μo = 0.1 (GGX α = 0.001: 5.3/μo) and, over the default DFG table, 457 at μo = 1/64
+/// (GGX α = 0.0022: 7.1/μo): K = 16 covers it with a margin of 2.2 (tests/engine_luts.rs
+/// `gpu_error_estimates_bound_the_f32_rounding` and tests/estimates.rs check it).
+pub const GPU_ROUNDING_FACTOR: f64 = 16.0;
 
 /// The f32 rounding term of an estimate on `backend` (0 on the CPU, whose sums are f64): for a
 /// GPU sum of value v at view ωo, K ε |v| / μo with ε = 2^-23 and K = [`GPU_ROUNDING_FACTOR`].
@@ -296,7 +298,7 @@ fn fill_nodes(rule: Rule, wo: DVec3, slot: &mut [[f32; 4]]) {
 
 /// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
 /// directions with the same rule: each direction's nodes are made once and serve every row, and
-/// on the GPU every row, the fine rule and its coarse check (or every replicate) go out in the
+/// on the GPU every row, the rule and its two coarser levels (or every replicate) go out in the
 /// same dispatches. Row r of the result is `rule_albedo(backend, &rows[r], …)`. Rows of
 /// different models are taken row by row.
 pub fn rule_albedo_rows(
@@ -349,21 +351,21 @@ pub fn rule_albedo_rows(
             })
             .collect());
     }
-    let (coarse, factor) = rule.coarse();
-    let mut sums = sum_rules_rows(backend, rows, white_furnace, &[rule, coarse], wo)?;
-    let coarse_e = sums.pop().unwrap_or_default();
-    let fine_e = sums.pop().unwrap_or_default();
-    Ok(fine_e
-        .into_iter()
-        .zip(coarse_e)
-        .map(|(fine, coarse)| {
-            fine.into_iter()
-                .zip(coarse)
-                .zip(wo)
-                .map(|(((v, n), (c, _)), &o)| Estimate {
-                    value: v,
-                    error: factor * (v - c).abs() + rounding(v, o),
-                    evals: n,
+    let (coarse, p) = (rule.coarse(), rule.level_exponent());
+    let levels = [rule, coarse, coarse.coarse()];
+    // [level][row][ωo]
+    let sums = sum_rules_rows(backend, rows, white_furnace, &levels, wo)?;
+    Ok((0..rows.len())
+        .map(|row| {
+            (0..wo.len())
+                .map(|o| {
+                    let at = |l: usize| sums[l][row][o];
+                    let v = at(0).0;
+                    Estimate {
+                        value: v,
+                        error: three_level_error(v, at(1).0, at(2).0, p) + rounding(v, wo[o]),
+                        evals: at(0).1,
+                    }
                 })
                 .collect()
         })

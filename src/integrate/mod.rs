@@ -22,15 +22,18 @@
 //! - `reference` (CPU, f64): nested adaptive Gauss–Kronrod (7/15) in the same coordinates,
 //!   converged to [`REFERENCE_RTOL`]; the truth the others are tested against.
 //!
-//! Error estimates are honest upper-bound style estimates: a fixed rule is run again at a coarser
-//! resolution and the difference is reported (divided by 3 for the midpoint rule, whose h² order
-//! is known: Richardson); the adaptive reference reports Σ|K15 − G7| over its panels, which bounds
-//! the 7-point Gauss result and so, in practice, grossly over-bounds the 15-point Kronrod one.
+//! Error estimates are upper bounds with a stated safety factor: a fixed rule is run at two
+//! coarser levels too, and its error extrapolated from the three (`estimate`: geometric
+//! convergence where the levels converge steadily, the last difference where they do not, and a
+//! floor for what no level difference shows); the adaptive reference reports Σ|K15 − G7| over
+//! its panels, which bounds the 7-point Gauss result and so, in practice, grossly over-bounds the
+//! 15-point Kronrod one.
 //! On the GPU, whose sums are f32, every estimate of a fixed rule also carries an f32 rounding
-//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the coarse rule's difference misses.
+//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the differences between levels miss.
 
 mod albedo;
 mod backend;
+mod estimate;
 mod gauss;
 mod importance;
 mod kept;
@@ -47,6 +50,7 @@ pub use backend::{
     rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
     GPU_ROUNDING_FACTOR,
 };
+pub use estimate::{three_level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};

@@ -79,47 +79,33 @@ impl Rule {
         }
     }
 
-    /// The same rule at about half the nodes (a quarter for the 2D midpoint rule, whose h is then
-    /// doubled), and the factor that turns |fine − coarse| into an estimate of the fine rule's
-    /// error: 1/(2² − 1) for the midpoint rule's O(h²) (Richardson), 1 otherwise (the coarse
-    /// rule's own error: conservative for rules that converge faster than linearly).
-    pub fn coarse(&self) -> (Rule, f64) {
+    /// The same rule one level coarser, for the error estimate ([`super::estimate`]): half the
+    /// cells per axis for the midpoint rule, ⅔ of the μ nodes for `gauss`, the first half of the
+    /// points for `qmc` and `importance` (whose estimate takes its replicates' spread instead), ¾
+    /// of the order for `peak`; never below one.
+    pub fn coarse(&self) -> Rule {
         match *self {
-            Rule::Midpoint { n_theta } => (
-                Rule::Midpoint {
-                    n_theta: (n_theta / 2).max(1),
-                },
-                if n_theta >= 2 { 1.0 / 3.0 } else { 1.0 },
-            ),
-            Rule::Gauss { n_mu } => (
-                Rule::Gauss {
-                    n_mu: (n_mu * 2 / 3).max(1),
-                },
-                1.0,
-            ),
-            Rule::Qmc { n } => (Rule::Qmc { n: (n / 2).max(1) }, 1.0),
-            // Not used for the estimate ([`rule_albedo`] takes the replicates' spread), but a
-            // coarse rule exists for every rule.
-            Rule::Importance { n, mix, replicate } => (
-                Rule::Importance {
-                    n: (n / 2).max(1),
-                    mix,
-                    replicate,
-                },
-                1.0,
-            ),
+            Rule::Midpoint { n_theta } => Rule::Midpoint {
+                n_theta: (n_theta / 2).max(1),
+            },
+            Rule::Gauss { n_mu } => Rule::Gauss {
+                n_mu: (n_mu * 2 / 3).max(1),
+            },
+            Rule::Qmc { n } => Rule::Qmc { n: (n / 2).max(1) },
+            Rule::Importance { n, mix, replicate } => Rule::Importance {
+                n: (n / 2).max(1),
+                mix,
+                replicate,
+            },
             Rule::Peak {
                 order,
                 v_cavity,
                 extra_levels,
-            } => (
-                Rule::Peak {
-                    order: (order * 3 / 4).clamp(1, order.saturating_sub(1).max(1)),
-                    v_cavity,
-                    extra_levels,
-                },
-                1.0,
-            ),
+            } => Rule::Peak {
+                order: (order * 3 / 4).clamp(1, order.saturating_sub(1).max(1)),
+                v_cavity,
+                extra_levels,
+            },
         }
     }
 

@@ -196,9 +196,12 @@ pub struct EngineTable {
     pub values: Vec<f64>,
     /// E_avg(p_k) (empty for the DFG tables).
     pub avg: Vec<f64>,
-    /// A bound on the error of any entry: for the DFG tables the sum of both passes' largest
-    /// estimates (R is a difference of the two).
+    /// The largest entry of `error` and `avg_error` ([`EngineTable::largest_error`]).
     pub max_error: f64,
+    /// Each texel's error estimate, indexed k·Nμ + j (DFG: the sum of the two passes').
+    pub error: Vec<f64>,
+    /// The error estimate of each E_avg(p_k) (empty for the DFG tables).
+    pub avg_error: Vec<f64>,
     /// Wall-clock time, seconds.
     pub seconds: f64,
     /// The files written (empty for [`compute_engine`]).
@@ -206,6 +209,11 @@ pub struct EngineTable {
 }
 
 impl EngineTable {
+    /// The entry with the largest error estimate (None for an empty table).
+    pub fn largest_error(&self) -> Option<super::ErrorEntry> {
+        super::largest_entry(&self.mus, &self.ps, &self.error, &self.avg_error)
+    }
+
     /// (smallest, largest) value of channel `c`.
     pub fn range(&self, c: usize) -> (f64, f64) {
         self.values
@@ -251,6 +259,15 @@ pub fn compute_engine(
         _ => grey(&done[0]),
     };
     let first = &done[0];
+    let mut error = first.e_error.clone();
+    for pass in &done[1..] {
+        error
+            .iter_mut()
+            .zip(&pass.e_error)
+            .for_each(|(e, x)| *e += x);
+    }
+    let max_error = super::largest_entry(&first.mus, &first.ps, &error, &first.e_avg_error)
+        .map_or(0.0, |w| w.error);
     let axis = (0..spec.lut.n_p)
         .map(|k| {
             let t = (k as f64 + 0.5) / spec.lut.n_p as f64;
@@ -267,7 +284,9 @@ pub fn compute_engine(
         channels: spec.kind.channels(),
         values,
         avg: first.e_avg.iter().map(|v| v.x).collect(),
-        max_error: done.iter().map(|s| s.max_error).sum(),
+        max_error,
+        error,
+        avg_error: first.e_avg_error.clone(),
         seconds: start.elapsed().as_secs_f64(),
         files: Vec::new(),
     })
