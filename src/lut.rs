@@ -435,7 +435,10 @@ const LUT_ROW_BATCH: usize = 32;
 
 /// An RGB error estimate's largest channel, NaN if any channel is (`max_element` would drop it).
 fn worst_channel(error: glam::DVec3) -> f64 {
-    error.to_array().into_iter().fold(0.0, crate::finite::max_or_nan)
+    error
+        .to_array()
+        .into_iter()
+        .fold(0.0, crate::finite::max_or_nan)
 }
 
 /// E(μ, p) and E_avg(p) on `eval`; `progress` receives (rows done, rows).
