@@ -227,9 +227,45 @@ impl LutSpec {
         let model = self.params.model();
         let (lo, hi) = (self.lo, self.hi);
         if self.keys.is_empty() {
-            return Err(
-                BadInput::new("keys", "the LUT axis needs at least one parameter key").into(),
-            );
+            let numeric = numeric_keys(model);
+            let message = match numeric.is_empty() {
+                true => format!(
+                    "the model {} has no numeric parameter to put on a LUT axis (a LUT is E(mu, p) over one)",
+                    model.name()
+                ),
+                false => format!(
+                    "the LUT axis needs a parameter key; the numeric parameters of {} are: {}",
+                    model.name(),
+                    numeric.join(", ")
+                ),
+            };
+            return Err(BadInput::new("keys", message).into());
+        }
+        // The keys first: a choice's range (0, 0) would otherwise be blamed on a range the user
+        // never gave.
+        for key in &self.keys {
+            let Some(spec) = model.params().iter().find(|s| s.key == key) else {
+                return Err(BadInput::new(
+                    "keys",
+                    format!(
+                        "LUT axis key '{key}': {} has no such parameter; its numeric parameters are: {}",
+                        model.name(),
+                        numeric_keys(model).join(", ")
+                    ),
+                )
+                .into());
+            };
+            if let ParamKind::Choice(_) = spec.kind {
+                return Err(BadInput::new(
+                    "keys",
+                    format!(
+                        "LUT axis key '{key}' is a choice, not a number; the numeric parameters of {} are: {}",
+                        model.name(),
+                        numeric_keys(model).join(", ")
+                    ),
+                )
+                .into());
+            }
         }
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
             return Err(BadInput::new(
@@ -256,27 +292,8 @@ impl LutSpec {
         }
         for key in &self.keys {
             let Some(spec) = model.params().iter().find(|s| s.key == key) else {
-                return Err(BadInput::new(
-                    "keys",
-                    format!(
-                        "LUT axis key '{key}': {} has no such parameter; its numeric parameters are: {}",
-                        model.name(),
-                        numeric_keys(model).join(", ")
-                    ),
-                )
-                .into());
+                continue;
             };
-            if let ParamKind::Choice(_) = spec.kind {
-                return Err(BadInput::new(
-                    "keys",
-                    format!(
-                        "LUT axis key '{key}' is a choice, not a number; the numeric parameters of {} are: {}",
-                        model.name(),
-                        numeric_keys(model).join(", ")
-                    ),
-                )
-                .into());
-            }
             // The ends may sit on the boundary of the key's range (alpha from 0): only the
             // cell centres are evaluated, and they must be valid values.
             let ends = [0.0, 1.0].map(|t| self.mapping.apply(lo, hi, t));

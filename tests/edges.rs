@@ -2,6 +2,8 @@
 
 mod common;
 
+use std::path::Path;
+
 /// Every built-in model (`lobe models --json`, so a new model is covered).
 fn model_names() -> Vec<String> {
     let v = common::lobe_json(&["models", "--json"]);
@@ -312,4 +314,93 @@ fn a_folder_that_cannot_be_locked_is_refused() {
         0,
         "files were left behind"
     );
+}
+
+/// Refusals name what the user gave: an azimuth beyond ±1e6° is refused by `albedo` and `plot`
+/// as by `eval` (it was accepted and printed as a 300-digit angle); a choice as a LUT axis is
+/// named as such (the message blamed a `--lut-range 0,0` never given); a model without numeric
+/// parameters names `--lut` (the message read "--lut-param :").
+#[test]
+fn refusals_name_the_flags_the_user_gave() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let merl = path("diffuse_white.binary");
+    let (ok, err) = lobe(&[
+        "table",
+        "--backend",
+        "cpu",
+        "--model",
+        "lambert",
+        "--format",
+        "merl",
+        "--grid",
+        "halfdiff",
+        "-o",
+        &merl,
+    ]);
+    assert!(ok, "{err}");
+    let (lut, png) = (path("lut.exr"), path("h.png"));
+    for (args, says, never) in [
+        (
+            vec![
+                "albedo",
+                "--backend",
+                "cpu",
+                "--model",
+                "lambert",
+                "--phi-o-deg",
+                "1e300",
+            ],
+            "--phi-o-deg: phi = 1e300 deg is out of range",
+            "",
+        ),
+        (
+            vec![
+                "plot",
+                "--backend",
+                "cpu",
+                "--kind",
+                "hemisphere",
+                "--phi-i-deg",
+                "1e300",
+                "-o",
+                &png,
+            ],
+            "--phi-i-deg: phi = 1e300 deg is out of range",
+            "",
+        ),
+        (
+            vec![
+                "albedo",
+                "--backend",
+                "cpu",
+                "--model",
+                "microfacet",
+                "--lut",
+                &lut,
+                "--lut-param",
+                "distribution",
+            ],
+            "--lut-param distribution: LUT axis key 'distribution' is a choice",
+            "--lut-range",
+        ),
+        (
+            vec![
+                "albedo",
+                "--backend",
+                "cpu",
+                "--model",
+                &merl,
+                "--lut",
+                &lut,
+            ],
+            "--lut: the model diffuse_white has no numeric parameter",
+            "--lut-param",
+        ),
+    ] {
+        let (ok, err) = lobe(&args);
+        assert!(!ok && err.contains(says), "{args:?}: {err}");
+        assert!(never.is_empty() || !err.contains(never), "{args:?}: {err}");
+    }
+    assert!(!Path::new(&lut).exists() && !Path::new(&png).exists());
 }

@@ -3,10 +3,10 @@
 //!
 //! The file's shader may define functions, constants and (through lobe) its parameters, and
 //! nothing else. Each kernel is compiled once with a stand-in shader (`BRDF` returning a
-//! constant) to take an [`Inventory`] of what lobe itself puts there: its descriptor bindings,
+//! constant) to take an inventory of what lobe itself puts there: its descriptor bindings,
 //! push constants, built-in inputs, `shared` memory, barriers, atomics, texel fetches,
 //! capabilities and extensions. The same kernel compiled with the file's shader may hold
-//! nothing more ([`check`]): no resource variable of any storage class beyond lobe's (a block
+//! nothing more (`check`): no resource variable of any storage class beyond lobe's (a block
 //! at one of lobe's own bindings counts as one more), no barrier, atomic, image, sampler or
 //! subgroup instruction in a function where lobe's kernel has fewer, no pointer conversion, no
 //! other capability or extension, and at most [`MAX_PRIVATE_BYTES`] of per-invocation memory

@@ -3,7 +3,7 @@
 
 use super::run::run_scene;
 use super::{open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat};
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::integrate::{Method, Settings};
 use lobe::lut::engine::{self, EngineKind, EngineSpec};
@@ -163,18 +163,14 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
         return write_engine_lut(&a, kind.into(), method, path);
     }
     let params = a.model.params()?;
-    if !a.phi_deg.is_finite() {
-        bail!(
-            "--phi-o-deg {}: expected a finite number of degrees",
-            a.phi_deg
-        );
-    }
+    // The same range as every direction on the command line (`lobe eval`'s).
+    lobe::pairs::check_angles(0.0, a.phi_deg).map_err(|e| anyhow!("--phi-o-deg: {e}"))?;
     let mus: Vec<f64> = if !a.theta_deg.is_empty() {
         a.theta_deg
             .iter()
             .map(|&t| {
                 if (0.0..90.0).contains(&t) {
-                    Ok(t.to_radians().cos())
+                    Ok(lobe::grid::sin_cos_deg(t).1)
                 } else {
                     bail!("--theta-o-deg {t}: expected theta_o in [0, 90) degrees")
                 }
@@ -308,6 +304,7 @@ fn lut_spec(a: &AlbedoArgs, params: ParamSet, settings: Settings, phi: f64) -> R
 fn lut_flag(spec: &LutSpec, option: &str) -> Option<String> {
     let range = format!("--lut-range {},{}", spec.lo, spec.hi);
     Some(match option {
+        "keys" if spec.keys.is_empty() => "--lut".to_string(),
         "keys" => format!("--lut-param {}", spec.keys.join(",")),
         "range" => range,
         "mapping" => format!("--lut-map {} with {range}", spec.mapping.name()),

@@ -164,6 +164,8 @@ fn plot_flag(option: &str) -> Option<String> {
 }
 
 pub fn run(a: PlotArgs) -> Result<()> {
+    // The same range as every direction on the command line (`lobe eval`'s).
+    lobe::pairs::check_angles(0.0, a.phi_i_deg).map_err(|e| anyhow::anyhow!("--phi-i-deg: {e}"))?;
     let models = if a.models.is_empty() {
         vec!["cook_torrance".to_string()]
     } else {

@@ -79,7 +79,7 @@ impl Rule {
         }
     }
 
-    /// The same rule one level coarser, for the error estimate ([`super::estimate`]): half the
+    /// The same rule one level coarser, for the error estimate (`integrate::estimate`): half the
     /// cells per axis for the midpoint rule, ⅔ of the μ nodes for `gauss`, the first half of the
     /// points for `qmc` and `importance` (whose estimate takes its replicates' spread instead), ¾
     /// of the order for `peak`; never below one.
