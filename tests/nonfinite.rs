@@ -408,3 +408,40 @@ fn the_library_refuses_with_the_count_and_counts_when_asked() {
         ),
     }
 }
+
+/// A lobe table has no missing-data mark, so a table target's invalid cells are refused as
+/// every job refuses them (they were counted as "missing" bins and the fit went on).
+#[test]
+fn fit_refuses_a_table_target_with_invalid_cells() {
+    for (name, kind) in SHADERS {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let m = shader(name);
+        let made = lobe(
+            dir.path(),
+            &[
+                "table",
+                "--model",
+                m.to_str().expect("utf-8 path"),
+                "--grid",
+                "isotropic",
+                "--res",
+                "8,8,8",
+                "-o",
+                "t.exr",
+            ],
+        );
+        assert!(made.status.success(), "{}", stderr(&made));
+        let args = [
+            "fit",
+            "--target",
+            "t.npy",
+            "--model",
+            "lambert",
+            "--free",
+            "albedo",
+            "--backend",
+            "cpu",
+        ];
+        assert_refused(dir.path(), &args, "t.npy", kind);
+    }
+}

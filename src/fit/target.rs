@@ -315,14 +315,15 @@ fn table_samples(path: &Path, max_bins: usize) -> Result<Samples> {
         )));
     }
     let cells = values.len() / 3;
+    // A lobe table has no missing-data mark: a NaN, ±Inf or negative cell is an invalid value,
+    // refused as every job refuses one (docs/design.md §2.1), not passed over as missing.
+    let mut invalid = crate::finite::InvalidCount::default();
+    invalid.add_f32(0, &values[..3 * cells], |cell| grid.pair_at(cell));
+    invalid
+        .refuse(&format!("table {}", npy.display()), "fitting")
+        .map_err(|e| BadInput::new("target", e.to_string()))?;
     let mut all = Vec::new();
-    let mut missing = 0;
     for cell in 0..cells {
-        let v = &values[3 * cell..3 * cell + 3];
-        if !v.iter().all(|x| x.is_finite() && *x >= 0.0) {
-            missing += 1;
-            continue;
-        }
         let idx = grid.index(cell as u64);
         let pair = grid.pair(&idx);
         let weight = cell_weight(&grid, grid.angles(&idx));
@@ -337,7 +338,6 @@ fn table_samples(path: &Path, max_bins: usize) -> Result<Samples> {
     let valid = all.len();
     let mut s = Samples {
         grid_bins: cells,
-        missing,
         valid,
         grid: format!(
             "{} grid {:?} from {}",
