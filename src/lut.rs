@@ -226,45 +226,50 @@ impl LutSpec {
     pub fn validate(&self) -> Result<()> {
         let model = self.params.model();
         let (lo, hi) = (self.lo, self.hi);
+        // A refused key, with the keys that would do.
+        let keys_error = |problem: String| -> anyhow::Error {
+            let keys = numeric_keys(model).join(", ");
+            let message = format!(
+                "{problem}; the numeric parameters of {} are: {keys}",
+                model.name()
+            );
+            BadInput::new("keys", message).into()
+        };
         if self.keys.is_empty() {
-            let numeric = numeric_keys(model);
-            let message = match numeric.is_empty() {
-                true => format!(
-                    "the model {} has no numeric parameter to put on a LUT axis (a LUT is E(mu, p) over one)",
-                    model.name()
-                ),
-                false => format!(
-                    "the LUT axis needs a parameter key; the numeric parameters of {} are: {}",
-                    model.name(),
-                    numeric.join(", ")
-                ),
-            };
-            return Err(BadInput::new("keys", message).into());
+            if numeric_keys(model).is_empty() {
+                return Err(BadInput::new(
+                    "keys",
+                    format!(
+                        "the model {} has no numeric parameter to put on a LUT axis (a LUT is E(mu, p) over one)",
+                        model.name()
+                    ),
+                )
+                .into());
+            }
+            return Err(keys_error("the LUT axis needs a parameter key".into()));
         }
         // The keys first: a choice's range (0, 0) would otherwise be blamed on a range the user
         // never gave.
         for key in &self.keys {
-            let Some(spec) = model.params().iter().find(|s| s.key == key) else {
-                return Err(BadInput::new(
-                    "keys",
-                    format!(
-                        "LUT axis key '{key}': {} has no such parameter; its numeric parameters are: {}",
-                        model.name(),
-                        numeric_keys(model).join(", ")
-                    ),
-                )
-                .into());
-            };
-            if let ParamKind::Choice(_) = spec.kind {
-                return Err(BadInput::new(
-                    "keys",
-                    format!(
-                        "LUT axis key '{key}' is a choice, not a number; the numeric parameters of {} are: {}",
-                        model.name(),
-                        numeric_keys(model).join(", ")
-                    ),
-                )
-                .into());
+            match model
+                .params()
+                .iter()
+                .find(|s| s.key == key)
+                .map(|s| &s.kind)
+            {
+                None => {
+                    let problem = format!(
+                        "LUT axis key '{key}': {} has no such parameter",
+                        model.name()
+                    );
+                    return Err(keys_error(problem));
+                }
+                Some(ParamKind::Choice(_)) => {
+                    return Err(keys_error(format!(
+                        "LUT axis key '{key}' is a choice, not a number"
+                    )));
+                }
+                Some(_) => {}
             }
         }
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
