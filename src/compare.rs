@@ -18,7 +18,7 @@
 //! lobes included.
 
 use crate::eval::Evaluator;
-use crate::grid::{half_diff_to_pair, pair_to_half_diff, theta_cell, Grid};
+use crate::grid::{angles_deg, half_diff_to_pair, pair_to_half_diff, theta_cell, Grid};
 use crate::input::BadInput;
 use crate::integrate::{self, Settings};
 use crate::loss::{self, Bin, ChannelErrors};
@@ -28,8 +28,6 @@ use anyhow::Result;
 use glam::DVec3;
 use serde_json::json;
 use std::sync::Arc;
-
-pub use crate::plot::difference::{plot_paths, write_plots, PlotOptions, Plots};
 
 /// The bins both models are evaluated at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -322,8 +320,8 @@ pub fn compare(
     let rel = loss::relative_difference(&bins, &fa, &fb);
     let largest = rel.argmax.filter(|_| rel.max > 0.0).map(|(k, c)| {
         let ((wi, wo), _) = opts.bins.bin(cell_of[k]);
-        let (ti, pi) = crate::plot::hemisphere::angles_deg(wi);
-        let (to, po) = crate::plot::hemisphere::angles_deg(wo);
+        let (ti, pi) = angles_deg(wi);
+        let (to, po) = angles_deg(wo);
         Largest {
             theta_i_deg: ti,
             theta_o_deg: to,

@@ -2,6 +2,7 @@
 //! [`InvalidCount`], is filled wherever evaluated values are seen, on either backend; `eval` and
 //! `table` keep the values and report the count, every other job refuses with [`InvalidValues`].
 
+use crate::grid::angles_deg;
 use glam::DVec3;
 use serde_json::json;
 use std::fmt;
@@ -173,8 +174,8 @@ impl InvalidCount {
     pub fn to_json(&self) -> serde_json::Value {
         let first = self.first.as_ref().map(|f| {
             let angles = f.directions.map(|(wi, wo)| {
-                let [ti, pi] = angles_deg(wi);
-                let [to, po] = angles_deg(wo);
+                let (ti, pi) = angles_deg(wi);
+                let (to, po) = angles_deg(wo);
                 json!({"theta_i_deg": ti, "phi_i_deg": pi, "theta_o_deg": to, "phi_o_deg": po})
             });
             json!({
@@ -204,13 +205,6 @@ fn json_number(v: f64) -> serde_json::Value {
     } else {
         v.into()
     }
-}
-
-/// (θ, φ) of a unit direction in degrees, φ in [0, 360).
-fn angles_deg(w: DVec3) -> [f64; 2] {
-    let theta = w.z.clamp(-1.0, 1.0).acos().to_degrees();
-    let phi = w.y.atan2(w.x).to_degrees().rem_euclid(360.0);
-    [theta, phi]
 }
 
 /// "3 NaN, 1 negative": the kinds a count holds.
@@ -243,8 +237,8 @@ impl fmt::Display for InvalidCount {
         if let Some(f) = &self.first {
             write!(out, "; the first is value {}", f.index)?;
             if let Some((wi, wo)) = f.directions {
-                let [ti, pi] = angles_deg(wi);
-                let [to, po] = angles_deg(wo);
+                let (ti, pi) = angles_deg(wi);
+                let (to, po) = angles_deg(wo);
                 write!(
                     out,
                     " at theta_i {ti:.3} deg, phi_i {pi:.3} deg, theta_o {to:.3} deg, phi_o {po:.3} deg"

@@ -447,6 +447,14 @@ pub fn pair_to_half_diff(wi: DVec3, wo: DVec3) -> [f64; 4] {
     ]
 }
 
+/// (θ, φ) of a direction in degrees, φ in [0, 360).
+pub fn angles_deg(d: DVec3) -> (f64, f64) {
+    (
+        d.z.clamp(-1.0, 1.0).acos().to_degrees(),
+        d.y.atan2(d.x).to_degrees().rem_euclid(360.0),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,6 +15,7 @@
 //! ω = (sinθ cosφ, sinθ sinφ, cosθ); ωi points to the light, ωo to the viewer; f is in 1/sr,
 //! linear RGB, without the cosine, and 0 whenever cosθi ≤ 0 or cosθo ≤ 0.
 
+pub mod axis;
 pub mod bench;
 pub mod brdf;
 pub mod compare;
@@ -38,8 +39,10 @@ pub mod output;
 pub mod pairs;
 pub mod plot;
 pub mod preview;
+pub mod quadrature;
 pub mod scene;
 pub mod session;
+pub mod spec;
 pub mod stability;
 pub mod table;
 pub mod tolerance;
@@ -51,21 +54,4 @@ pub use glam;
 pub use interrupt::CancelToken;
 pub use model::{Model, ParamSet, Reference};
 pub use session::{AlbedoSettings, BackendKind, Session, SessionOptions};
-
-/// Resolves a model's parameters as the CLI does: the model's defaults, then the material preset
-/// (if any), then each `key=value` assignment in order.
-pub fn resolve_params(
-    model: &str,
-    material: Option<&str>,
-    sets: &[String],
-) -> Result<ParamSet, model::ParamError> {
-    let model = Model::from_name(model)?;
-    let mut params = match material {
-        Some(name) => material::preset(name, model)?,
-        None => ParamSet::defaults(model),
-    };
-    for s in sets {
-        params.set_text(s)?;
-    }
-    Ok(params)
-}
+pub use spec::resolve_params;

@@ -2,8 +2,8 @@
 //! for GLSL is the compiled SPIR-V itself: member offsets (OpMemberDecorate Offset) and the
 //! array stride of the block array, read from the modules embedded in the binary.
 
-use lobe::gpu::shaders::spirv;
 use lobe::gpu::spirv::struct_layout;
+use lobe::model::kernels::spirv;
 use lobe::model::Model;
 
 #[test]

@@ -412,7 +412,7 @@ fn a_constant_file_gives_its_albedo_on_both_backends() {
 /// The parameter block the host writes has the layout merl.glsl declares.
 #[test]
 fn the_parameter_block_matches_the_glsl() {
-    let words = lobe::gpu::shaders::spirv("pairs", "merl").expect("the MERL pairs kernel");
+    let words = lobe::model::kernels::spirv("pairs", "merl").expect("the MERL pairs kernel");
     let glsl = lobe::gpu::spirv::struct_layout(words, "MerlParams").expect("struct MerlParams");
     assert_eq!(glsl.members, vec![("lookup".to_string(), 0)]);
     let (layout, size) = lobe::model::runtime::std430_layout(&[merl::model::LOOKUP_PARAM]);

@@ -7,7 +7,8 @@
 mod common;
 
 use glam::DVec3;
-use lobe::gpu::{shaders, Gpu};
+use lobe::gpu::Gpu;
+use lobe::model::kernels;
 use lobe::model::runtime::RuntimeModel;
 use lobe::model::{Model, ParamSet, ParamSpec};
 use lobe::{AlbedoSettings, Error, Evaluator, Session};
@@ -23,7 +24,7 @@ fn lambert_twin(name: &str, with_reference: bool) -> Model {
     let mut m = RuntimeModel::new(name, "Lambert, defined at run time", params, true)
         .expect("a valid run-time model");
     for kernel in ["pairs", "table", "albedo", "preview"] {
-        let spirv = shaders::spirv(kernel, "lambert").expect("lambert's kernel");
+        let spirv = kernels::spirv(kernel, "lambert").expect("lambert's kernel");
         m = m.with_kernel(kernel, spirv);
     }
     if with_reference {

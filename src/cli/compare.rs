@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use lobe::compare::{self, Bins, Comparison, Options, Side, CHANNELS};
 use lobe::grid::Grid;
 use lobe::integrate::{Method, Settings};
+use lobe::plot::difference;
 use lobe::plot::{Format, Subject};
 use lobe::ParamSet;
 use std::io::Write;
@@ -194,7 +195,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         PlotFormat::Svg => Format::Svg,
     };
     if let Some(prefix) = &a.output {
-        let (polar, difference) = compare::plot_paths(prefix, format);
+        let (polar, difference) = difference::plot_paths(prefix, format);
         let folder = lobe::output::folder_of(&polar);
         if !folder.as_os_str().is_empty() && !folder.is_dir() {
             bail!(
@@ -276,13 +277,13 @@ pub fn run(a: CompareArgs) -> Result<()> {
     }
     out.flush()?;
     if let Some(prefix) = &a.output {
-        let plot_opts = compare::PlotOptions {
+        let plot_opts = difference::PlotOptions {
             theta_i_deg: a.theta_i_deg.clone(),
             common: lobe::plot::Common {
                 white_furnace: a.white_furnace,
-                ..compare::PlotOptions::default().common
+                ..difference::PlotOptions::default().common
             },
-            ..compare::PlotOptions::default()
+            ..difference::PlotOptions::default()
         };
         let sa = Subject {
             label: format!("A: {label_a}"),
@@ -293,7 +294,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
             params: pb.clone(),
         };
         let plots = with_flag(
-            compare::write_plots(&session.evaluator(), &sa, &sb, &plot_opts, prefix, format),
+            difference::write_plots(&session.evaluator(), &sa, &sb, &plot_opts, prefix, format),
             compare_flag,
         )?;
         eprintln!(

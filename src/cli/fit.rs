@@ -110,7 +110,7 @@ pub fn run(a: FitArgs) -> Result<()> {
     };
     let plot_target = match &a.output {
         Some(prefix) => {
-            let (polar, difference) = lobe::compare::plot_paths(prefix, Format::Png);
+            let (polar, difference) = lobe::plot::difference::plot_paths(prefix, Format::Png);
             let folder = lobe::output::folder_of(&polar);
             if !folder.as_os_str().is_empty() && !folder.is_dir() {
                 anyhow::bail!(
@@ -174,11 +174,11 @@ pub fn run(a: FitArgs) -> Result<()> {
             label: format!("fit: {}", report.params.model().name()),
             params: report.params.clone(),
         };
-        let plots = lobe::compare::write_plots(
+        let plots = lobe::plot::difference::write_plots(
             &session.evaluator(),
             &target_subject,
             &fit_subject,
-            &lobe::compare::PlotOptions::default(),
+            &lobe::plot::difference::PlotOptions::default(),
             prefix,
             Format::Png,
         )?;

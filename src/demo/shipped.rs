@@ -13,6 +13,7 @@ use crate::eval::Evaluator;
 use crate::grid::Grid;
 use crate::integrate::Settings;
 use crate::model::{Model, ParamSet};
+use crate::plot::difference;
 use crate::plot::{Format, Subject};
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
@@ -140,8 +141,8 @@ pub(super) fn shipped(
         label: "B: microfacet (same coat, plain Lambertian base)".into(),
         params: twin,
     };
-    let plot_opts = compare::PlotOptions::default();
-    let plots = compare::write_plots(
+    let plot_opts = difference::PlotOptions::default();
+    let plots = difference::write_plots(
         eval,
         &a,
         &b,

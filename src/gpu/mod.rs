@@ -8,7 +8,6 @@ pub mod device;
 pub mod error;
 pub mod pipeline;
 pub mod preview;
-pub mod shaders;
 pub mod spirv;
 
 use crate::model::Model;

@@ -17,18 +17,11 @@
 //! the f64 twin in [`lookup`]), and [`write::write`] writes any isotropic model in the format.
 
 pub use crate::model::merl as lookup;
+pub use crate::model::merl::{bin, bin_centre, MerlTable, BINS, DIMS};
 pub mod model;
 pub mod write;
 
-use crate::grid::{dphi_cell, theta_cell};
-use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
-
-/// Bins per axis: θh, θd, φd (φd over [0, π)).
-pub const DIMS: [usize; 3] = [90, 90, 180];
-
-/// Bins per channel, 90 × 90 × 180.
-pub const BINS: usize = DIMS[0] * DIMS[1] * DIMS[2];
 
 /// f = stored × SCALE per channel (r, g, b), as MERL's reader scales.
 pub const SCALE: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
@@ -38,16 +31,6 @@ pub const HEADER_BYTES: usize = 12;
 
 /// A MERL file's length in bytes: the header and 3 × [`BINS`] float64.
 pub const FILE_BYTES: usize = HEADER_BYTES + 3 * 8 * BINS;
-
-/// A file's table: f in 1/sr at every bin, planar (channel c of bin k at `c * BINS + k`), missing
-/// bins as 0.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MerlTable {
-    /// stored × [`SCALE`], 3 × [`BINS`] values, planar.
-    pub values: Vec<f64>,
-    /// How many stored values were negative (missing), over all three channels.
-    pub missing: usize,
-}
 
 /// A file refused: its path and what is wrong with it.
 #[derive(Debug, thiserror::Error)]
@@ -175,24 +158,6 @@ pub fn encode(values: &[f64]) -> Vec<u8> {
         out.extend_from_slice(&(v / SCALE[k / BINS]).to_le_bytes());
     }
     out
-}
-
-/// The bin of (θh, θd, φd) = (`h`, `d`, `p`): `p + 180 (d + 90 h)`.
-pub fn bin(h: usize, d: usize, p: usize) -> usize {
-    p + DIMS[2] * (d + DIMS[1] * h)
-}
-
-/// The angles (θh, θd, φd) at the centre of bin (`h`, `d`, `p`): each axis's continuous
-/// coordinate ([`lookup::merl_coordinates`]) at k + ½, so θh = (π/2)((h + ½)/90)², θd =
-/// (d + ½)(π/2)/90 and φd = (p + ½)π/180. The θd and φd centres are those of lobe's `halfdiff`
-/// grid at 90,90,180; its θh cells are uniform, these are not.
-pub fn bin_centre(h: usize, d: usize, p: usize) -> [f64; 3] {
-    let u = (h as f64 + 0.5) / DIMS[0] as f64;
-    [
-        FRAC_PI_2 * u * u,
-        theta_cell(d, DIMS[1]),
-        dphi_cell(p, DIMS[2]),
-    ]
 }
 
 #[cfg(test)]

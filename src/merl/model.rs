@@ -8,7 +8,7 @@
 
 use super::lookup::{merl, Lookup, LOOKUPS};
 use super::{read, MerlTable, BINS};
-use crate::gpu::shaders;
+use crate::model::kernels;
 use crate::model::runtime::RuntimeModel;
 use crate::model::{Model, ParamSpec};
 use glam::DVec3;
@@ -51,7 +51,7 @@ pub fn model_name(path: &Path) -> String {
 pub fn register(name: &str, description: &str, table: MerlTable) -> anyhow::Result<Model> {
     let mut m = RuntimeModel::new(name, description, vec![LOOKUP_PARAM], true)?;
     for kernel in KERNELS {
-        let spirv = shaders::spirv(kernel, "merl")
+        let spirv = kernels::spirv(kernel, "merl")
             .ok_or_else(|| anyhow::anyhow!("the {kernel} kernel of the MERL lookup is missing"))?;
         m = m.with_kernel(kernel, spirv);
     }

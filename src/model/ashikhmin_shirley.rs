@@ -6,7 +6,7 @@ use super::quadrature::SamplingLobes;
 use super::registry::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
 use super::{f32x3, Layout, ParamSet};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::PI;

@@ -6,7 +6,7 @@ use super::quadrature::{beckmann_exponent, SamplingLobes};
 use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;

@@ -240,7 +240,7 @@ pub fn fresnel_ms(f_avg: f64, avg_loss: f64) -> f64 {
 /// conductor: the rule is then accurate to rounding).
 pub fn fresnel_average(f: impl Fn(f64) -> f64) -> f64 {
     static RULE: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
-    let rule = RULE.get_or_init(|| crate::integrate::gauss_legendre(8));
+    let rule = RULE.get_or_init(|| crate::quadrature::gauss_legendre(8));
     let panels = 8;
     let h = 1.0 / panels as f64;
     let mut sum = 0.0;

@@ -6,7 +6,7 @@ use super::registry::{
     always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo,
 };
 use super::{f32x3, Layout, ParamSet};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;

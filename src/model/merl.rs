@@ -1,10 +1,43 @@
 //! The `merl` lookup: f of a MERL table at a pair, in f64: the twin of `glsl/brdf/merl.glsl`, line by line, with
 //! libm's atan2 where the GLSL has `merl_angle`. The nearest-bin lookup is MERL's reader's.
 
-use crate::grid::pair_to_half_diff;
-use crate::merl::{bin, MerlTable, BINS, DIMS};
+use crate::grid::{dphi_cell, pair_to_half_diff, theta_cell};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Bins per axis: θh, θd, φd (φd over [0, π)).
+pub const DIMS: [usize; 3] = [90, 90, 180];
+
+/// Bins per channel, 90 × 90 × 180.
+pub const BINS: usize = DIMS[0] * DIMS[1] * DIMS[2];
+
+/// A file's table: f in 1/sr at every bin, planar (channel c of bin k at `c * BINS + k`), missing
+/// bins as 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MerlTable {
+    /// stored × the file's scale ([`crate::merl::SCALE`]), 3 × [`BINS`] values, planar.
+    pub values: Vec<f64>,
+    /// How many stored values were negative (missing), over all three channels.
+    pub missing: usize,
+}
+
+/// The bin of (θh, θd, φd) = (`h`, `d`, `p`): `p + 180 (d + 90 h)`.
+pub fn bin(h: usize, d: usize, p: usize) -> usize {
+    p + DIMS[2] * (d + DIMS[1] * h)
+}
+
+/// The angles (θh, θd, φd) at the centre of bin (`h`, `d`, `p`): each axis's continuous
+/// coordinate ([`merl_coordinates`]) at k + ½, so θh = (π/2)((h + ½)/90)², θd =
+/// (d + ½)(π/2)/90 and φd = (p + ½)π/180. The θd and φd centres are those of lobe's `halfdiff`
+/// grid at 90,90,180; its θh cells are uniform, these are not.
+pub fn bin_centre(h: usize, d: usize, p: usize) -> [f64; 3] {
+    let u = (h as f64 + 0.5) / DIMS[0] as f64;
+    [
+        FRAC_PI_2 * u * u,
+        theta_cell(d, DIMS[1]),
+        dphi_cell(p, DIMS[2]),
+    ]
+}
 
 /// The options of the model's `lookup` parameter, in the order of their GPU indices.
 pub const LOOKUPS: &[&str] = &["nearest", "trilinear"];
@@ -126,7 +159,7 @@ mod tests {
             (89, 2, 7),
             (10, 60, 1),
         ] {
-            let [th, td, pd] = crate::merl::bin_centre(h, d, p);
+            let [th, td, pd] = bin_centre(h, d, p);
             let (wi, wo) = half_diff_to_pair(th, 0.0, td, pd);
             let want = DVec3::new(h as f64, d as f64, p as f64);
             assert_eq!(merl(&t, Lookup::Nearest, wi, wo), want, "bin {h} {d} {p}");

@@ -16,7 +16,7 @@ use super::terms::{
     F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,
 };
 use super::{f32x3, Layout, Model, ParamSet, Value};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;

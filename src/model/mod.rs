@@ -6,6 +6,7 @@ pub mod blinn_phong;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
+pub mod kernels;
 pub mod kulla_conty;
 pub mod lambert;
 pub mod merl;
@@ -137,7 +138,7 @@ impl Model {
     pub fn spirv(self, kernel: &str) -> Option<&'static [u8]> {
         match self {
             Model::Runtime(r) => r.kernel(kernel),
-            m => crate::gpu::shaders::spirv(kernel, m.name()),
+            m => kernels::spirv(kernel, m.name()),
         }
     }
 

@@ -398,11 +398,6 @@ impl ParamSet {
         Ok(ParamSet::defaults(Model::from_name(name)?))
     }
 
-    /// The built-in material preset `material` (tin, gold, …) for the model named `model`.
-    pub fn preset(material: &str, model: &str) -> Result<ParamSet, ParamError> {
-        crate::material::preset(material, Model::from_name(model)?)
-    }
-
     /// The same set with `key` set to `value`, validated against the parameter table.
     pub fn with(mut self, key: &str, value: impl Into<Value>) -> Result<ParamSet, ParamError> {
         self.set(key, value.into())?;

@@ -6,7 +6,7 @@ use super::quadrature::SamplingLobes;
 use super::registry::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, pow1m};
 use super::{f32x3, Layout, ParamSet};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};

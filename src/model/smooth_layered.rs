@@ -7,7 +7,7 @@ use super::quadrature::no_lobes;
 use super::registry::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::terms::{r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;

@@ -15,6 +15,7 @@ use super::{
     pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Scale, Subject,
 };
 use crate::eval::Evaluator;
+pub use crate::grid::angles_deg;
 use crate::grid::direction;
 use anyhow::{bail, Result};
 use glam::DVec3;
@@ -273,14 +274,6 @@ pub fn hemisphere_data(
         scale,
         evaluations,
     })
-}
-
-/// (θ, φ) of a direction in degrees, φ in [0, 360).
-pub fn angles_deg(d: DVec3) -> (f64, f64) {
-    (
-        d.z.clamp(-1.0, 1.0).acos().to_degrees(),
-        d.y.atan2(d.x).to_degrees().rem_euclid(360.0),
-    )
 }
 
 /// Evaluates and draws the heat maps into `path` (.png or .svg); returns what it drew.

@@ -9,7 +9,7 @@ pub mod catalogue;
 pub mod quadrature;
 pub mod runtime;
 
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use crate::model::params::{ParamError, ParamSpec, Value};
 use crate::model::{Layout, Model, ParamSet};
 use glam::DVec3;

@@ -9,7 +9,7 @@
 
 use super::quadrature::no_lobes;
 use super::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
-use crate::lut::Mapping;
+use crate::axis::Mapping;
 use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
 use crate::model::{Model, ParamSet};
 use glam::DVec3;

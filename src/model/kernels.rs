@@ -1,4 +1,5 @@
-//! SPIR-V modules compiled from `glsl/` by `build.rs`, one per (kernel, model).
+//! The built-in kernels' SPIR-V, compiled from `glsl/` by `build.rs`: one module per
+//! (kernel, model).
 
 include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 

@@ -1,4 +1,5 @@
-//! One-dimensional rules: Gauss–Legendre, Gauss–Kronrod 7/15 panels and the globally adaptive
+//! One-dimensional rules (the numerics beneath the albedo integrators and the models' own
+//! tables): Gauss–Legendre, Gauss–Kronrod 7/15 panels and the globally adaptive
 //! integrator built on them, and geometrically graded breakpoints.
 
 use glam::DVec3;
@@ -41,7 +42,7 @@ pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 }
 
 /// Gauss–Legendre with `n` nodes on [a, b], as (x, w).
-pub(super) fn gauss_on(
+pub(crate) fn gauss_on(
     rule: &[(f64, f64)],
     a: f64,
     b: f64,
@@ -95,7 +96,7 @@ pub struct Estimate {
 
 /// The 15 Kronrod abscissae on [a, b], in the order [`gk15_combine`] expects: pairs m ∓ h·x_j
 /// for j = 0..7, then the midpoint.
-pub(super) fn gk15_nodes(a: f64, b: f64) -> [f64; 15] {
+pub(crate) fn gk15_nodes(a: f64, b: f64) -> [f64; 15] {
     let (m, h) = (0.5 * (a + b), 0.5 * (b - a));
     let mut x = [m; 15];
     for j in 0..7 {
@@ -107,7 +108,7 @@ pub(super) fn gk15_nodes(a: f64, b: f64) -> [f64; 15] {
 
 /// One Gauss–Kronrod 7/15 panel from the integrand at [`gk15_nodes`]: the Kronrod sum, and as
 /// error |K15 − G7| plus the integrand's own errors carried through the Kronrod weights.
-pub(super) fn gk15_combine(a: f64, b: f64, vals: &[Estimate]) -> Estimate {
+pub(crate) fn gk15_combine(a: f64, b: f64, vals: &[Estimate]) -> Estimate {
     let h = 0.5 * (b - a);
     let mut k = DVec3::ZERO;
     let mut g = DVec3::ZERO;
@@ -130,7 +131,7 @@ pub(super) fn gk15_combine(a: f64, b: f64, vals: &[Estimate]) -> Estimate {
 }
 
 /// One Gauss–Kronrod 7/15 panel of an integrand that returns (value, its own error, evals).
-pub(super) fn gk15<F: Fn(f64) -> Estimate>(f: &F, a: f64, b: f64) -> Estimate {
+pub(crate) fn gk15<F: Fn(f64) -> Estimate>(f: &F, a: f64, b: f64) -> Estimate {
     let vals: Vec<Estimate> = gk15_nodes(a, b).iter().map(|&x| f(x)).collect();
     gk15_combine(a, b, &vals)
 }
@@ -139,7 +140,7 @@ pub(super) fn gk15<F: Fn(f64) -> Estimate>(f: &F, a: f64, b: f64) -> Estimate {
 /// refined in batches): while the summed error exceeds `tol` (absolute, in the largest
 /// channel), every panel whose error is at least half the largest one is bisected. With
 /// `parallel`, the panels of a batch are evaluated on rayon's threads.
-pub(super) fn adaptive<F: Fn(f64) -> Estimate + Sync>(
+pub(crate) fn adaptive<F: Fn(f64) -> Estimate + Sync>(
     f: &F,
     breaks: &[f64],
     tol: f64,
@@ -201,7 +202,7 @@ pub(super) fn adaptive<F: Fn(f64) -> Estimate + Sync>(
 }
 
 /// Breakpoints on [0, 1] graded geometrically towards 0: 0, 2^-levels, …, 1/2, 1.
-pub(super) fn graded(levels: u32) -> Vec<f64> {
+pub(crate) fn graded(levels: u32) -> Vec<f64> {
     let mut b = vec![0.0];
     b.extend((0..=levels).rev().map(|k| 0.5f64.powi(k as i32)));
     b
