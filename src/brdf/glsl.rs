@@ -27,16 +27,12 @@ use super::lex::{tokens, Tok};
 use super::parse::{BrdfFile, ParamType};
 use super::rename::{original_names, rename_functions};
 use super::validate::{self, Inventory};
-use super::BrdfError;
+use super::{BrdfError, RESERVED};
 use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
 use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderSource, ShaderStage};
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::sync::{Mutex, OnceLock};
-
-/// The prefix of every name lobe adds to a `.brdf` shader's program; parameter names may not
-/// start with it.
-pub const RESERVED: &str = "lobe_";
 
 /// The kernels, by the names [`crate::gpu::pipeline::Kernel::name`] looks them up with.
 pub const KERNELS: &[(&str, &str)] = &[

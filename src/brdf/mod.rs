@@ -98,6 +98,10 @@ pub enum BrdfError {
     },
 }
 
+/// The prefix of every name lobe adds to a `.brdf` shader's program; parameter names may not
+/// start with it.
+pub const RESERVED: &str = "lobe_";
+
 /// How long one chunk of a `.brdf` model's GPU work may take by default. A chunk is at most a
 /// few million evaluations ([`crate::gpu::CHUNK_OUTPUT_BYTES`]), a fraction of a second even on
 /// lavapipe for shaders far heavier than lobe's own models; a shader that never returns is

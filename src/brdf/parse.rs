@@ -6,7 +6,7 @@
 //! the shader is a comment (inside it, `#` starts a preprocessor directive); any other section
 //! is skipped with a note.
 
-use super::BrdfError;
+use super::{BrdfError, RESERVED};
 use crate::model::runtime::MAX_VALUES;
 
 /// What a parameter is and its default.
@@ -365,10 +365,10 @@ fn check_name(name: &str) -> Result<(), String> {
             "parameter name '{name}' is not a GLSL identifier (letters, digits and '_', not starting with a digit)"
         ));
     }
-    if name.starts_with("gl_") || name.contains("__") || name.starts_with(super::glsl::RESERVED) {
+    if name.starts_with("gl_") || name.contains("__") || name.starts_with(RESERVED) {
         return Err(format!(
             "parameter name '{name}' is reserved (names starting with 'gl_' or '{}', or containing '__')",
-            super::glsl::RESERVED
+            RESERVED
         ));
     }
     Ok(())

@@ -36,6 +36,7 @@
 //! ([`Settings::full`]); the page states them. `--quick` ([`Settings::quick`]) shrinks everything
 //! further for tests.
 
+mod html;
 mod lut_picture;
 mod page;
 mod parity;
@@ -43,7 +44,7 @@ mod plan;
 pub mod shipped;
 mod steps;
 
-pub use page::rgb_text;
+pub use html::rgb_text;
 pub use plan::PlannedPlot;
 
 use crate::eval::Evaluator;

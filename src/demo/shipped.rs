@@ -5,7 +5,7 @@
 //! `diffuse` term ([`crate::compare`]), with its overlay and difference plot. A `.brdf` shader
 //! has no f64 twin, so the section needs the GPU backend; with `--backend cpu` it says so.
 
-use super::page::{albedo_row as albedo_html, esc, figure, ALBEDO_HEADER};
+use super::html::{albedo_row as albedo_html, esc, figure, rgb_text, ALBEDO_HEADER};
 use super::steps::{albedo_row, Demo};
 use super::{AlbedoRow, Progress, ALBEDO_MU};
 use crate::compare::{self, Bins, Comparison, Options, Side};
@@ -210,7 +210,7 @@ pub(super) fn section(h: &mut String, s: Option<&Shipped>) {
     });
     let hemi = c
         .hemispherical
-        .map_or(String::new(), |p| super::page::rgb_text(p.difference));
+        .map_or(String::new(), |p| rgb_text(p.difference));
     let _ = writeln!(
         h,
         "<p id=\"shipped-compare\"><code>lobe compare {BRDF_FILE} '{}' --grid isotropic --res 24,24,48</code> (A = the file): relative L2 ‖B − A‖/‖A‖ = <span data-field=\"relative_l2\">{:.4}</span>, cosine-weighted log error <span data-field=\"log_error\">{:.4}</span>, relative difference RMS {:.4}, max {:.4}{largest}; Ē<sub>A</sub> − Ē<sub>B</sub> = <span data-field=\"hemispherical_difference\">{hemi}</span>.</p>",

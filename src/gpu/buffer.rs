@@ -457,14 +457,14 @@ pub(crate) unsafe fn record_read_back(dev: &Device, cmd: vk::CommandBuffer, copi
 }
 
 /// Copies `size` bytes of the staging buffer `src` to the device-local `dst` and waits, at most
-/// [`super::pipeline::CHUNK_TIMEOUT`]; a barrier makes the copy visible to every later kernel.
+/// [`super::CHUNK_TIMEOUT`]; a barrier makes the copy visible to every later kernel.
 /// On a timeout the device is marked hung and the command pool and fence are leaked.
 fn upload(dev: &Device, src: vk::Buffer, dst: vk::Buffer, size: u64) -> Result<()> {
     if let Some(e) = dev.refuse_if_hung() {
         return Err(e);
     }
     let d = &dev.device;
-    let timeout = super::pipeline::CHUNK_TIMEOUT;
+    let timeout = super::CHUNK_TIMEOUT;
     // SAFETY: create infos outlive their calls; the pool and fence are released below unless the
     // copy may still run.
     unsafe {

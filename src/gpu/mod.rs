@@ -29,6 +29,9 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// How long one chunk may run before we call the device hung.
+pub const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
+
 /// Bytes of output per chunk: large enough to amortise a submit, small enough to stay well under
 /// lavapipe's 128 MiB binding limit and to keep memory bounded.
 pub const CHUNK_OUTPUT_BYTES: u64 = 48 << 20;

@@ -5,6 +5,7 @@
 use super::buffer::Buffer;
 use super::device::Device;
 use super::error::{Context, GpuError, Result};
+use super::CHUNK_TIMEOUT;
 use crate::model::Model;
 use ash::vk;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -344,9 +345,6 @@ impl Drop for Pipeline {
         }
     }
 }
-
-/// How long one chunk may run before we call the device hung.
-pub const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
 
 /// A descriptor set bound to a job's buffers, a command buffer and a fence, reused per chunk.
 pub struct Dispatcher<'p> {

@@ -1,9 +1,9 @@
 //! Ashikhmin & Shirley 2000, "An anisotropic Phong BRDF model", eqs. 4 and 5.
 //! Twin of `glsl/brdf/ashikhmin_shirley.glsl`.
 
+use super::info::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::SamplingLobes;
-use super::registry::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

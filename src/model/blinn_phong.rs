@@ -1,9 +1,9 @@
 //! Blinn–Phong with the (N+8)/(8π) normalization and the lab report's mapping N = 8192^(1−s).
 //! Twin of `glsl/brdf/blinn_phong.glsl`.
 
+use super::info::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::SamplingLobes;
-use super::registry::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

@@ -1,9 +1,9 @@
 //! Cook & Torrance 1982: Beckmann D, V-cavity G, Schlick's Fresnel.
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
+use super::info::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::{beckmann_exponent, SamplingLobes};
-use super::registry::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

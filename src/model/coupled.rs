@@ -1,9 +1,9 @@
 //! Shirley et al. 1997, the coupled matte-specular model. The functions here return the non-delta
 //! part; [`coupled_delta`] gives the spike's albedo. Twin of `glsl/brdf/coupled.glsl`.
 
+use super::info::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::params::{ParamError, ParamSpec, Value};
 use super::quadrature::no_lobes;
-use super::registry::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

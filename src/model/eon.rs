@@ -24,11 +24,9 @@
 //! (which overshoots c1 by 4.6e-4 for μ < 1.4e-3) from going negative. c1 − G/π itself is
 //! evaluated without cancelling as μ → 0 ([`eon_loss`]).
 
+use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::no_lobes;
-use super::registry::{
-    always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo,
-};
 use super::{f32x3, Layout, ParamSet, Value};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};

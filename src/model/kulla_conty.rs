@@ -20,7 +20,7 @@
 //! E(μo) + L̃(μo): one up to the interpolation error of L̃. Anisotropic roughness looks the
 //! tables up at √(αx αy).
 
-use super::microfacet::{MicrofacetConfig, BECKMANN_G1S, DISTRIBUTIONS, MASKINGS};
+use super::components::{MicrofacetConfig, BECKMANN_G1S, DISTRIBUTIONS, MASKINGS};
 use std::sync::OnceLock;
 
 /// Knots per axis: s = √μ and r = √α at j/64, j = 0 … 64.

@@ -1,10 +1,8 @@
 //! Lambert: f = albedo / π. Twin of `glsl/brdf/lambert.glsl`.
 
+use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::no_lobes;
-use super::registry::{
-    always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo,
-};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};

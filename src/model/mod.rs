@@ -3,9 +3,11 @@
 
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
+pub mod components;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
+pub mod info;
 pub mod kernels;
 pub mod kulla_conty;
 pub mod lambert;
@@ -21,9 +23,9 @@ pub mod terms;
 
 use eon::EonConfig;
 use glam::DVec3;
+pub use info::{LutAxis, ModelInfo};
 use microfacet::MicrofacetConfig;
 pub use params::{ParamError, ParamKind, ParamSpec, Value, SLOPE_FLOOR};
-pub use registry::{LutAxis, ModelInfo};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Field names and byte offsets of a std430 parameter block, checked against the SPIR-V.

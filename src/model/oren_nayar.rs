@@ -1,11 +1,9 @@
 //! Oren & Nayar 1994, the qualitative model, written without angles.
 //! Twin of `glsl/brdf/oren_nayar.glsl`.
 
+use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::no_lobes;
-use super::registry::{
-    always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo,
-};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};

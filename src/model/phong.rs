@@ -1,9 +1,9 @@
 //! Normalized Phong (Lafortune & Willems 1994): f = diffuse/π + specular (n+2)/(2π) max(0, r·ωo)^n,
 //! r = 2 c_i n − ωi. Twin of `glsl/brdf/phong.glsl`.
 
+use super::info::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::SamplingLobes;
-use super::registry::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::terms::{log1m, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

@@ -2,9 +2,9 @@
 //! non-delta part; [`smooth_layered_delta`] gives the spike's albedo. Twin of
 //! `glsl/brdf/smooth_layered.glsl`.
 
+use super::info::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::params::{ParamError, ParamSpec, Value};
 use super::quadrature::no_lobes;
-use super::registry::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::terms::{r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

@@ -8,8 +8,8 @@
 //! [`Model`] stays a small `Copy` value whatever defined it.
 
 use super::quadrature::no_lobes;
-use super::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use crate::axis::Mapping;
+use crate::model::info::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
 use crate::model::{Model, ParamSet};
 use glam::DVec3;
@@ -285,7 +285,7 @@ impl RuntimeModel {
     }
 
     /// Bounds the wait for each chunk of GPU work with this model's kernels (default: the
-    /// crate's [`crate::gpu::pipeline::CHUNK_TIMEOUT`]): a kernel from an untrusted source that never
+    /// crate's [`crate::gpu::CHUNK_TIMEOUT`]): a kernel from an untrusted source that never
     /// returns is then stopped with [`crate::gpu::GpuError::ModelTimeout`] after `timeout`.
     pub fn with_chunk_timeout(mut self, timeout: Duration) -> RuntimeModel {
         self.chunk_timeout = Some(timeout);
