@@ -4,7 +4,8 @@
 use super::estimate::three_level_error;
 use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
-use super::rules::{Node, Rule};
+use super::rules::Rule;
+use super::Node;
 use crate::eval::{Backend, Evaluator};
 use crate::finite;
 use crate::model::{Brdf, ParamSet, Reference};

@@ -3,7 +3,7 @@
 
 use super::kept::Kept;
 use super::peak::PeakFrame;
-use super::rules::{Node, PLASTIC};
+use super::{Node, PLASTIC};
 use crate::model::quadrature::SamplingLobes;
 use crate::model::ParamSet;
 use glam::DVec3;

@@ -57,12 +57,25 @@ pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
 pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};
 pub use report::{albedo_report, AlbedoReport};
-pub use rules::{Node, Rule};
+pub use rules::Rule;
 pub use vcavity::{v_cavity_kinks, v_cavity_turns};
 
 use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
+
+/// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    /// ωi, the unit direction to the light, in the local frame.
+    pub wi: DVec3,
+    /// The node's weight in sr, the cosine c_i included.
+    pub weight: f64,
+}
+
+/// The plastic number ρ (ρ³ = ρ + 1), the generator of Roberts' R2 sequence (Roberts 2018, "The
+/// unreasonable effectiveness of quasirandom sequences").
+const PLASTIC: f64 = 1.324_717_957_244_746;
 
 /// The view directions μ = cosθo at which albedo is reported when none are asked for: grazing,
 /// oblique and normal view (`lobe albedo`, the demo's albedo table, `lobe tradeoff`).

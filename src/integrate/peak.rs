@@ -2,8 +2,8 @@
 //! towards the mirror direction, and the mirror-direction frame [`PeakFrame`].
 
 use super::gauss::{gauss_legendre, gauss_on, graded};
-use super::rules::Node;
 use super::vcavity::{v_cavity_kinks, v_cavity_turns};
+use super::Node;
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

@@ -6,6 +6,7 @@ use super::gauss::{gauss_legendre, gauss_on};
 use super::importance::{importance_node_count, importance_nodes, Mixture, REPLICATES};
 use super::kept::Kept;
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
+use super::{Node, PLASTIC};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
@@ -14,15 +15,6 @@ use std::sync::Arc;
 /// twin for two jobs at once. At the largest `--samples` (2^20 nodes, 32 bytes each) that is
 /// 128 MiB at most.
 pub const SHARED_RULES: usize = 4;
-
-/// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Node {
-    /// ωi, the unit direction to the light, in the local frame.
-    pub wi: DVec3,
-    /// The node's weight in sr, the cosine c_i included.
-    pub weight: f64,
-}
 
 /// A fixed quadrature rule over the hemisphere of ωi.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -224,10 +216,6 @@ pub(super) fn gauss_nodes(n_mu: usize, n_phi: usize) -> Vec<Node> {
     }
     out
 }
-
-/// The plastic number ρ (ρ³ = ρ + 1), the generator of Roberts' R2 sequence (Roberts 2018, "The
-/// unreasonable effectiveness of quasirandom sequences").
-pub(super) const PLASTIC: f64 = 1.324_717_957_244_746;
 
 /// Cosine-weighted quasi-Monte Carlo: the R2 points (u, v) = frac(½ + k(1/ρ, 1/ρ²)) mapped by
 /// Malley's method, ωi = (√u cos 2πv, √u sin 2πv, √(1 − u)), whose density is c_i/π; so
