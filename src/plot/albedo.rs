@@ -137,7 +137,7 @@ pub fn albedo_data(
     })
 }
 
-/// Integrates and draws the curves into `path` (.png or .svg); returns what it drew.
+/// Integrates and draws the curves into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_albedo(
     eval: &Evaluator,
     subjects: &[Subject],

@@ -283,7 +283,7 @@ pub fn angles_deg(d: DVec3) -> (f64, f64) {
     )
 }
 
-/// Evaluates and draws the heat maps into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the heat maps into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_hemisphere(
     eval: &Evaluator,
     subjects: &[Subject],

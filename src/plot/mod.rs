@@ -1,4 +1,4 @@
-//! `lobe plot`: pictures of a BRDF, written as PNG or SVG by the output's extension.
+//! `lobe plot`: pictures of a BRDF, written as PNG, SVG or PDF by the output's extension.
 //!
 //! Each kind is one library function that evaluates every point it draws through an
 //! [`Evaluator`](crate::eval::Evaluator) (one `eval_pairs` call per model), draws the picture,
@@ -540,7 +540,7 @@ impl Plotted {
     }
 }
 
-/// Evaluates and draws `request` into `path` (.png or .svg by its extension).
+/// Evaluates and draws `request` into `path` (.png, .svg or .pdf by its extension).
 pub fn plot(
     eval: &crate::eval::Evaluator,
     subjects: &[Subject],

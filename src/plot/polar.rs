@@ -271,7 +271,7 @@ fn resolve_radius(asked: Radius, common: &Common, peaks: &[f64]) -> (Radius, Str
     }
 }
 
-/// Evaluates and draws the polar plot into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the polar plot into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_polar(
     eval: &Evaluator,
     subjects: &[Subject],

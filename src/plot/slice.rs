@@ -141,7 +141,7 @@ pub fn slice_data(
     })
 }
 
-/// Evaluates and draws the slices into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the slices into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_slice(
     eval: &Evaluator,
     subjects: &[Subject],

@@ -203,7 +203,7 @@ pub fn surface3d_data(
     })
 }
 
-/// Evaluates and draws the wireframes into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the wireframes into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_surface3d(
     eval: &Evaluator,
     subjects: &[Subject],
