@@ -192,8 +192,11 @@ fn draw<DB: DrawingBackend>(
     // At least 150 px, but never more than a third of a narrow canvas.
     let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
     let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
-    // About one μ label per 55 px (a label of "0.5" and room on either side), 3 to 10 of them.
+    // About one μ label per 55 px (a label of "0.5" and room on either side), one E label per
+    // 28 px of the plot's height (about 80 px go to the axes), 3 to 10 of each.
     let x_labels = ((w - legend_w) / 55).clamp(3, 10) as usize;
+    let (_, h) = body.dim_in_pixel();
+    let y_labels = (h.saturating_sub(80) / 28).clamp(3, 10) as usize;
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(16)
         .x_label_area_size(44)
@@ -205,6 +208,7 @@ fn draw<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_labels(x_labels)
+        .y_labels(y_labels)
         .x_desc("μ = cos θo")
         .y_desc(format!("E ({})", common.channel.label()))
         .label_style((super::FONT, 13))
