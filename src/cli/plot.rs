@@ -82,7 +82,7 @@ pub(crate) enum StyleArg {
     /// For the screen: the canvas as --size gives it, 12-17 px text.
     Screen,
     /// A single-column figure: 3.5 in wide, PNG at 300 dpi (1050 px across; --size gives
-    /// the written pixels), 8-9.5 pt text, lines of 0.4-0.9 pt, no title block (the title and
+    /// the written pixels), 8-9.5 pt text (7.5-11 pt in 3d and slice plots), lines of 0.4-0.9 pt, no title block (the title and
     /// parameters stay in the .json beside it); PDF and SVG pages of the printed size.
     Paper,
 }

@@ -355,8 +355,8 @@ pub enum Style {
     #[default]
     Screen,
     /// A single-column figure of a paper: 3.5 in wide, a PNG at 300 dpi (1050 px), text of 8–9.5
-    /// pt, lines half as heavy, no title block (the title stays in the JSON beside the picture),
-    /// a PDF or SVG page of the printed size.
+    /// pt (7.5–11 pt in 3d and slice plots), lines half as heavy, no title block (the title
+    /// stays in the JSON beside the picture), a PDF or SVG page of the printed size.
     Paper,
 }
 
@@ -368,7 +368,8 @@ pub const PAPER_DPI: f64 = 300.0;
 
 /// The canvas a paper figure is laid out on, in pixels: 1050 / 300 = 3.5 written pixels per
 /// canvas pixel zooms plotters' smallest common text, 12 px (an em of 12/1.24 px), to 8.1 pt at
-/// 300 dpi, and its 13–14 px text to 8.8–9.5 pt; a whole zoom keeps written sizes that are
+/// 300 dpi, and its 13–14 px text to 8.8–9.5 pt (the 3d plot's 11-px axis numbers: 7.5 pt; the
+/// 15–16 px panel captions of slices and 3d plots: 10–11 pt); a whole zoom keeps written sizes that are
 /// multiples of 7 px exact.
 pub const PAPER_CANVAS_WIDTH: u32 = 300;
 
