@@ -193,10 +193,11 @@ fn draw<DB: DrawingBackend>(
     let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
     let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
     // About one μ label per 55 px (a label of "0.5" and room on either side), one E label per
-    // 28 px of the plot's height (about 80 px go to the axes), 3 to 10 of each.
-    let x_labels = ((w - legend_w) / 55).clamp(3, 10) as usize;
+    // 28 px of the plot's height (about 80 px go to the axes): at least 3, and at most plotters'
+    // default of 11 (the θo axis: 10), which a screen canvas has room for.
+    let x_fit = ((w - legend_w) / 55).max(3) as usize;
     let (_, h) = body.dim_in_pixel();
-    let y_labels = (h.saturating_sub(80) / 28).clamp(3, 10) as usize;
+    let y_labels = (h.saturating_sub(80) / 28).clamp(3, 11) as usize;
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(16)
         .x_label_area_size(44)
@@ -207,7 +208,7 @@ fn draw<DB: DrawingBackend>(
         .set_secondary_coord(0.0..1.0, 0.0..data.y_max);
     chart
         .configure_mesh()
-        .x_labels(x_labels)
+        .x_labels(x_fit.min(11))
         .y_labels(y_labels)
         .x_desc("μ = cos θo")
         .y_desc(format!("E ({})", common.channel.label()))
@@ -219,7 +220,7 @@ fn draw<DB: DrawingBackend>(
     // Top axis: θo = acos μ in degrees at the bottom axis's μ ticks.
     chart
         .configure_secondary_axes()
-        .x_labels(x_labels)
+        .x_labels(x_fit.min(10))
         .x_label_formatter(&|mu: &f64| format!("{:.0}°", mu.clamp(0.0, 1.0).acos().to_degrees()))
         .x_desc("θo (degrees)")
         .label_style((super::FONT, 12))
