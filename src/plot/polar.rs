@@ -447,11 +447,18 @@ fn draw<DB: DrawingBackend>(
     // the first take room from the half disc.
     let caption_lines = super::wrap_to_width(&axis_caption, pw, 14, false);
     let line_px = (14 + 3) as f64;
-    let extra_px = caption_lines.len().saturating_sub(1) as f64 * line_px;
     let (half_w, y_hi) = (1.12, 1.09);
-    // The half disc with its labels spans y in [-0.14, 1.09] chart units, plus the extra lines.
-    let px_per_unit = (pw / (2.0 * half_w)).min((ph - extra_px).max(1.0) / (y_hi + 0.14));
-    let y_lo = -0.14 - extra_px / px_per_unit;
+    // Below the diameter: the radial tick labels (from y = -0.02, 16 px) and the caption's
+    // lines, or 0.14 chart units where that is more (a screen canvas, whose one caption line
+    // fits there).
+    let labels_px = 16.0 + caption_lines.len() as f64 * line_px;
+    let below_px = |ppu: f64| (0.14 * ppu).max(0.02 * ppu + labels_px);
+    let mut px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi + 0.14));
+    if below_px(px_per_unit) > 0.14 * px_per_unit {
+        px_per_unit = (pw / (2.0 * half_w)).min((ph - labels_px).max(1.0) / (y_hi + 0.02));
+    }
+    let y_lo = -below_px(px_per_unit) / px_per_unit;
+    let caption_top = (-0.08f64).min(-0.02 - 16.0 / px_per_unit);
     let x_half = pw / px_per_unit / 2.0;
     // Spare height goes equally above and below the half disc.
     let spare = ph / px_per_unit - (y_hi - y_lo);
@@ -515,7 +522,7 @@ fn draw<DB: DrawingBackend>(
     for (k, line) in caption_lines.into_iter().enumerate() {
         pa.draw(&Text::new(
             line,
-            (0.0, -0.08 - k as f64 * line_step),
+            (0.0, caption_top - k as f64 * line_step),
             text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .drawing("the axis caption")?;

@@ -56,7 +56,7 @@ pub(crate) fn legend<DB: DrawingBackend>(
     let (ox, oy) = area.get_base_pixel();
     // A column narrower than 150 px (a paper figure's) gets a 24-px sample, to leave the labels
     // room.
-    let (sample, label_x) = if w < 150 { (24, 32) } else { (40, LABEL_X) };
+    let (sample, label_x) = if w < 150 { (24, 40) } else { (40, LABEL_X) };
     let room = w.saturating_sub(label_x + LABEL_MARGIN) as f64;
     let wrapped: Vec<Vec<String>> = entries
         .iter()
