@@ -1,9 +1,17 @@
 //! Material presets (`data/materials/*.toml`), embedded in the binary: for each preset, one
 //! parameter table per model. A key a preset leaves out takes the model's default.
 //!
-//! The lab's four materials have a table for every model; the metals (`silver`, `copper`,
-//! `aluminium`) only for `microfacet`, whose exact conductor Fresnel term they exist for. A
-//! table's `conductor = "NAME"` sets `eta` and `k` from `data/conductors.toml`.
+//! Three families:
+//! - the lab's four materials, with the lab report's colours where it gives them, have a table for
+//!   every model;
+//! - the metals (`silver`, `copper`, `aluminium`, `gold_measured`) have their measured colour: F0
+//!   from the complex refractive index in `data/conductors.toml`, as the specular colour of the
+//!   models that have one, and the exact conductor Fresnel term in `microfacet`;
+//! - the diffuse references (`colorchecker_*`) have a ColorChecker patch's published sRGB value,
+//!   decoded to linear, as the albedo of the diffuse models.
+//!
+//! A table's `conductor = "NAME"` sets `eta` and `k` from `data/conductors.toml`. Each file cites
+//! its source.
 
 use crate::model::{Model, ParamError, ParamSet, Value};
 
@@ -18,7 +26,8 @@ pub const MATERIALS: &[(&str, &str)] = &[
     ("granite", include_str!("../data/materials/granite.toml")),
 ];
 
-/// (name, TOML text) of the conductor presets, defined for `microfacet` only.
+/// (name, TOML text) of the metals: measured F0 as the specular colour (`phong`, `blinn_phong`,
+/// `ashikhmin_shirley`) and the exact conductor Fresnel term (`microfacet`).
 pub const METALS: &[(&str, &str)] = &[
     ("silver", include_str!("../data/materials/silver.toml")),
     ("copper", include_str!("../data/materials/copper.toml")),
@@ -26,7 +35,41 @@ pub const METALS: &[(&str, &str)] = &[
         "aluminium",
         include_str!("../data/materials/aluminium.toml"),
     ),
+    (
+        "gold_measured",
+        include_str!("../data/materials/gold_measured.toml"),
+    ),
 ];
+
+/// (name, TOML text) of the diffuse references: ColorChecker patches as the albedo of the diffuse
+/// models (`lambert`, `oren_nayar`, `eon`).
+pub const DIFFUSE: &[(&str, &str)] = &[
+    (
+        "colorchecker_dark_skin",
+        include_str!("../data/materials/colorchecker_dark_skin.toml"),
+    ),
+    (
+        "colorchecker_light_skin",
+        include_str!("../data/materials/colorchecker_light_skin.toml"),
+    ),
+    (
+        "colorchecker_foliage",
+        include_str!("../data/materials/colorchecker_foliage.toml"),
+    ),
+    (
+        "colorchecker_neutral_5",
+        include_str!("../data/materials/colorchecker_neutral_5.toml"),
+    ),
+    (
+        "colorchecker_white",
+        include_str!("../data/materials/colorchecker_white.toml"),
+    ),
+];
+
+/// Every preset: the lab's materials, the metals, the diffuse references.
+fn every_preset() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    MATERIALS.iter().chain(METALS).chain(DIFFUSE)
+}
 
 /// Measured complex refractive indices at lobe's RGB wavelengths, with their sources.
 pub const CONDUCTORS: &str = include_str!("../data/conductors.toml");
@@ -37,9 +80,14 @@ pub fn names() -> Vec<&'static str> {
     MATERIALS.iter().map(|(n, _)| *n).collect()
 }
 
-/// Every preset `--material` accepts: the lab's materials, then the metals.
+/// Every preset `--material` accepts: the lab's materials, the metals, the diffuse references.
 pub fn all_names() -> Vec<&'static str> {
-    MATERIALS.iter().chain(METALS).map(|(n, _)| *n).collect()
+    every_preset().map(|(n, _)| *n).collect()
+}
+
+/// The names of the presets in `list` ([`METALS`], [`DIFFUSE`]).
+pub fn names_of(list: &[(&'static str, &str)]) -> Vec<&'static str> {
+    list.iter().map(|(n, _)| *n).collect()
 }
 
 /// η and κ (RGB at 650, 550, 450 nm) of a metal in `data/conductors.toml`.
@@ -66,9 +114,7 @@ pub fn conductor_names() -> Vec<String> {
 
 /// The preset `name` for `model`, validated like any user input.
 pub fn preset(name: &str, model: Model) -> Result<ParamSet, ParamError> {
-    let text = MATERIALS
-        .iter()
-        .chain(METALS)
+    let text = every_preset()
         .find(|(n, _)| *n == name)
         .map(|(_, t)| *t)
         .ok_or_else(|| ParamError::UnknownMaterial {
@@ -86,19 +132,20 @@ pub fn preset(name: &str, model: Model) -> Result<ParamSet, ParamError> {
     })
 }
 
-/// The preset's linear RGB colour (from the lab report where it gives one).
+/// The preset's linear RGB colour (the lab report's where it gives one, else the measured one
+/// the file cites, or lobe's choice).
 pub fn colour(name: &str) -> Option<[f64; 3]> {
-    let (_, text) = MATERIALS.iter().find(|(n, _)| *n == name)?;
+    let (_, text) = every_preset().find(|(n, _)| *n == name)?;
     let table: toml::Table = text.parse().ok()?;
     let arr = table.get("colour")?.as_array()?;
     let c: Vec<f64> = arr.iter().filter_map(toml::Value::as_float).collect();
     (c.len() == 3).then(|| [c[0], c[1], c[2]])
 }
 
-/// Where the preset's colour comes from (its `colour_source`): the lab report's value, or lobe's
-/// choice where the report gives none.
+/// Where the preset's colour comes from (its `colour_source`): the lab report's value, lobe's
+/// choice where the report gives none, or the measurement a metal or diffuse reference cites.
 pub fn colour_source(name: &str) -> Option<String> {
-    let (_, text) = MATERIALS.iter().find(|(n, _)| *n == name)?;
+    let (_, text) = every_preset().find(|(n, _)| *n == name)?;
     let table: toml::Table = text.parse().ok()?;
     Some(table.get("colour_source")?.as_str()?.to_string())
 }
@@ -191,16 +238,146 @@ mod tests {
         }
     }
 
+    /// A metal is its conductor's η, κ in `microfacet` and has no diffuse model.
     #[test]
-    fn metals_are_microfacet_conductors_and_nothing_else() {
-        for (name, _) in METALS {
+    fn metals_are_microfacet_conductors_without_a_diffuse_model() {
+        for (name, text) in METALS {
             let p = preset(name, Model::from_name("microfacet").unwrap())
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
-            let (eta, k) = conductor(name).expect("listed in data/conductors.toml");
+            let table: toml::Table = text.parse().unwrap();
+            let metal = table["conductor"]
+                .as_str()
+                .expect("a metal names its conductor");
+            let (eta, k) = conductor(metal).expect("listed in data/conductors.toml");
             assert_eq!(p.rgb("eta").to_array(), eta, "{name}");
             assert_eq!(p.rgb("k").to_array(), k, "{name}");
             let err = preset(name, Model::Lambert).unwrap_err().to_string();
             assert!(err.contains("microfacet"), "{name}: {err}");
+        }
+    }
+
+    /// The models a preset's file has a table for.
+    fn models_of(text: &str) -> Vec<Model> {
+        let table: toml::Table = text.parse().unwrap();
+        Model::ALL
+            .into_iter()
+            .filter(|m| table.get(m.name()).is_some_and(toml::Value::is_table))
+            .collect()
+    }
+
+    /// Every colour a preset sets (its `colour` and each rgb reflectance of each model's table;
+    /// not a conductor's η and κ, which are refractive indices) lies in [0, 1].
+    #[test]
+    fn every_preset_colour_is_a_reflectance() {
+        for (name, text) in every_preset() {
+            let models = models_of(text);
+            assert!(!models.is_empty(), "{name} defines no model");
+            if let Some(c) = colour(name) {
+                assert!(
+                    c.iter().all(|x| (0.0..=1.0).contains(x)),
+                    "{name} colour {c:?}"
+                );
+            }
+            for model in models {
+                let set = preset(name, model).unwrap_or_else(|e| panic!("{name}/{model:?}: {e}"));
+                for (key, value) in set.entries() {
+                    if let (false, Value::Three(c)) = (key == "eta" || key == "k", value) {
+                        assert!(
+                            c.iter().all(|x| (0.0..=1.0).contains(x)),
+                            "{name}/{}: {key} = {c:?}",
+                            model.name()
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A metal's colour and specular colours are F0 = ((n - 1)² + k²) / ((n + 1)² + k²) of the
+    /// η, κ its file cites (data/conductors.toml), per channel.
+    #[test]
+    fn metal_colours_are_the_fresnel_f0_of_their_refractive_index() {
+        // η and κ are written with 4 decimals; F0 moves by less than 0.5 per unit of either
+        // (|∂F0/∂n|, |∂F0/∂k| < 0.5 for these metals), and F0 itself is written with 4 decimals.
+        const ROUNDING: f64 = 0.5 * 5e-5 * 2.0 + 5e-5 + 1e-12;
+        for (name, text) in METALS {
+            let table: toml::Table = text.parse().unwrap();
+            let metal = table["conductor"]
+                .as_str()
+                .expect("a metal names its conductor");
+            let (eta, k) = conductor(metal).unwrap_or_else(|| panic!("{name}: no {metal}"));
+            let f0: Vec<f64> = (0..3)
+                .map(|c| {
+                    ((eta[c] - 1.0).powi(2) + k[c] * k[c]) / ((eta[c] + 1.0).powi(2) + k[c] * k[c])
+                })
+                .collect();
+            let mut colours = vec![("colour".to_string(), colour(name).expect("a colour"))];
+            for model in models_of(text) {
+                let set = preset(name, model).unwrap();
+                if model.name() == "microfacet" {
+                    assert_eq!(set.rgb("eta").to_array(), eta, "{name}");
+                    assert_eq!(set.rgb("k").to_array(), k, "{name}");
+                } else {
+                    colours.push((
+                        format!("{}.specular", model.name()),
+                        set.rgb("specular").to_array(),
+                    ));
+                }
+            }
+            assert!(colours.len() >= 4, "{name}: {colours:?}");
+            for (what, c) in colours {
+                for ch in 0..3 {
+                    assert!(
+                        (c[ch] - f0[ch]).abs() < ROUNDING,
+                        "{name} {what}[{ch}] = {} but F0 of n = {}, k = {} is {}",
+                        c[ch],
+                        eta[ch],
+                        k[ch],
+                        f0[ch]
+                    );
+                }
+            }
+        }
+    }
+
+    /// A diffuse reference's albedo is its published 8-bit sRGB value decoded to linear
+    /// (IEC 61966-2-1: c/12.92 up to 0.04045, else ((c + 0.055)/1.055)^2.4), in every model.
+    #[test]
+    fn diffuse_albedos_are_their_published_srgb_decoded() {
+        // The albedos are written with 4 decimals.
+        const ROUNDING: f64 = 5e-5 + 1e-12;
+        let decode = |v: f64| {
+            let c = v / 255.0;
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        for (name, text) in DIFFUSE {
+            let table: toml::Table = text.parse().unwrap();
+            let srgb: Vec<f64> = table["srgb8"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_integer().unwrap() as f64)
+                .collect();
+            let linear: Vec<f64> = srgb.iter().map(|&v| decode(v)).collect();
+            let mut colours = vec![colour(name).expect("a colour")];
+            for model in models_of(text) {
+                colours.push(preset(name, model).unwrap().rgb("albedo").to_array());
+            }
+            for c in colours {
+                for ch in 0..3 {
+                    assert!(
+                        (c[ch] - linear[ch]).abs() < ROUNDING,
+                        "{name}[{ch}]: {} but sRGB {} decodes to {}",
+                        c[ch],
+                        srgb[ch],
+                        linear[ch]
+                    );
+                }
+            }
         }
     }
 

@@ -295,8 +295,10 @@ fn the_command_line_reports_json_and_writes_both_plots() {
     assert_eq!(
         files_in(&d),
         [
+            "cmp_difference.csv",
             "cmp_difference.json",
             "cmp_difference.png",
+            "cmp_polar.csv",
             "cmp_polar.json",
             "cmp_polar.png"
         ]

@@ -306,3 +306,331 @@ fn the_csv_beside_a_plot_holds_the_plotted_values() {
     assert_eq!(got.len(), 2 * 64);
     assert_eq!(got, expected);
 }
+
+/// The root element's attribute `name` of an SVG.
+fn root_attr(svg: &str, name: &str) -> String {
+    let end = svg.find('>').expect("an SVG root element");
+    attr(&svg[..end], name).unwrap_or_default().to_string()
+}
+
+/// Width and height of a PNG, from its IHDR chunk.
+fn png_size(bytes: &[u8]) -> (u32, u32) {
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    let be = |k: usize| u32::from_be_bytes(bytes[k..k + 4].try_into().unwrap());
+    (be(16), be(20))
+}
+
+/// A polar plot of phong in `style` on the canvas for `pixels` written pixels, to `name`.
+fn polar_in_style(dir: &Path, name: &str, style: plot::Style, pixels: (u32, u32)) -> Vec<u8> {
+    let common = Common {
+        style,
+        size: style.canvas_for(pixels),
+        ..Common::default()
+    };
+    let request = Request::Polar(PolarOptions {
+        theta_i_deg: vec![0.0, 45.0],
+        samples: 90,
+        ..PolarOptions::default()
+    });
+    let path = dir.join(name);
+    let subjects = [subject("phong", Some("gold"), &[])];
+    plot::plot(&Evaluator::cpu(), &subjects, &common, &request, &path)
+        .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+    std::fs::read(&path).unwrap()
+}
+
+/// The paper style writes a single-column figure: 3.5 in at 300 dpi (1050 px, an SVG of 252 pt),
+/// no title, text of 8–9.5 pt (the 12 px of tick labels at 8.1 pt), lines half the screen's
+/// weight; the screen style writes the canvas as it is.
+#[test]
+fn the_paper_style_sets_a_single_column_figure() {
+    // A font size is written rounded to 3 decimals of a canvas pixel.
+    const PT_ROUNDING: f64 = 0.05;
+    let dir = tempfile::tempdir().unwrap();
+    let paper = plot::Style::Paper;
+    let pixels = (1050, 700);
+    assert_eq!(paper.canvas_for(pixels), (300, 200));
+    assert_eq!(
+        png_size(&polar_in_style(dir.path(), "p.png", paper, pixels)),
+        pixels
+    );
+    assert_eq!(
+        png_size(&polar_in_style(
+            dir.path(),
+            "s.png",
+            plot::Style::Screen,
+            (1200, 680)
+        )),
+        (1200, 680)
+    );
+    let svg = String::from_utf8(polar_in_style(dir.path(), "p.svg", paper, pixels)).unwrap();
+    assert_eq!(root_attr(&svg, "width"), "252pt");
+    assert_eq!(root_attr(&svg, "height"), "168pt");
+    assert_eq!(root_attr(&svg, "viewBox"), "0 0 300 200");
+    // A canvas pixel is zoom × 72/300 pt on the page.
+    let pt_per_canvas_px = paper.zoom() * 72.0 / plot::PAPER_DPI;
+    let texts = svg_texts(&svg);
+    assert!(
+        texts.iter().all(|t| !t.bold),
+        "a paper figure has no title: {texts:?}"
+    );
+    let sizes: Vec<f64> = texts.iter().map(|t| t.em * pt_per_canvas_px).collect();
+    assert!(sizes.len() > 8, "{sizes:?}");
+    for pt in &sizes {
+        assert!(
+            (8.0..=9.5 + PT_ROUNDING).contains(pt),
+            "a text of {pt:.2} pt: {sizes:?}"
+        );
+    }
+    let tick_pt = plot::svg_em(12) * pt_per_canvas_px;
+    assert!(
+        (tick_pt - 8.13).abs() < PT_ROUNDING,
+        "tick labels {tick_pt} pt"
+    );
+    assert!(
+        sizes.iter().any(|pt| (pt - tick_pt).abs() < PT_ROUNDING),
+        "no tick label: {sizes:?}"
+    );
+    let screen = String::from_utf8(polar_in_style(
+        dir.path(),
+        "s.svg",
+        plot::Style::Screen,
+        (1200, 680),
+    ))
+    .unwrap();
+    assert_eq!(root_attr(&screen, "width"), "1200");
+    // Every line of the paper figure is half as heavy as the same line on the screen.
+    let widths = |svg: &str| -> Vec<f64> {
+        polylines(svg)
+            .iter()
+            .filter_map(|p| p.2.parse().ok())
+            .collect()
+    };
+    let (on_paper, on_screen) = (widths(&svg), widths(&screen));
+    assert!(!on_paper.is_empty());
+    let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+    assert_eq!(max(&on_paper), max(&on_screen) * plot::PAPER_STROKE);
+}
+
+/// A PDF picture: one page of the printed size (3.5 in = 252 pt wide for the paper style), its
+/// text kept as text in DejaVu Sans embedded in the file (a TrueType font program, subset).
+#[test]
+fn a_pdf_plot_is_one_page_with_the_font_embedded() {
+    let dir = tempfile::tempdir().unwrap();
+    let pdf = polar_in_style(dir.path(), "p.pdf", plot::Style::Paper, (1050, 700));
+    assert!(pdf.starts_with(b"%PDF-"), "not a PDF");
+    let text = String::from_utf8_lossy(&pdf);
+    assert!(text.trim_end().ends_with("%%EOF"), "an unfinished PDF");
+    assert!(text.contains("/Count 1"), "one page");
+    assert!(
+        text.contains("/MediaBox [0 0 252 168]"),
+        "page size: {}",
+        text.lines()
+            .find(|l| l.contains("MediaBox"))
+            .unwrap_or("no MediaBox")
+    );
+    let base_font = text
+        .split("/BaseFont /")
+        .nth(1)
+        .and_then(|r| r.split(|c: char| c.is_whitespace() || c == '/').next())
+        .expect("a font");
+    assert!(base_font.contains("DejaVuSans"), "font {base_font}");
+    assert!(
+        text.contains("/FontFile2"),
+        "the font program is not embedded"
+    );
+}
+
+/// The rows of a CSV text below its header, split at commas (the labels hold no commas here).
+fn csv_rows(text: &str, header: &str) -> Vec<Vec<String>> {
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(header));
+    lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+/// `lobe compare -o` and `lobe fit -o` (one function, `compare::write_plots`) write a CSV beside
+/// each picture: the polar curves by their drawn labels and the difference cells, every value
+/// the picture was drawn from.
+#[test]
+fn compare_pictures_have_their_numbers_beside_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut a = subject("phong", None, &["shininess=50"]);
+    a.label = "A: phong".into();
+    let mut b = subject("blinn_phong", None, &[]);
+    b.label = "B: blinn_phong".into();
+    let opts = lobe::compare::PlotOptions {
+        theta_i_deg: vec![0.0, 45.0],
+        res: 24,
+        ..lobe::compare::PlotOptions::default()
+    };
+    let prefix = dir.path().join("cmp");
+    let plots =
+        lobe::compare::write_plots(&Evaluator::cpu(), &a, &b, &opts, &prefix, plot::Format::Svg)
+            .unwrap();
+    let polar = std::fs::read_to_string(dir.path().join("cmp_polar.csv")).unwrap();
+    let rows = csv_rows(&polar, "label,theta_i_deg,theta_o_deg,value,r,g,b");
+    let expected: Vec<(String, f64, f64, f64)> = plots
+        .polar
+        .series
+        .iter()
+        .flat_map(|s| {
+            let label = [&a, &b][s.subject].label.clone();
+            s.theta_o_deg
+                .iter()
+                .zip(&s.value)
+                .map(move |(t, v)| (label.clone(), s.theta_i_deg, *t, *v))
+        })
+        .collect();
+    let got: Vec<(String, f64, f64, f64)> = rows
+        .iter()
+        .map(|r| {
+            (
+                r[0].clone(),
+                r[1].parse().unwrap(),
+                r[2].parse().unwrap(),
+                r[3].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        got.len(),
+        2 * 2 * plot::polar::DEFAULT_SAMPLES,
+        "A and B at two θi"
+    );
+    assert_eq!(got, expected);
+    let labels: BTreeSet<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(labels, BTreeSet::from(["A: phong", "B: blinn_phong"]));
+
+    let difference = std::fs::read_to_string(dir.path().join("cmp_difference.csv")).unwrap();
+    let rows = csv_rows(&difference, "label,theta_deg,phi_deg,row,col,value");
+    let d = &plots.difference;
+    let expected: Vec<(f64, usize, usize, f64)> = d
+        .panels
+        .iter()
+        .flat_map(|p| {
+            p.values
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| !v.is_nan())
+                .map(move |(k, v)| (p.theta_deg, k / d.res, k % d.res, *v))
+        })
+        .collect();
+    assert!(expected.len() > 2 * 24 * 24 / 2, "two discs of cells");
+    let label = plot::difference::difference_label();
+    // The label holds commas: quoted.
+    let quoted = format!("\"{label}\"");
+    assert!(difference.contains(&quoted), "{label} not in the CSV");
+    let got: Vec<(f64, usize, usize, f64)> = csv_rows(
+        &difference.replace(&quoted, "D"),
+        "label,theta_deg,phi_deg,row,col,value",
+    )
+    .iter()
+    .map(|r| {
+        assert_eq!(r[0], "D");
+        (
+            r[1].parse().unwrap(),
+            r[3].parse().unwrap(),
+            r[4].parse().unwrap(),
+            r[5].parse().unwrap(),
+        )
+    })
+    .collect();
+    assert_eq!(rows.len(), got.len());
+    assert_eq!(got, expected);
+}
+
+/// The tick labels of a picture's colour bar: the numeric texts right of every panel (the bar
+/// is the rightmost 110 px), with their heights.
+fn colour_bar_ticks(svg: &str, width: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut rest = svg;
+    while let Some(k) = rest.find("<text") {
+        rest = &rest[k..];
+        let open_end = rest.find('>').unwrap();
+        let close = rest.find("</text>").unwrap();
+        let tag = &rest[..open_end];
+        let x: f64 = attr(tag, "x").unwrap_or("0").parse().unwrap();
+        let y: f64 = attr(tag, "y").unwrap_or("0").parse().unwrap();
+        let text = rest[open_end + 1..close].trim();
+        if let (true, None, Ok(v)) = (
+            x > width - 110.0,
+            attr(tag, "transform"),
+            text.parse::<f64>(),
+        ) {
+            out.push((v, y));
+        }
+        rest = &rest[close..];
+    }
+    out
+}
+
+/// `lobe plot --kind hemisphere` of a `.brdf` file (GGX at α = 0.05, whose values over the
+/// hemisphere span decades): its colour bar carries at least four ticks, logarithmic: the tick heights are a
+/// straight line in log10 of the values, and they are not in the values themselves.
+#[test]
+fn a_brdf_file_hemisphere_has_a_logarithmic_colour_bar_with_four_ticks() {
+    // Tick heights are whole pixels: a straight line fits them to within one pixel.
+    const PIXEL: f64 = 1.0;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ggx.svg");
+    let brdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/brdf/ggx.brdf");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args([
+            "plot",
+            "--kind",
+            "hemisphere",
+            "--res",
+            "48",
+            "--theta-i-deg",
+            "30",
+            "--set",
+            "alpha=0.05",
+            "--model",
+        ])
+        .arg(&brdf)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let svg = std::fs::read_to_string(&out).unwrap();
+    let width: f64 = root_attr(&svg, "width").parse().unwrap();
+    let ticks = colour_bar_ticks(&svg, width);
+    assert!(ticks.len() >= 4, "colour bar ticks {ticks:?}");
+    let csv = std::fs::read_to_string(dir.path().join("ggx.csv")).unwrap();
+    let values: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.rsplit(',').next()?.parse().ok())
+        .filter(|v: &f64| *v > 0.0)
+        .collect();
+    let (lo, hi) = values
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(l, h), v| (l.min(*v), h.max(*v)));
+    assert!(hi / lo > 100.0, "the map spans {lo} to {hi}, not decades");
+    // Straight in log10(v), not in v: residuals of a line through the end ticks.
+    let residual = |f: &dyn Fn(f64) -> f64| -> f64 {
+        let (a, b) = (ticks[0], ticks[ticks.len() - 1]);
+        ticks
+            .iter()
+            .map(|&(v, y)| {
+                let t = (f(v) - f(a.0)) / (f(b.0) - f(a.0));
+                (a.1 + t * (b.1 - a.1) - y).abs()
+            })
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        residual(&|v: f64| v.log10()) <= PIXEL,
+        "ticks {ticks:?} are not logarithmic"
+    );
+    assert!(
+        residual(&|v: f64| v) > 10.0 * PIXEL,
+        "ticks {ticks:?} look linear"
+    );
+}

@@ -437,7 +437,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
         &bad,
     )
     .unwrap_err();
-    assert!(format!("{err:#}").contains(".png or .svg"), "{err:#}");
+    assert!(format!("{err:#}").contains(".png, .svg or .pdf"), "{err:#}");
     let out = dir.path().join("plot.png");
     let err = plot::plot(
         &Evaluator::cpu(),

@@ -28,6 +28,8 @@ enum ReportFormat {
 enum PlotFormat {
     Png,
     Svg,
+    /// One vector page, the text in the embedded DejaVu Sans.
+    Pdf,
 }
 
 #[derive(Args)]
@@ -81,7 +83,7 @@ pub struct CompareArgs {
     format: ReportFormat,
     /// Write PREFIX_polar.png (A and B in the plane of incidence) and PREFIX_difference.png
     /// ((B - A)/max(|A|, |B|, 1e-4) over the hemisphere), each with the parameters of A and B
-    /// in a .json beside it; all four or none.
+    /// in a .json and the plotted numbers in a .csv beside it; all six or none.
     #[arg(short = 'o', long = "output", value_name = "PREFIX")]
     output: Option<PathBuf>,
     /// Picture format of -o.
@@ -193,6 +195,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
     let format = match a.plot_format {
         PlotFormat::Png => Format::Png,
         PlotFormat::Svg => Format::Svg,
+        PlotFormat::Pdf => Format::Pdf,
     };
     if let Some(prefix) = &a.output {
         let (polar, difference) = difference::plot_paths(prefix, format);

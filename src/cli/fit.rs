@@ -63,7 +63,8 @@ pub struct FitArgs {
     pub format: FitFormat,
     /// Write PREFIX_polar.png (target and fit in the plane of incidence) and
     /// PREFIX_difference.png (their relative difference over the hemisphere), each with a .json
-    /// of the parameters beside it. Needs a target that is a model or a MERL file.
+    /// of the parameters and a .csv of the plotted numbers beside it. Needs a target that is a
+    /// model or a MERL file.
     #[arg(short = 'o', long = "output", value_name = "PREFIX")]
     pub output: Option<std::path::PathBuf>,
     #[command(flatten)]

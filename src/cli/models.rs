@@ -20,12 +20,17 @@ pub fn run(a: ModelsArgs) -> Result<()> {
         return Ok(());
     }
     write!(out, "{}", catalogue::text())?;
-    let metals: Vec<&str> = material::METALS.iter().map(|(n, _)| *n).collect();
     writeln!(
         out,
-        "\nmaterials (--material): {} (lab materials, every model); {} (metals, microfacet only)",
+        "\nmaterials (--material), each file in data/materials/ citing its source:\n  \
+         {}: the lab report's materials and colours, every model\n  \
+         {}: metals, F0 from measured n, k (data/conductors.toml) as the specular colour of \
+         phong, blinn_phong, ashikhmin_shirley; the exact conductor Fresnel in microfacet\n  \
+         {}: ColorChecker patches (Pascale 2006 sRGB, decoded to linear) as the albedo of \
+         lambert, oren_nayar, eon",
         material::names().join(", "),
-        metals.join(", ")
+        material::names_of(material::METALS).join(", "),
+        material::names_of(material::DIFFUSE).join(", ")
     )?;
     Ok(())
 }

@@ -67,14 +67,54 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
+/// The picture format, when --format names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FormatArg {
+    Png,
+    Svg,
+    /// One vector page, the text in the embedded DejaVu Sans (subset into the file).
+    Pdf,
+}
+
+/// Sizes of text and lines against the page.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum StyleArg {
+    /// For the screen: the canvas as --size gives it, 12-17 px text.
+    Screen,
+    /// A single-column figure: 3.5 in wide, PNG at 300 dpi (1050 px across; --size gives
+    /// the written pixels), 8-9.5 pt text (7.5-11 pt in 3d and slice plots), lines of 0.4-0.9 pt, no title block (the title and
+    /// parameters stay in the .json beside it); PDF and SVG pages of the printed size.
+    Paper,
+}
+
+impl From<StyleArg> for plot::Style {
+    fn from(s: StyleArg) -> plot::Style {
+        match s {
+            StyleArg::Screen => plot::Style::Screen,
+            StyleArg::Paper => plot::Style::Paper,
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct PlotArgs {
     /// What to draw.
     #[arg(long, value_enum, default_value_t = PlotKind::Polar)]
     kind: PlotKind,
-    /// Output file; .png or .svg chooses the format.
-    #[arg(short = 'o', long = "output", value_name = "PATH.png|PATH.svg")]
+    /// Output file; .png, .svg or .pdf chooses the format.
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH.png|PATH.svg|PATH.pdf"
+    )]
     output: PathBuf,
+    /// The picture format; -o gets its extension when it has none, and must have this one when
+    /// it has one (default: by the extension of -o).
+    #[arg(long, value_enum)]
+    format: Option<FormatArg>,
+    /// Sizes of text and lines: screen, or paper (a single-column figure).
+    #[arg(long, value_enum, default_value_t = StyleArg::Screen)]
+    style: StyleArg,
     /// BRDF model (see `lobe models`); repeatable or comma-separated to overlay several
     /// (default cook_torrance). Every model is drawn with every --material. A model may carry
     /// its own parameters: --model 'phong{shininess=50},phong{shininess=500}'.
@@ -140,7 +180,8 @@ pub struct PlotArgs {
     #[arg(long)]
     samples: Option<usize>,
     /// Image size WIDTHxHEIGHT in pixels (default 1200x800; polar 1200x680, as a half disc is
-    /// twice as wide as tall; hemisphere: height to fit its panels).
+    /// twice as wide as tall; hemisphere: height to fit its panels). With --style paper the
+    /// written pixels at 300 dpi (default 1050 wide, the same shapes).
     #[arg(long)]
     size: Option<String>,
 }
@@ -163,7 +204,30 @@ fn plot_flag(option: &str) -> Option<String> {
     Some(flag.to_string())
 }
 
-pub fn run(a: PlotArgs) -> Result<()> {
+/// The output path with the extension --format names: added when `path` has none, refused when
+/// it has another.
+fn output_path(path: &std::path::Path, format: Option<FormatArg>) -> Result<PathBuf> {
+    let Some(format) = format else {
+        return Ok(path.to_path_buf());
+    };
+    let ext = match format {
+        FormatArg::Png => "png",
+        FormatArg::Svg => "svg",
+        FormatArg::Pdf => "pdf",
+    };
+    match path.extension().and_then(|e| e.to_str()) {
+        None => Ok(path.with_extension(ext)),
+        Some(e) if e.eq_ignore_ascii_case(ext) => Ok(path.to_path_buf()),
+        Some(e) => bail!(
+            "-o {}: the extension .{e} is not --format {ext}'s .{ext}; give -o without an \
+             extension or with .{ext}",
+            path.display()
+        ),
+    }
+}
+
+pub fn run(mut a: PlotArgs) -> Result<()> {
+    a.output = output_path(&a.output, a.format)?;
     // The same range as every direction on the command line (`lobe eval`'s).
     lobe::pairs::check_angles(0.0, a.phi_i_deg).map_err(|e| anyhow::anyhow!("--phi-i-deg: {e}"))?;
     let models = if a.models.is_empty() {
@@ -215,20 +279,34 @@ pub fn run(a: PlotArgs) -> Result<()> {
             }
         );
     }
+    let style: plot::Style = a.style.into();
+    // The canvas: --size, or the kind's default, in canvas pixels (paper: written pixels, whose
+    // canvas is smaller by the style's zoom).
+    let width = match style {
+        plot::Style::Screen => 1200,
+        plot::Style::Paper => plot::PAPER_CANVAS_WIDTH,
+    };
     let size = match &a.size {
-        Some(text) => parse_size("--size", text, "1200x800")?,
+        Some(text) => style.canvas_for(parse_size("--size", text, "1200x800")?),
         None if a.kind == PlotKind::Hemisphere => {
             let cols = if a.theta_i_deg.is_empty() {
                 4
             } else {
                 a.theta_i_deg.len()
             };
-            let rows = models.len() * materials.len();
-            let side = (1090 / cols as u32).min(520);
-            (1200, (150 + rows as u32 * (side + 30)).min(8000))
+            let maps = width.saturating_sub(plot::hemisphere::COLOUR_BAR_WIDTH);
+            let per_row = plot::hemisphere::panel_columns(maps, cols);
+            let rows = models.len() * materials.len() * cols.div_ceil(per_row);
+            let side = (maps / per_row as u32).clamp(20, 520);
+            // 150 px for the title on a screen; a paper figure has none. 30 px per panel caption.
+            let head = match style {
+                plot::Style::Screen => 150,
+                plot::Style::Paper => 20,
+            };
+            (width, (head + rows as u32 * (side + 30)).clamp(150, 8000))
         }
-        None if a.kind == PlotKind::Polar => (1200, 680),
-        None => (1200, 800),
+        None if a.kind == PlotKind::Polar => (width, width * 680 / 1200),
+        None => (width, width * 2 / 3),
     };
     let common = Common {
         white_furnace: a.white_furnace,
@@ -237,6 +315,7 @@ pub fn run(a: PlotArgs) -> Result<()> {
         decades: a.decades,
         channel: a.channel.into(),
         size,
+        style,
     };
     let angles = |default: &[f64]| {
         if a.theta_i_deg.is_empty() {

@@ -6,7 +6,7 @@
 //! lobes are included exactly and their part is reported apart.
 
 use super::{
-    bad, check_finite_deg, describe_subjects, header, legend, legend_width, pixel_map, render,
+    bad, check_finite_deg, describe_subjects, header_in, legend, legend_width, pixel_map, render,
     subject_styles, Common, Dash, Drawn, Ink, LegendEntry, Marker, Subject,
 };
 use crate::eval::Evaluator;
@@ -137,7 +137,7 @@ pub fn albedo_data(
     })
 }
 
-/// Integrates and draws the curves into `path` (.png or .svg); returns what it drew.
+/// Integrates and draws the curves into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_albedo(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -147,7 +147,7 @@ pub fn plot_albedo(
 ) -> Result<AlbedoData> {
     super::Format::of(path)?;
     let data = albedo_data(eval, subjects, common, opts)?;
-    render(path, common.size, |root, ink| {
+    render(path, common.page(), |root, ink| {
         draw(root, ink, &data, subjects, common)
     })?;
     Ok(data)
@@ -170,7 +170,7 @@ fn draw<DB: DrawingBackend>(
         note = format!("{note}; white furnace (Fresnel of specular lobes = 1)");
     }
     lines.push(note);
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let styles = subject_styles(subjects);
     let entries: Vec<LegendEntry> = subjects
         .iter()
@@ -189,8 +189,15 @@ fn draw<DB: DrawingBackend>(
         }))
         .collect();
     let (w, _) = body.dim_in_pixel();
-    let legend_w = legend_width(&body, &entries).clamp(150, w / 3);
+    // At least 150 px, but never more than a third of a narrow canvas.
+    let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
     let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
+    // About one μ label per 55 px (a label of "0.5" and room on either side), one E label per
+    // 28 px of the plot's height (about 80 px go to the axes): at least 3, and at most plotters'
+    // default of 11 (the θo axis: 10), which a screen canvas has room for.
+    let x_fit = ((w - legend_w) / 55).max(3) as usize;
+    let (_, h) = body.dim_in_pixel();
+    let y_labels = (h.saturating_sub(80) / 28).clamp(3, 11) as usize;
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(16)
         .x_label_area_size(44)
@@ -201,6 +208,8 @@ fn draw<DB: DrawingBackend>(
         .set_secondary_coord(0.0..1.0, 0.0..data.y_max);
     chart
         .configure_mesh()
+        .x_labels(x_fit.min(11))
+        .y_labels(y_labels)
         .x_desc("μ = cos θo")
         .y_desc(format!("E ({})", common.channel.label()))
         .label_style((super::FONT, 13))
@@ -211,7 +220,7 @@ fn draw<DB: DrawingBackend>(
     // Top axis: θo = acos μ in degrees at the bottom axis's μ ticks.
     chart
         .configure_secondary_axes()
-        .x_labels(10)
+        .x_labels(x_fit.min(10))
         .x_label_formatter(&|mu: &f64| format!("{:.0}°", mu.clamp(0.0, 1.0).acos().to_degrees()))
         .x_desc("θo (degrees)")
         .label_style((super::FONT, 12))

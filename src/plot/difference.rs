@@ -12,7 +12,7 @@
 
 use super::hemisphere::{self, draw_panel, HemisphereData, HemisphereOptions};
 use super::polar::{self, PolarData, PolarOptions};
-use super::{colour_bar, header, Common, Format, Subject};
+use super::{colour_bar, header_in, Common, Format, Subject};
 use crate::eval::Evaluator;
 use crate::loss::RELATIVE_FLOOR;
 use crate::output::FileSet;
@@ -109,7 +109,7 @@ pub fn difference_picture(
     opts: &HemisphereOptions,
     format: Format,
 ) -> Result<Vec<u8>> {
-    super::render_bytes(format, common.size, |root, ink| {
+    super::render_bytes(format, common.page(), |root, ink| {
         draw(root, ink, data, a, b, common, opts)
     })
 }
@@ -134,7 +134,7 @@ fn draw<DB: DrawingBackend>(
         note = format!("{note}; {}", common.switches());
     }
     lines.push(note);
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let (w, _) = body.dim_in_pixel();
     let (maps, bar) = body.split_horizontally(w - 110);
     let areas = maps.split_evenly((1, opts.theta_deg.len()));
@@ -192,6 +192,7 @@ pub fn plot_paths(prefix: &Path, format: Format) -> (PathBuf, PathBuf) {
     let ext = match format {
         Format::Png => "png",
         Format::Svg => "svg",
+        Format::Pdf => "pdf",
     };
     let name = prefix
         .file_name()
@@ -219,10 +220,21 @@ fn short_label(subject: &Subject) -> Subject {
     }
 }
 
-/// Draws A and B overlaid (their labels say which is which: `lobe compare` uses `A: SPEC`) in the plane of incidence and the relative difference of B from A
-/// over the hemisphere (module docs), and writes them as `PREFIX_polar.EXT` and
-/// `PREFIX_difference.EXT` (see [`plot_paths`]), each with the full parameters of A and B in a
-/// `.json` beside it ([`super::params_json`]), in one transaction: all four files or none.
+/// The label of the difference maps' cells in their CSV: `(B - A)/max(|A|, |B|, 1e-4)`.
+pub fn difference_label() -> String {
+    format!(
+        "(B - A)/max(|A|, |B|, {})",
+        super::fmt_value(RELATIVE_FLOOR)
+    )
+}
+
+/// Draws A and B overlaid (their labels say which is which: `lobe compare` uses `A: SPEC`) in
+/// the plane of incidence and the relative difference of B from A over the hemisphere (module
+/// docs), and writes them as `PREFIX_polar.EXT` and `PREFIX_difference.EXT` (see
+/// [`plot_paths`]), each with the full parameters of A and B in a `.json` beside it
+/// ([`super::params_json`]) and the plotted numbers in a `.csv` beside it
+/// ([`super::csv::data_csv`]: the polar curves by their drawn labels; the difference cells
+/// labelled [`difference_label`]), in one transaction: all six files or none.
 pub fn write_plots(
     eval: &Evaluator,
     a: &Subject,
@@ -236,11 +248,17 @@ pub fn write_plots(
         super::params_json_path(&polar_path),
         super::params_json_path(&difference_path),
     );
+    let (polar_csv, difference_csv) = (
+        super::csv::data_csv_path(&polar_path),
+        super::csv::data_csv_path(&difference_path),
+    );
     let set = FileSet::new(&[
         polar_path.as_path(),
         polar_json.as_path(),
+        polar_csv.as_path(),
         difference_path.as_path(),
         difference_json.as_path(),
+        difference_csv.as_path(),
     ])?;
     let both = [a.clone(), b.clone()];
     let polar_opts = PolarOptions {
@@ -269,11 +287,22 @@ pub fn write_plots(
     let json = |title: &str| -> Result<Vec<u8>> {
         Ok((serde_json::to_string_pretty(&super::params_json(&both, title))? + "\n").into_bytes())
     };
+    let polar_table = super::csv::data_csv(&drawn, &super::Plotted::Polar(polar.clone()));
+    let difference_label = Subject {
+        label: difference_label(),
+        params: a.params.clone(),
+    };
+    let difference_table = super::csv::data_csv(
+        std::slice::from_ref(&difference_label),
+        &super::Plotted::Hemisphere(difference.clone()),
+    );
     let contents = [
         polar_bytes,
         json(&polar.title)?,
+        polar_table.into_bytes(),
         difference_bytes,
         json(&difference.title)?,
+        difference_table.into_bytes(),
     ];
     for (k, bytes) in contents.iter().enumerate() {
         let mut w = set[k].writer();

@@ -11,8 +11,8 @@
 //! Every panel is one (model, fixed direction); all panels share one colour scale.
 
 use super::{
-    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, fmt_value, header,
-    pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Scale, Subject,
+    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, fmt_value,
+    header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Scale, Subject,
 };
 use crate::eval::Evaluator;
 pub use crate::grid::angles_deg;
@@ -276,7 +276,7 @@ pub fn hemisphere_data(
     })
 }
 
-/// Evaluates and draws the heat maps into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the heat maps into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_hemisphere(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -286,7 +286,7 @@ pub fn plot_hemisphere(
 ) -> Result<HemisphereData> {
     super::Format::of(path)?;
     let data = hemisphere_data(eval, subjects, common, opts)?;
-    render(path, common.size, |root, ink| {
+    render(path, common.page(), |root, ink| {
         draw(root, ink, &data, subjects, common, opts)
     })?;
     Ok(data)
@@ -310,14 +310,18 @@ fn draw<DB: DrawingBackend>(
         note = format!("{note}; {}", common.switches());
     }
     lines.push(note);
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let (w, _) = body.dim_in_pixel();
-    let (maps, bar) = body.split_horizontally(w - 110);
-    let rows = subjects.len();
-    let cols = opts.theta_deg.len();
-    let areas = maps.split_evenly((rows, cols));
-    for (panel, area) in data.panels.iter().zip(areas.iter()) {
-        draw_panel(area, ink, panel, data, subjects, opts)?;
+    let (maps, bar) = body.split_horizontally(w - COLOUR_BAR_WIDTH);
+    let n_angles = opts.theta_deg.len();
+    let cols = panel_columns(w - COLOUR_BAR_WIDTH, n_angles);
+    // Each subject's panels take `rows_each` rows of `cols` panels.
+    let rows_each = n_angles.div_ceil(cols);
+    let areas = maps.split_evenly((subjects.len() * rows_each, cols));
+    for (k, panel) in data.panels.iter().enumerate() {
+        let (subject, angle) = (k / n_angles, k % n_angles);
+        let cell = (subject * rows_each + angle / cols) * cols + angle % cols;
+        draw_panel(&areas[cell], ink, panel, data, subjects, opts)?;
     }
     let caption = format!(
         "{}{}",
@@ -326,6 +330,20 @@ fn draw<DB: DrawingBackend>(
     );
     colour_bar(&bar, &data.scale, &caption)?;
     Ok(())
+}
+
+/// The width of a hemisphere picture's colour bar with its tick labels and caption, in pixels.
+pub const COLOUR_BAR_WIDTH: u32 = 110;
+
+/// The narrowest panel drawn side by side with the next, in pixels: narrower, the azimuth
+/// labels of neighbours run into each other, and the panels wrap onto more rows.
+pub const MIN_PANEL_WIDTH: u32 = 90;
+
+/// How many of a subject's `n_angles` panels stand in one row of a map area `width` pixels wide:
+/// all of them, unless that makes them narrower than [`MIN_PANEL_WIDTH`] (a paper figure).
+pub fn panel_columns(width: u32, n_angles: usize) -> usize {
+    let fit = (width / MIN_PANEL_WIDTH).max(1) as usize;
+    n_angles.min(fit).max(1)
 }
 
 /// Draws one heat map of `data` into `area`: the cells, the horizon and the rings at 30° and
@@ -358,6 +376,12 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
             fmt_value(panel.theta_deg),
             fmt_value(panel.phi_deg)
         )
+    };
+    // A panel too narrow for the caption (a paper figure's) names θ alone.
+    let caption = if super::text_width(&caption, super::svg_em(14), false) > w as f64 {
+        format!("θ = {}°", fmt_value(panel.theta_deg))
+    } else {
+        caption
     };
     area.draw(&Text::new(
         caption,

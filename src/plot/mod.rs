@@ -1,4 +1,4 @@
-//! `lobe plot`: pictures of a BRDF, written as PNG or SVG by the output's extension.
+//! `lobe plot`: pictures of a BRDF, written as PNG, SVG or PDF by the output's extension.
 //!
 //! Each kind is one library function that evaluates every point it draws through an
 //! [`Evaluator`](crate::eval::Evaluator) (one `eval_pairs` call per model), draws the picture,
@@ -96,11 +96,13 @@ pub enum Format {
     Png,
     /// A vector image, `size` in user units.
     Svg,
+    /// A vector document of one page, the text in the embedded font.
+    Pdf,
 }
 
 impl Format {
-    /// The format of `path` by its extension (`.png` or `.svg`, in any case); any other extension
-    /// is an error.
+    /// The format of `path` by its extension (`.png`, `.svg` or `.pdf`, in any case); any other
+    /// extension is an error.
     pub fn of(path: &Path) -> Result<Format> {
         match path
             .extension()
@@ -110,8 +112,9 @@ impl Format {
         {
             Some("png") => Ok(Format::Png),
             Some("svg") => Ok(Format::Svg),
+            Some("pdf") => Ok(Format::Pdf),
             _ => bail!(
-                "{}: the plot's format follows the output's extension, which must be .png or .svg",
+                "{}: the plot's format follows the output's extension, which must be .png, .svg or .pdf",
                 path.display()
             ),
         }
@@ -338,8 +341,80 @@ pub struct Common {
     pub decades: f64,
     /// The scalar of the RGB value that is plotted.
     pub channel: Channel,
-    /// Image size in pixels (SVG: user units).
+    /// The canvas the picture is laid out on, in pixels (SVG: user units); the written picture
+    /// is this canvas scaled by the style ([`Style::page`]).
     pub size: (u32, u32),
+    /// Screen or paper sizes: how the canvas is scaled onto the written picture.
+    pub style: Style,
+}
+
+/// How big a picture's text and lines are against its page.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Style {
+    /// For the screen: the canvas written as it is, text of 12–17 px, at 96 pixels per inch.
+    #[default]
+    Screen,
+    /// A single-column figure of a paper: 3.5 in wide, a PNG at 300 dpi (1050 px), text of 8–9.5
+    /// pt (7.5–11 pt in 3d and slice plots), lines half as heavy, no title block (the title
+    /// stays in the JSON beside the picture), a PDF or SVG page of the printed size.
+    Paper,
+}
+
+/// A paper figure's width: one column of a two-column journal page (IEEE, ACM: 3.5 in).
+pub const PAPER_WIDTH_IN: f64 = 3.5;
+
+/// A paper figure's resolution: what journals ask of line art with shading.
+pub const PAPER_DPI: f64 = 300.0;
+
+/// The canvas a paper figure is laid out on, in pixels: 1050 / 300 = 3.5 written pixels per
+/// canvas pixel zooms plotters' smallest common text, 12 px (an em of 12/1.24 px), to 8.1 pt at
+/// 300 dpi, and its 13–14 px text to 8.8–9.5 pt (the 3d plot's 11-px axis numbers: 7.5 pt; the
+/// 15–16 px panel captions of slices and 3d plots: 10–11 pt); a whole zoom keeps written sizes that are
+/// multiples of 7 px exact.
+pub const PAPER_CANVAS_WIDTH: u32 = 300;
+
+/// The factor on line widths of a paper figure: the screen's 1 and 2 px lines, zoomed, would be
+/// 0.84 and 1.7 pt; halved, 0.42 and 0.84 pt, the hairlines and data lines of printed plots.
+pub const PAPER_STROKE: f64 = 0.5;
+
+impl Style {
+    /// The style's name on the command line: `screen` or `paper`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Style::Screen => "screen",
+            Style::Paper => "paper",
+        }
+    }
+
+    /// Written pixels per canvas pixel.
+    pub fn zoom(self) -> f64 {
+        match self {
+            Style::Screen => 1.0,
+            Style::Paper => PAPER_WIDTH_IN * PAPER_DPI / PAPER_CANVAS_WIDTH as f64,
+        }
+    }
+
+    /// How a canvas of `canvas` pixels is written in this style.
+    pub fn page(self, canvas: (u32, u32)) -> Page {
+        match self {
+            Style::Screen => Page::from(canvas),
+            Style::Paper => Page {
+                canvas,
+                zoom: self.zoom(),
+                dpi: PAPER_DPI,
+                stroke: PAPER_STROKE,
+            },
+        }
+    }
+
+    /// The canvas whose written picture is `pixels` (width, height) in this style.
+    pub fn canvas_for(self, pixels: (u32, u32)) -> (u32, u32) {
+        let z = self.zoom();
+        (
+            (pixels.0 as f64 / z).round() as u32,
+            (pixels.1 as f64 / z).round() as u32,
+        )
+    }
 }
 
 impl Default for Common {
@@ -351,11 +426,17 @@ impl Default for Common {
             decades: 4.0,
             channel: Channel::Luminance,
             size: (1200, 800),
+            style: Style::Screen,
         }
     }
 }
 
 impl Common {
+    /// How the canvas is written: [`Style::page`] of `size`.
+    pub fn page(&self) -> Page {
+        self.style.page(self.size)
+    }
+
     /// `f` or `f·cosθi`, with the channel, for labels.
     pub fn quantity(&self) -> String {
         let q = if self.cos { "f·cosθi" } else { "f" };
@@ -387,10 +468,20 @@ impl Common {
         }
         let (w, h) = self.size;
         if !(200..=8000).contains(&w) || !(150..=8000).contains(&h) {
-            return Err(bad(
-                "size",
-                format!("image size {w}x{h}: width must lie in [200, 8000] and height in [150, 8000] pixels"),
-            ));
+            let message = match self.style {
+                Style::Screen => format!("image size {w}x{h}: width must lie in [200, 8000] and height in [150, 8000] pixels"),
+                Style::Paper => {
+                    let z = self.style.zoom();
+                    let (pw, ph) = self.page().pixels();
+                    format!(
+                        "image size {pw}x{ph} (a canvas of {w}x{h} at the paper style's zoom of {z:.3}): \
+                         the canvas's width must lie in [200, 8000] and its height in [150, 8000] pixels, \
+                         the written size in [{:.0}, {:.0}] x [{:.0}, {:.0}]",
+                        200.0 * z, 8000.0 * z, 150.0 * z, 8000.0 * z
+                    )
+                }
+            };
+            return Err(bad("size", message));
         }
         Ok(())
     }
@@ -450,7 +541,7 @@ impl Plotted {
     }
 }
 
-/// Evaluates and draws `request` into `path` (.png or .svg by its extension).
+/// Evaluates and draws `request` into `path` (.png, .svg or .pdf by its extension).
 pub fn plot(
     eval: &crate::eval::Evaluator,
     subjects: &[Subject],

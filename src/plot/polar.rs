@@ -6,7 +6,7 @@
 //! the mirror direction of ωi is s = +θi. A curve is the point at radius ρ(value) along ωo.
 
 use super::{
-    bad, check_deg, fmt_value, header, legend, legend_width, palette, pixel_map, rad, render,
+    bad, check_deg, fmt_value, header_in, legend, legend_width, palette, pixel_map, rad, render,
     subject_styles, text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, SeriesStyle,
     Subject,
 };
@@ -271,7 +271,7 @@ fn resolve_radius(asked: Radius, common: &Common, peaks: &[f64]) -> (Radius, Str
     }
 }
 
-/// Evaluates and draws the polar plot into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the polar plot into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_polar(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -281,7 +281,7 @@ pub fn plot_polar(
 ) -> Result<PolarData> {
     super::Format::of(path)?;
     let data = polar_data(eval, subjects, common, opts)?;
-    render(path, common.size, |root, ink| {
+    render(path, common.page(), |root, ink| {
         draw(root, ink, &data, subjects, common, opts)
     })?;
     Ok(data)
@@ -296,7 +296,7 @@ pub fn polar_picture(
     opts: &PolarOptions,
     format: super::Format,
 ) -> Result<Vec<u8>> {
-    super::render_bytes(format, common.size, |root, ink| {
+    super::render_bytes(format, common.page(), |root, ink| {
         draw(root, ink, data, subjects, common, opts)
     })
 }
@@ -426,19 +426,39 @@ fn draw<DB: DrawingBackend>(
         notes.push(common.switches());
     }
     lines.push(notes.join("; "));
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let styles = subject_styles(subjects);
     let entries = legend_entries(data, subjects, &styles, opts);
     let (w, _) = body.dim_in_pixel();
-    let legend_w = legend_width(&body, &entries).clamp(150, w / 3);
+    // At least 150 px, but never more than a third of a narrow canvas.
+    let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
     let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
 
     // Equal scale on both axes: fit the half disc (plus room for labels) in the area.
     let (pw, ph) = plot_area.dim_in_pixel();
     let margin = 8u32;
     let (pw, ph) = ((pw - 2 * margin) as f64, (ph - 2 * margin) as f64);
-    let (half_w, y_lo, y_hi) = (1.12, -0.14, 1.09);
-    let px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi - y_lo));
+    let axis_caption = format!(
+        "radius: {}, {}   ·   angles: signed θo in degrees",
+        common.quantity(),
+        data.radius_note
+    );
+    // Wrapped to the chart's width (a narrow paper figure needs several lines); the lines after
+    // the first take room from the half disc.
+    let caption_lines = super::wrap_to_width(&axis_caption, pw, 14, false);
+    let line_px = (14 + 3) as f64;
+    let (half_w, y_hi) = (1.12, 1.09);
+    // Below the diameter: the radial tick labels (from y = -0.02, 16 px) and the caption's
+    // lines, or 0.14 chart units where that is more (a screen canvas, whose one caption line
+    // fits there).
+    let labels_px = 16.0 + caption_lines.len() as f64 * line_px;
+    let below_px = |ppu: f64| (0.14 * ppu).max(0.02 * ppu + labels_px);
+    let mut px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi + 0.14));
+    if below_px(px_per_unit) > 0.14 * px_per_unit {
+        px_per_unit = (pw / (2.0 * half_w)).min((ph - labels_px).max(1.0) / (y_hi + 0.02));
+    }
+    let y_lo = -below_px(px_per_unit) / px_per_unit;
+    let caption_top = (-0.08f64).min(-0.02 - 16.0 / px_per_unit);
     let x_half = pw / px_per_unit / 2.0;
     // Spare height goes equally above and below the half disc.
     let spare = ph / px_per_unit - (y_hi - y_lo);
@@ -498,17 +518,15 @@ fn draw<DB: DrawingBackend>(
         Dash::Solid,
         1.0,
     );
-    let axis_caption = format!(
-        "radius: {}, {}   ·   angles: signed θo in degrees",
-        common.quantity(),
-        data.radius_note
-    );
-    pa.draw(&Text::new(
-        axis_caption,
-        (0.0, -0.08),
-        text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-    ))
-    .drawing("the axis caption")?;
+    let line_step = line_px / px_per_unit;
+    for (k, line) in caption_lines.into_iter().enumerate() {
+        pa.draw(&Text::new(
+            line,
+            (0.0, caption_top - k as f64 * line_step),
+            text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .drawing("the axis caption")?;
+    }
 
     let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
     // Incidence directions: thin lines towards the light, labelled with θi.

@@ -9,8 +9,8 @@
 //! drawn grey. The colour is always logarithmic: a specular peak spans decades.
 
 use super::{
-    bad, check_finite_deg, colour_bar, colour_map, fmt_value, header, rad, render, Common, Drawn,
-    Scale, Subject,
+    bad, check_finite_deg, colour_bar, colour_map, fmt_value, header_in, rad, render, Common,
+    Drawn, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use anyhow::{bail, Result};
@@ -141,7 +141,7 @@ pub fn slice_data(
     })
 }
 
-/// Evaluates and draws the slices into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the slices into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_slice(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -151,7 +151,7 @@ pub fn plot_slice(
 ) -> Result<SliceData> {
     super::Format::of(path)?;
     let data = slice_data(eval, subjects, common, opts)?;
-    render(path, common.size, |root, _ink| {
+    render(path, common.page(), |root, _ink| {
         draw(root, &data, subjects, common)
     })?;
     Ok(data)
@@ -182,7 +182,7 @@ fn draw<DB: DrawingBackend>(
         note = format!("{note}; {}", common.switches());
     }
     lines.push(note);
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let (w, _) = body.dim_in_pixel();
     let (maps, bar) = body.split_horizontally(w - 110);
     let areas = maps.split_evenly((1, data.panels.len()));

@@ -5,7 +5,7 @@
 //! The chart's vertical axis is the surface normal z; its other two axes are x and y.
 
 use super::{
-    bad, check_deg, check_finite_deg, fmt_value, header, legend, rad, render, subject_styles,
+    bad, check_deg, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
     text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, Subject,
 };
 use crate::eval::Evaluator;
@@ -203,7 +203,7 @@ pub fn surface3d_data(
     })
 }
 
-/// Evaluates and draws the wireframes into `path` (.png or .svg); returns what it drew.
+/// Evaluates and draws the wireframes into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_surface3d(
     eval: &Evaluator,
     subjects: &[Subject],
@@ -213,7 +213,7 @@ pub fn plot_surface3d(
 ) -> Result<Surface3dData> {
     super::Format::of(path)?;
     let data = surface3d_data(eval, subjects, common, opts)?;
-    render(path, common.size, |root, ink| {
+    render(path, common.page(), |root, ink| {
         draw(root, ink, &data, subjects, common)
     })?;
     Ok(data)
@@ -243,7 +243,7 @@ fn draw<DB: DrawingBackend>(
         note = format!("{note}; {}", common.switches());
     }
     lines.push(note);
-    let body = header(root, &data.title, &lines)?;
+    let body = header_in(common.style, root, &data.title, &lines)?;
     let (w, _) = body.dim_in_pixel();
     let (charts, legend_area) = if subjects.len() > 1 {
         let (a, b) = body.split_horizontally(w - (w / 5).clamp(160, 300));

@@ -54,7 +54,10 @@ pub(crate) fn legend<DB: DrawingBackend>(
     let size = LEGEND_TEXT;
     let (w, h) = area.dim_in_pixel();
     let (ox, oy) = area.get_base_pixel();
-    let room = w.saturating_sub(LABEL_X + LABEL_MARGIN) as f64;
+    // A column narrower than 150 px (a paper figure's) gets a 24-px sample, to leave the labels
+    // room.
+    let (sample, label_x) = if w < 150 { (24, 40) } else { (40, LABEL_X) };
+    let room = w.saturating_sub(label_x + LABEL_MARGIN) as f64;
     let wrapped: Vec<Vec<String>> = entries
         .iter()
         .map(|e| wrap_to_width(&e.label, room, size, false))
@@ -64,13 +67,13 @@ pub(crate) fn legend<DB: DrawingBackend>(
     let mut y = ((h as i32 - total) / 2).max(10);
     for (e, lines) in entries.iter().zip(&wrapped) {
         let mid = y + ROW / 2;
-        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 48) as f64, (oy + mid) as f64);
+        let (x0, x1, yy) = ((ox + 8) as f64, (ox + 8 + sample) as f64, (oy + mid) as f64);
         ink.line(&[(x0, yy), (x1, yy)], e.colour, 2.0, e.dash, 1.0);
         ink.marker(((x0 + x1) / 2.0, yy), e.marker, e.colour, 4.0);
         for (k, line) in lines.iter().enumerate() {
             area.draw(&Text::new(
                 line.clone(),
-                (LABEL_X as i32, mid + LINE * k as i32),
+                (label_x as i32, mid + LINE * k as i32),
                 anchored(size, HPos::Left, VPos::Center),
             ))
             .drawing("the legend")?;

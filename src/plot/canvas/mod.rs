@@ -1,9 +1,10 @@
 //! The canvas every plot kind draws on: scales, palette, text, legends, the sub-pixel [`Ink`]
-//! layer, SVG output and its rasterisation.
+//! layer, SVG output, its rasterisation and its conversion to PDF.
 
 mod ink;
 mod legend;
 mod palette;
+mod pdf;
 mod raster;
 mod scale;
 mod svg;
@@ -12,6 +13,7 @@ mod text;
 pub use ink::*;
 pub use legend::*;
 pub use palette::*;
+pub use pdf::*;
 pub use raster::*;
 pub use scale::*;
 pub use svg::*;

@@ -5,7 +5,7 @@ use std::sync::OnceLock;
 
 /// The fonts resvg draws text with: the embedded DejaVu Sans (regular and bold) as every
 /// family, so that no system font is read.
-fn font_db() -> std::sync::Arc<resvg::usvg::fontdb::Database> {
+pub(crate) fn font_db() -> std::sync::Arc<resvg::usvg::fontdb::Database> {
     static DB: OnceLock<std::sync::Arc<resvg::usvg::fontdb::Database>> = OnceLock::new();
     DB.get_or_init(|| {
         let mut db = resvg::usvg::fontdb::Database::new();
@@ -17,14 +17,19 @@ fn font_db() -> std::sync::Arc<resvg::usvg::fontdb::Database> {
     .clone()
 }
 
-/// The SVG `svg` (of `size` pixels) as an 8-bit sRGB PNG, anti-aliased by resvg.
-pub fn rasterise(svg: &str, size: (u32, u32)) -> Result<Vec<u8>> {
+/// The drawn SVG `svg` as usvg's tree, its text in the embedded fonts.
+pub(crate) fn svg_tree(svg: &str) -> Result<resvg::usvg::Tree> {
     let options = resvg::usvg::Options {
         font_family: "DejaVu Sans".to_string(),
         fontdb: font_db(),
         ..Default::default()
     };
-    let tree = resvg::usvg::Tree::from_str(svg, &options).context("reading the drawn SVG")?;
+    resvg::usvg::Tree::from_str(svg, &options).context("reading the drawn SVG")
+}
+
+/// The SVG `svg` (of `size` pixels) as an 8-bit sRGB PNG, anti-aliased by resvg.
+pub fn rasterise(svg: &str, size: (u32, u32)) -> Result<Vec<u8>> {
+    let tree = svg_tree(svg)?;
     let (w, h) = size;
     let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h)
         .ok_or_else(|| anyhow!("cannot make a {w}x{h} image"))?;

@@ -141,6 +141,24 @@ fn break_chars(piece: &str, fits: &dyn Fn(&str) -> bool) -> Vec<String> {
     lines
 }
 
+/// The header of a picture in `style`: on the screen [`header`]; a paper figure has none (the
+/// paper's caption says what it shows, and the title and parameters stay in the JSON beside the
+/// picture), only a small top margin.
+pub(crate) fn header_in<DB: DrawingBackend>(
+    style: crate::plot::Style,
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    lines: &[String],
+) -> Result<DrawingArea<DB, Shift>> {
+    match style {
+        crate::plot::Style::Screen => header(root, title, lines),
+        crate::plot::Style::Paper => Ok(root.split_vertically(PAPER_TOP_MARGIN).1),
+    }
+}
+
+/// The margin above a paper figure's body, in canvas pixels: room for the topmost tick label.
+const PAPER_TOP_MARGIN: i32 = 6;
+
 /// Draws a bold title and smaller wrapped lines at the top of `root`; returns the area below.
 pub(crate) fn header<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
