@@ -450,7 +450,7 @@ fn csv_rows(text: &str, header: &str) -> Vec<Vec<String>> {
         .collect()
 }
 
-/// `lobe compare -o` and `lobe fit -o` (one function, `compare::write_plots`) write a CSV beside
+/// `lobe compare -o` and `lobe fit -o` (one function, `plot::difference::write_plots`) write a CSV beside
 /// each picture: the polar curves by their drawn labels and the difference cells, every value
 /// the picture was drawn from.
 #[test]
@@ -460,15 +460,21 @@ fn compare_pictures_have_their_numbers_beside_them() {
     a.label = "A: phong".into();
     let mut b = subject("blinn_phong", None, &[]);
     b.label = "B: blinn_phong".into();
-    let opts = lobe::compare::PlotOptions {
+    let opts = lobe::plot::difference::PlotOptions {
         theta_i_deg: vec![0.0, 45.0],
         res: 24,
-        ..lobe::compare::PlotOptions::default()
+        ..lobe::plot::difference::PlotOptions::default()
     };
     let prefix = dir.path().join("cmp");
-    let plots =
-        lobe::compare::write_plots(&Evaluator::cpu(), &a, &b, &opts, &prefix, plot::Format::Svg)
-            .unwrap();
+    let plots = lobe::plot::difference::write_plots(
+        &Evaluator::cpu(),
+        &a,
+        &b,
+        &opts,
+        &prefix,
+        plot::Format::Svg,
+    )
+    .unwrap();
     let polar = std::fs::read_to_string(dir.path().join("cmp_polar.csv")).unwrap();
     let rows = csv_rows(&polar, "label,theta_i_deg,theta_o_deg,value,r,g,b");
     let expected: Vec<(String, f64, f64, f64)> = plots
