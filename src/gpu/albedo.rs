@@ -62,8 +62,10 @@ pub struct AlbedoSpan {
     pub begin: u32,
     /// One past the last node.
     pub end: u32,
+    /// 1 where the nodes are offsets from the mirror direction of ωo ([`AlbedoSum::mirror`]).
+    pub mirror: u32,
     /// Padding to the std430 size of 32 bytes; always 0.
-    pub pad: [u32; 2],
+    pub pad: u32,
 }
 
 /// One sum an albedo dispatch makes: Σ w f(ωi, ωo) over nodes `begin..begin + len` of the node
@@ -78,6 +80,26 @@ pub struct AlbedoSum {
     pub begin: usize,
     /// The list's length.
     pub len: usize,
+    /// The nodes are (ωi − r)ₓ, (ωi − r)ᵧ, ωi.z, w with r = (−ωo.x, −ωo.y, ωo.z) the mirror
+    /// direction of the f32 ωo, computed in f64 ([`mirror_node`]): the kernel then forms
+    /// ωi + ωo without the cancellation of its tangential parts near r.
+    pub mirror: bool,
+}
+
+/// A node as [`AlbedoSum::mirror`] lists it: the tangential part of ωi − r, where r is the mirror
+/// direction of `wo` (the f32 ωo the kernel reads), ωi.z and the weight, as f32.
+pub fn mirror_node(wi: DVec3, weight: f64, wo: [f32; 3]) -> [f32; 4] {
+    let (x, y) = (wi.x + wo[0] as f64, wi.y + wo[1] as f64);
+    [x as f32, y as f32, wi.z as f32, weight as f32]
+}
+
+/// ωi of a node as the kernel forms it: from a [`mirror_node`] with `mirror`, else as listed.
+pub fn node_wi(node: [f32; 4], wo: [f32; 3], mirror: bool) -> [f32; 3] {
+    if mirror {
+        [node[0] - wo[0], node[1] - wo[1], node[2]]
+    } else {
+        [node[0], node[1], node[2]]
+    }
 }
 
 impl Gpu {
@@ -134,7 +156,8 @@ impl Gpu {
                     param_index: s.param as u32,
                     begin: begin as u32,
                     end: (begin + span).min(s.begin + s.len) as u32,
-                    pad: [0; 2],
+                    mirror: s.mirror as u32,
+                    pad: 0,
                 });
                 owner.push(i);
             }
@@ -249,7 +272,7 @@ impl Gpu {
         let pairs: Vec<GpuPair> = all[4 * begin..4 * end]
             .chunks_exact(4)
             .map(|n| GpuPair {
-                wi: [n[0], n[1], n[2]],
+                wi: node_wi([n[0], n[1], n[2], n[3]], span.wo, span.mirror != 0),
                 param_index: 0,
                 wo: span.wo,
                 pad: 0,
@@ -332,6 +355,7 @@ mod tests {
         assert_eq!(offset_of!(AlbedoSpan, param_index), 12);
         assert_eq!(offset_of!(AlbedoSpan, begin), 16);
         assert_eq!(offset_of!(AlbedoSpan, end), 20);
+        assert_eq!(offset_of!(AlbedoSpan, mirror), 24);
     }
 
     #[test]

@@ -48,7 +48,7 @@ pub use albedo::{
 };
 pub use backend::{
     rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
-    GPU_ROUNDING_FACTOR,
+    GPU_MIRROR_ROUNDING_FACTOR, GPU_ROUNDING_FACTOR,
 };
 pub use estimate::{three_level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
 pub use gauss::{gauss_legendre, Estimate};
