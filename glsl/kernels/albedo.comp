@@ -62,8 +62,9 @@ layout(push_constant) uniform AlbedoJob {
 shared vec4 sums[gl_WorkGroupSize.x];
 
 // f at a node, f = 0 whenever c_i <= 0 or c_o <= 0 (docs/design.md §2, as in kernels/eval.glsl).
-// With `mirror` the node is an offset from the mirror direction r of wo (computed in f64 on the
-// host): wi = r + (dx, dy, .), and wi + wo = (dx, dy, wi.z + wo.z) exactly in its tangential part,
+// With `mirror` the node is an offset from the mirror direction r of the host's f64 wo (computed
+// in f64, src/gpu/albedo.rs mirror_node): wi = r + (dx, dy, .), and wi + wo = (dx, dy, wi.z + wo.z)
+// exactly in its tangential part,
 // where the f32 sum of wi and wo keeps their roundings (eps sin(theta) each) after the tangential
 // parts cancel. A model that takes the sum (MODEL_EVAL_SUM) then resolves lobes of width ~1e-3
 // about the mirror direction at grazing view. wi.z is stored as it is, not as an offset, so that it

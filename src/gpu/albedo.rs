@@ -81,15 +81,22 @@ pub struct AlbedoSum {
     /// The list's length.
     pub len: usize,
     /// The nodes are (ωi − r)ₓ, (ωi − r)ᵧ, ωi.z, w with r = (−ωo.x, −ωo.y, ωo.z) the mirror
-    /// direction of the f32 ωo, computed in f64 ([`mirror_node`]): the kernel then forms
-    /// ωi + ωo without the cancellation of its tangential parts near r.
+    /// direction of ωo, computed in f64 ([`mirror_node`]): the kernel then forms ωi + ωo without
+    /// the cancellation of its tangential parts near r.
     pub mirror: bool,
 }
 
 /// A node as [`AlbedoSum::mirror`] lists it: the tangential part of ωi − r, where r is the mirror
-/// direction of `wo` (the f32 ωo the kernel reads), ωi.z and the weight, as f32.
-pub fn mirror_node(wi: DVec3, weight: f64, wo: [f32; 3]) -> [f32; 4] {
-    let (x, y) = (wi.x + wo[0] as f64, wi.y + wo[1] as f64);
+/// direction of `wo`, ωi.z and the weight, as f32.
+///
+/// r is taken from the f64 ωo the rule was made for, not from the f32 ωo the kernel reads: the
+/// tangential part of ωi + ωo is then exactly the offset's. Against the f32 ωo it would carry that
+/// ωo's rounding (2^-24 in its length and direction), which tilts h by ~2^-24/(2μo), and at
+/// grazing view a lobe cut by the horizon gains or loses mass in proportion (GGX α = 0.01 at
+/// μo = 0.02: 8e-6 of E). The f32 ωo serves only where its relative rounding is harmless (c_o,
+/// Λ(ωo), and ωi's tangential part, which enters Λ(ωi) alone).
+pub fn mirror_node(wi: DVec3, weight: f64, wo: DVec3) -> [f32; 4] {
+    let (x, y) = (wi.x + wo.x, wi.y + wo.y);
     [x as f32, y as f32, wi.z as f32, weight as f32]
 }
 
