@@ -366,6 +366,39 @@ mod tests {
     }
 
     #[test]
+    fn models_take_mirror_sums_where_their_glsl_defines_the_entry() {
+        // The host sends mirror offsets exactly to the models whose GLSL defines MODEL_EVAL_SUM;
+        // the kernel would otherwise evaluate every other model from reconstructed ωi.
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("glsl/brdf");
+        for model in Model::ALL {
+            let path = dir.join(format!("{}.glsl", model.name()));
+            let text = std::fs::read_to_string(&path).expect("the model's GLSL");
+            assert_eq!(
+                text.contains("#define MODEL_EVAL_SUM"),
+                model.sums_from_mirror_offsets(),
+                "{}",
+                path.display()
+            );
+        }
+    }
+
+    #[test]
+    fn mirror_nodes_give_back_the_node_and_the_exact_sum() {
+        // ωi = r + offset at the kernel's f32 ωo; the offset is the tangential part of ωi + ωo.
+        let wo = DVec3::new(0.9998, 0.0, 0.02).normalize();
+        let wi = DVec3::new(-0.9997, 0.011, 0.0203).normalize();
+        let node = mirror_node(wi, 0.25, wo);
+        let wo32 = [wo.x as f32, wo.y as f32, wo.z as f32];
+        let back = node_wi(node, wo32, true);
+        for c in 0..3 {
+            assert!((back[c] as f64 - wi[c]).abs() < 2e-7, "{back:?} vs {wi}");
+        }
+        assert_eq!(node[0], (wi.x + wo.x) as f32);
+        assert_eq!(node[1], (wi.y + wo.y) as f32);
+        assert_eq!(node[3], 0.25);
+    }
+
+    #[test]
     fn albedo_push_shares_the_dispatch_count_slot() {
         assert_eq!(size_of::<AlbedoPush>(), size_of::<ChunkPush>());
         assert_eq!(
