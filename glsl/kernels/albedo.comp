@@ -31,7 +31,7 @@ layout(constant_id = 21) const bool LANE_PARTIALS = false;
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
 // xyz = wi, w = weight (with cos(theta_i)), every sum's list back to back; in a span with
 // `mirror` set, xy = the tangential part of wi - r, r = (-wo.x, -wo.y, wo.z) the mirror direction
-// of wo, and z = wi.z (see brdf_mirror).
+// of wo, and z = wi.z (see brdf).
 layout(std430, set = 0, binding = 1) readonly buffer Nodes { vec4 nodes[]; };
 // One span per workgroup: nodes[begin, end) at one (parameter set, view direction). Twin of
 // AlbedoSpan in src/gpu/albedo.rs.
@@ -64,11 +64,11 @@ shared vec4 sums[gl_WorkGroupSize.x];
 // f at a node, f = 0 whenever c_i <= 0 or c_o <= 0 (docs/design.md §2, as in kernels/eval.glsl).
 // With `mirror` the node is an offset from the mirror direction r of the host's f64 wo (computed
 // in f64, src/gpu/albedo.rs mirror_node): wi = r + (dx, dy, .), and wi + wo = (dx, dy, wi.z + wo.z)
-// exactly in its tangential part,
-// where the f32 sum of wi and wo keeps their roundings (eps sin(theta) each) after the tangential
-// parts cancel. A model that takes the sum (MODEL_EVAL_SUM) then resolves lobes of width ~1e-3
-// about the mirror direction at grazing view. wi.z is stored as it is, not as an offset, so that it
-// keeps its relative precision near the horizon.
+// exactly in its tangential part, where the f32 sum of wi and wo keeps their roundings
+// (eps sin(theta) each) after the tangential parts cancel. A model that takes the sum
+// (MODEL_EVAL_SUM) then resolves lobes of width ~1e-3 about the mirror direction at grazing view.
+// wi.z is stored as it is, not as an offset, so that it keeps its relative precision near the
+// horizon.
 vec3 brdf(MODEL_PARAMS p, vec4 node, vec3 wo, bool mirror) {
     vec3 wi = mirror ? vec3(node.x - wo.x, node.y - wo.y, node.z) : node.xyz;
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);

@@ -48,8 +48,9 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
     }
 }
 
-/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that every GPU estimate of a fixed
-/// rule carries.
+/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that a GPU estimate of a fixed rule
+/// carries where the kernel sums ωi + ωo itself (every sum but those of
+/// [`GPU_MIRROR_ROUNDING_FACTOR`]).
 ///
 /// The GPU evaluates f in f32 from nodes and a view direction rounded to f32, and sums in f32
 /// (16 terms per running sum, then a 64-wide tree on a GPU or four sums added pairwise on a CPU
