@@ -19,9 +19,10 @@ float ashikhmin_shirley_exponent(vec3 h, float nu, float nv) {
     return s > 0.0 ? (nu * hx2 + nv * hy2) / s : 0.5 * (nu + nv);
 }
 
-vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
+// s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
+vec3 ashikhmin_shirley_from_sum(AshikhminShirleyParams p, vec3 wi, vec3 wo, vec3 s) {
     float c_d;
-    vec3 h = half_vector(wi, wo, c_d);
+    vec3 h = half_vector_from_sum(s, c_d);
     float c_i = wi.z, c_o = wo.z;
     float e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
     float spec = sqrt((p.nu + 1.0) * (p.nv + 1.0)) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), e)
@@ -31,3 +32,8 @@ vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
                * (pow5_complement(0.5 * c_i) * pow5_complement(0.5 * c_o));
     return rho_s + rho_d;
 }
+
+vec3 ashikhmin_shirley(AshikhminShirleyParams p, vec3 wi, vec3 wo) {
+    return ashikhmin_shirley_from_sum(p, wi, wo, wi + wo);
+}
+#define MODEL_EVAL_SUM ashikhmin_shirley_from_sum

@@ -30,9 +30,10 @@ float microfacet_lambda(MicrofacetParams p, vec3 w) {
     return 1.0 / G1_beckmann_rational(t2) - 1.0;
 }
 
-vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
+// s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
+vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
     float c_d;
-    vec3 h = half_vector(wi, wo, c_d);
+    vec3 h = half_vector_from_sum(s, c_d);
     float c_i = wi.z, c_o = wo.z;
     float d = MF_DISTRIBUTION == 0u ? D_beckmann(h, p.alpha_x, p.alpha_y) : D_ggx(h, p.alpha_x, p.alpha_y);
     float g;
@@ -62,3 +63,8 @@ vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
     }
     return f_total;
 }
+
+vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
+    return microfacet_from_sum(p, wi, wo, wi + wo);
+}
+#define MODEL_EVAL_SUM microfacet_from_sum

@@ -9,11 +9,18 @@ struct PhongParams {
     vec3 specular;
 };
 
-vec3 phong(PhongParams p, vec3 wi, vec3 wo) {
-    vec3 r = vec3(-wi.x, -wi.y, wi.z);  // mirror of wi about n = +z: 2 c_i n - wi
-    // 1 - r.wo = |r - wo|^2 / 2 for unit vectors: no cancellation near the mirror direction.
-    vec3 d = r - wo;
-    float s = 0.5 * dot(d, d);
-    float lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
+// s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
+vec3 phong_from_sum(PhongParams p, vec3 wi, vec3 wo, vec3 s) {
+    // r - wo with r = (-wi.x, -wi.y, wi.z), the mirror of wi about n = +z (2 c_i n - wi): its
+    // tangential part is -(wi + wo)'s. 1 - r.wo = |r - wo|^2 / 2 for unit vectors: no
+    // cancellation near the mirror direction.
+    vec3 d = vec3(-s.x, -s.y, wi.z - wo.z);
+    float one_minus_r_wo = 0.5 * dot(d, d);
+    float lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(one_minus_r_wo, p.shininess);
     return p.diffuse * INV_PI + p.specular * lobe;
 }
+
+vec3 phong(PhongParams p, vec3 wi, vec3 wo) {
+    return phong_from_sum(p, wi, wo, wi + wo);
+}
+#define MODEL_EVAL_SUM phong_from_sum

@@ -41,14 +41,22 @@ float one_minus_cos_theta(vec3 h) {
     return (h.x * h.x + h.y * h.y) / (1.0 + h.z);
 }
 
+// half_vector from s = wi + wo given by the caller. Near the mirror direction the tangential parts
+// of wi and wo cancel: their f32 rounding (eps sin(theta) each) stays in wi + wo while the sum's
+// length shrinks to 2 c_o, so h's direction is off by about eps / (2 c_o), which a lobe of width
+// alpha ~ 1e-3 at grazing view resolves. The albedo kernel knows s exactly (its nodes are offsets
+// from the mirror direction, glsl/kernels/albedo.comp) and passes it here instead.
+vec3 half_vector_from_sum(vec3 s, out float c_d) {
+    float len = length(s);
+    c_d = 0.5 * len;
+    return s / len;
+}
+
 // Half vector h = normalize(wi + wo) and c_d = wi.h. For unit wi and wo,
 // wi.h = (1 + wi.wo) / |wi + wo| = |wi + wo| / 2: exactly symmetric in wi and wo, and free of the
 // cancellation that dot(wi, h) suffers when wi and wo are nearly opposite (grazing, h -> n).
 vec3 half_vector(vec3 wi, vec3 wo, out float c_d) {
-    vec3 s = wi + wo;
-    float len = length(s);
-    c_d = 0.5 * len;
-    return s / len;
+    return half_vector_from_sum(wi + wo, c_d);
 }
 
 // Normal-incidence reflectance of a dielectric with relative IOR eta.

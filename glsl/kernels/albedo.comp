@@ -29,7 +29,9 @@ layout(constant_id = 20) const bool TEXEL_NODES = false;
 layout(constant_id = 21) const bool LANE_PARTIALS = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
-// xyz = wi, w = weight (with cos(theta_i)), every sum's list back to back.
+// xyz = wi, w = weight (with cos(theta_i)), every sum's list back to back; in a span with
+// `mirror` set, xy = the tangential part of wi - r, r = (-wo.x, -wo.y, wo.z) the mirror direction
+// of wo, and z = wi.z (see brdf).
 layout(std430, set = 0, binding = 1) readonly buffer Nodes { vec4 nodes[]; };
 // One span per workgroup: nodes[begin, end) at one (parameter set, view direction). Twin of
 // AlbedoSpan in src/gpu/albedo.rs.
@@ -38,8 +40,8 @@ struct Span {
     uint param_index;
     uint begin;
     uint end;
+    uint mirror;  // 1: the span's nodes are offsets from the mirror direction of wo
     uint pad0;
-    uint pad1;
 };
 layout(std430, set = 0, binding = 2) readonly buffer Spans { Span spans[]; };
 // One rgb partial sum per workgroup at gl_WorkGroupID.x, or with LANE_PARTIALS one per
@@ -59,10 +61,23 @@ layout(push_constant) uniform AlbedoJob {
 
 shared vec4 sums[gl_WorkGroupSize.x];
 
-// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
-vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
+// f at a node, f = 0 whenever c_i <= 0 or c_o <= 0 (docs/design.md §2, as in kernels/eval.glsl).
+// With `mirror` the node is an offset from the mirror direction r of the host's f64 wo (computed
+// in f64, src/gpu/albedo.rs mirror_node): wi = r + (dx, dy, .), and wi + wo = (dx, dy, wi.z + wo.z)
+// exactly in its tangential part, where the f32 sum of wi and wo keeps their roundings
+// (eps sin(theta) each) after the tangential parts cancel. A model that takes the sum
+// (MODEL_EVAL_SUM) then resolves lobes of width ~1e-3 about the mirror direction at grazing view.
+// wi.z is stored as it is, not as an offset, so that it keeps its relative precision near the
+// horizon.
+vec3 brdf(MODEL_PARAMS p, vec4 node, vec3 wo, bool mirror) {
+    vec3 wi = mirror ? vec3(node.x - wo.x, node.y - wo.y, node.z) : node.xyz;
     if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
+#ifdef MODEL_EVAL_SUM
+    vec3 s = mirror ? vec3(node.x, node.y, node.z + wo.z) : wi + wo;
+    return MODEL_EVAL_SUM(p, wi, wo, s);
+#else
     return MODEL_EVAL(p, wi, wo);
+#endif
 }
 
 // w * f in xyz, and in w 1 where f is invalid (a NaN, an infinity or a negative channel), so that
@@ -83,6 +98,7 @@ void main() {
     Span span = spans[job.first_span + gl_WorkGroupID.x];
     MODEL_PARAMS p = params[span.param_index];
     vec3 wo = span.wo;
+    bool mirror = span.mirror != 0u;
     const uint W = gl_WorkGroupSize.x;
     if (LANE_PARTIALS) {
         // Four running sums over interleaved nodes (at most 16 terms each in a span of
@@ -90,18 +106,18 @@ void main() {
         vec4 a0 = vec4(0.0), a1 = vec4(0.0), a2 = vec4(0.0), a3 = vec4(0.0);
         for (uint k = span.begin + lid; k < span.end; k += 4u * W) {
             vec4 n0 = node_at(k);
-            a0 += term(n0, brdf(p, n0.xyz, wo));
+            a0 += term(n0, brdf(p, n0, wo, mirror));
             if (k + W < span.end) {
                 vec4 n1 = node_at(k + W);
-                a1 += term(n1, brdf(p, n1.xyz, wo));
+                a1 += term(n1, brdf(p, n1, wo, mirror));
             }
             if (k + 2u * W < span.end) {
                 vec4 n2 = node_at(k + 2u * W);
-                a2 += term(n2, brdf(p, n2.xyz, wo));
+                a2 += term(n2, brdf(p, n2, wo, mirror));
             }
             if (k + 3u * W < span.end) {
                 vec4 n3 = node_at(k + 3u * W);
-                a3 += term(n3, brdf(p, n3.xyz, wo));
+                a3 += term(n3, brdf(p, n3, wo, mirror));
             }
         }
         partial_out[gl_GlobalInvocationID.x] = (a0 + a1) + (a2 + a3);
@@ -110,7 +126,7 @@ void main() {
     vec4 acc = vec4(0.0);
     for (uint k = span.begin + lid; k < span.end; k += W) {
         vec4 node = node_at(k);
-        acc += term(node, brdf(p, node.xyz, wo));
+        acc += term(node, brdf(p, node, wo, mirror));
     }
     sums[lid] = acc;
     barrier();

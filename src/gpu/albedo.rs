@@ -62,8 +62,10 @@ pub struct AlbedoSpan {
     pub begin: u32,
     /// One past the last node.
     pub end: u32,
+    /// 1 where the nodes are offsets from the mirror direction of ωo ([`AlbedoSum::mirror`]).
+    pub mirror: u32,
     /// Padding to the std430 size of 32 bytes; always 0.
-    pub pad: [u32; 2],
+    pub pad: u32,
 }
 
 /// One sum an albedo dispatch makes: Σ w f(ωi, ωo) over nodes `begin..begin + len` of the node
@@ -78,6 +80,33 @@ pub struct AlbedoSum {
     pub begin: usize,
     /// The list's length.
     pub len: usize,
+    /// The nodes are (ωi − r)ₓ, (ωi − r)ᵧ, ωi.z, w with r = (−ωo.x, −ωo.y, ωo.z) the mirror
+    /// direction of ωo, computed in f64 ([`mirror_node`]): the kernel then forms ωi + ωo without
+    /// the cancellation of its tangential parts near r.
+    pub mirror: bool,
+}
+
+/// A node as [`AlbedoSum::mirror`] lists it: the tangential part of ωi − r, where r is the mirror
+/// direction of `wo`, ωi.z and the weight, as f32.
+///
+/// r is taken from the f64 ωo the rule was made for, not from the f32 ωo the kernel reads: the
+/// tangential part of ωi + ωo is then exactly the offset's. Against the f32 ωo it would carry that
+/// ωo's rounding (2^-24 in its length and direction), which tilts h by ~2^-24/(2μo), and at
+/// grazing view a lobe cut by the horizon gains or loses mass in proportion (GGX α = 0.01 at
+/// μo = 0.02: 8e-6 of E). The f32 ωo serves only where its relative rounding is harmless (c_o,
+/// Λ(ωo), and ωi's tangential part, which enters Λ(ωi) alone).
+pub fn mirror_node(wi: DVec3, weight: f64, wo: DVec3) -> [f32; 4] {
+    let (x, y) = (wi.x + wo.x, wi.y + wo.y);
+    [x as f32, y as f32, wi.z as f32, weight as f32]
+}
+
+/// ωi of a node as the kernel forms it: from a [`mirror_node`] with `mirror`, else as listed.
+pub fn node_wi(node: [f32; 4], wo: [f32; 3], mirror: bool) -> [f32; 3] {
+    if mirror {
+        [node[0] - wo[0], node[1] - wo[1], node[2]]
+    } else {
+        [node[0], node[1], node[2]]
+    }
 }
 
 impl Gpu {
@@ -134,7 +163,8 @@ impl Gpu {
                     param_index: s.param as u32,
                     begin: begin as u32,
                     end: (begin + span).min(s.begin + s.len) as u32,
-                    pad: [0; 2],
+                    mirror: s.mirror as u32,
+                    pad: 0,
                 });
                 owner.push(i);
             }
@@ -249,7 +279,7 @@ impl Gpu {
         let pairs: Vec<GpuPair> = all[4 * begin..4 * end]
             .chunks_exact(4)
             .map(|n| GpuPair {
-                wi: [n[0], n[1], n[2]],
+                wi: node_wi([n[0], n[1], n[2], n[3]], span.wo, span.mirror != 0),
                 param_index: 0,
                 wo: span.wo,
                 pad: 0,
@@ -332,6 +362,40 @@ mod tests {
         assert_eq!(offset_of!(AlbedoSpan, param_index), 12);
         assert_eq!(offset_of!(AlbedoSpan, begin), 16);
         assert_eq!(offset_of!(AlbedoSpan, end), 20);
+        assert_eq!(offset_of!(AlbedoSpan, mirror), 24);
+    }
+
+    #[test]
+    fn models_take_mirror_sums_where_their_glsl_defines_the_entry() {
+        // The host sends mirror offsets exactly to the models whose GLSL defines MODEL_EVAL_SUM;
+        // the kernel would otherwise evaluate every other model from reconstructed ωi.
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("glsl/brdf");
+        for model in Model::ALL {
+            let path = dir.join(format!("{}.glsl", model.name()));
+            let text = std::fs::read_to_string(&path).expect("the model's GLSL");
+            assert_eq!(
+                text.contains("#define MODEL_EVAL_SUM"),
+                model.sums_from_mirror_offsets(),
+                "{}",
+                path.display()
+            );
+        }
+    }
+
+    #[test]
+    fn mirror_nodes_give_back_the_node_and_the_exact_sum() {
+        // ωi = r + offset at the kernel's f32 ωo; the offset is the tangential part of ωi + ωo.
+        let wo = DVec3::new(0.9998, 0.0, 0.02).normalize();
+        let wi = DVec3::new(-0.9997, 0.011, 0.0203).normalize();
+        let node = mirror_node(wi, 0.25, wo);
+        let wo32 = [wo.x as f32, wo.y as f32, wo.z as f32];
+        let back = node_wi(node, wo32, true);
+        for c in 0..3 {
+            assert!((back[c] as f64 - wi[c]).abs() < 2e-7, "{back:?} vs {wi}");
+        }
+        assert_eq!(node[0], (wi.x + wo.x) as f32);
+        assert_eq!(node[1], (wi.y + wo.y) as f32);
+        assert_eq!(node[3], 0.25);
     }
 
     #[test]

@@ -49,8 +49,9 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
     }
 }
 
-/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that every GPU estimate of a fixed
-/// rule carries.
+/// The factor K of the f32 rounding bound K ε Σ|w f| / μo that a GPU estimate of a fixed rule
+/// carries where the kernel sums ωi + ωo itself (every sum but those of
+/// [`GPU_MIRROR_ROUNDING_FACTOR`]).
 ///
 /// The GPU evaluates f in f32 from nodes and a view direction rounded to f32, and sums in f32
 /// (16 terms per running sum, then a 64-wide tree on a GPU or four sums added pairwise on a CPU
@@ -67,16 +68,35 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
 /// `gpu_error_estimates_bound_the_f32_rounding` and tests/estimates.rs check it).
 pub const GPU_ROUNDING_FACTOR: f64 = 16.0;
 
-/// The f32 rounding term of an estimate on `backend` (0 on the CPU, whose sums are f64): for a
-/// GPU sum of value v at view ωo, K ε |v| / μo with ε = 2^-23 and K = [`GPU_ROUNDING_FACTOR`].
-/// |v| = Σ|w f| because every rule's weights are positive and a BRDF is nonnegative.
-fn f32_rounding(backend: &Evaluator) -> impl Fn(DVec3, DVec3) -> DVec3 {
+/// The factor K′ of the f32 rounding bound K′ ε Σ|w f| of a GPU sum whose nodes are offsets from
+/// the mirror direction ([`Model::sums_from_mirror_offsets`](crate::model::Model) and a rule
+/// made per ωo): the kernel forms ωi + ωo without the cancellation that costs the other sums
+/// their 1/μo, so what is left is the rounding of f's other terms and of the sum. Over GGX and
+/// Beckmann with α ∈ [0.001, 1] and μo ∈ [1/64, 1] (65536 nodes, white furnace) and over the
+/// default DFG table, the largest |GPU − f64| / (ε Σ|w f|) seen was 1.6, on both reduction
+/// layouts (it was 457 before the offsets); K′ = 4 covers it with a margin of 2.5
+/// (tests/engine_luts.rs `gpu_error_estimates_bound_the_f32_rounding` checks it).
+pub const GPU_MIRROR_ROUNDING_FACTOR: f64 = 4.0;
+
+/// The f32 rounding term of an estimate of `rule` for `model` on `backend` (0 on the CPU, whose
+/// sums are f64): for a GPU sum of value v at view ωo, K ε |v| / μo with ε = 2^-23 and
+/// K = [`GPU_ROUNDING_FACTOR`], or K′ ε |v| ([`GPU_MIRROR_ROUNDING_FACTOR`]) where the kernel
+/// forms ωi + ωo from mirror offsets. |v| = Σ|w f| because every rule's weights are positive and
+/// a BRDF is nonnegative.
+fn f32_rounding(
+    backend: &Evaluator,
+    model: crate::model::Model,
+    rule: Rule,
+) -> impl Fn(DVec3, DVec3) -> DVec3 {
     let on_gpu = matches!(backend.backend(), Backend::Gpu(_));
+    let mirror = model.sums_from_mirror_offsets() && rule.depends_on_wo();
     move |v: DVec3, wo: DVec3| {
-        if on_gpu {
-            v.abs() * (GPU_ROUNDING_FACTOR * f32::EPSILON as f64 / wo.z.max(f64::MIN_POSITIVE))
-        } else {
+        if !on_gpu {
             DVec3::ZERO
+        } else if mirror {
+            v.abs() * (GPU_MIRROR_ROUNDING_FACTOR * f32::EPSILON as f64)
+        } else {
+            v.abs() * (GPU_ROUNDING_FACTOR * f32::EPSILON as f64 / wo.z.max(f64::MIN_POSITIVE))
         }
     }
 }
@@ -124,6 +144,9 @@ fn gpu_sum_rules(
 ) -> Result<Vec<RowSums>> {
     use crate::gpu::albedo::{span_nodes, AlbedoSum, DISPATCH_NODES};
     let span = span_nodes(gpu.device().cpu_kernels());
+    // Lists made per direction go as offsets from its mirror direction where the model's kernel
+    // takes ωi + ωo from them (`Model::sums_from_mirror_offsets`).
+    let mirror = model.sums_from_mirror_offsets();
     // Workgroup spans in one batch: about one dispatch's worth, which bounds the host's span
     // list and partial sums however many rows and directions a job has, and lets Ctrl-C act
     // between dispatches.
@@ -236,7 +259,7 @@ fn gpu_sum_rules(
                     let mut k = 0;
                     for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
                         if l.is_none() {
-                            fill_nodes(*r, wo[o], &mut slot[k..k + c]);
+                            fill_nodes(*r, wo[o], mirror, &mut slot[k..k + c]);
                             k += c;
                         }
                     }
@@ -247,12 +270,12 @@ fn gpu_sum_rules(
         for r in 0..rules.len() {
             for param in 0..blocks.len() {
                 for (o, s) in batch.clone().zip(&starts) {
-                    let w = f4(wo[o], 0.0);
                     sums.push(AlbedoSum {
-                        wo: [w[0], w[1], w[2]],
+                        wo: f32_wo(wo[o]),
                         param,
                         begin: s[r],
                         len: counts[o][r],
+                        mirror: mirror && shared[r].is_none(),
                     });
                 }
             }
@@ -287,11 +310,22 @@ fn f4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
-/// Writes the nodes of `rule` at `wo` into `slot` (as long as their count) as f32x4 (ωi, w).
-fn fill_nodes(rule: Rule, wo: DVec3, slot: &mut [[f32; 4]]) {
+/// ωo as the GPU kernels read it.
+fn f32_wo(wo: DVec3) -> [f32; 3] {
+    [wo.x as f32, wo.y as f32, wo.z as f32]
+}
+
+/// Writes the nodes of `rule` at `wo` into `slot` (as long as their count) as f32x4 (ωi, w), or
+/// with `mirror` as offsets from the mirror direction of ωo
+/// ([`mirror_node`](crate::gpu::albedo::mirror_node)).
+fn fill_nodes(rule: Rule, wo: DVec3, mirror: bool, slot: &mut [[f32; 4]]) {
     let mut k = 0;
     rule.for_each_node(wo, |x| {
-        slot[k] = f4(x.wi, x.weight);
+        slot[k] = if mirror {
+            crate::gpu::albedo::mirror_node(x.wi, x.weight, wo)
+        } else {
+            f4(x.wi, x.weight)
+        };
         k += 1;
     });
     debug_assert_eq!(k, slot.len(), "node_count and for_each_node disagree");
@@ -315,7 +349,10 @@ pub fn rule_albedo_rows(
             .map(|p| rule_albedo(backend, p, white_furnace, rule, wo))
             .collect();
     }
-    let rounding = f32_rounding(backend);
+    let Some(first) = rows.first() else {
+        return Ok(Vec::new());
+    };
+    let rounding = f32_rounding(backend, first.model(), rule);
     if let Rule::Importance {
         n,
         mix,

@@ -29,7 +29,9 @@
 //! its panels, which bounds the 7-point Gauss result and so, in practice, grossly over-bounds the
 //! 15-point Kronrod one.
 //! On the GPU, whose sums are f32, every estimate of a fixed rule also carries an f32 rounding
-//! term K ε |E| / μo ([`GPU_ROUNDING_FACTOR`]), which the differences between levels miss.
+//! term, which the differences between levels miss: K′ ε |E| ([`GPU_MIRROR_ROUNDING_FACTOR`])
+//! where the kernel forms ωi + ωo from nodes given as offsets from the mirror direction, K ε |E|
+//! / μo ([`GPU_ROUNDING_FACTOR`]) elsewhere.
 
 mod albedo;
 mod backend;
@@ -50,7 +52,7 @@ pub use albedo::{
 };
 pub use backend::{
     rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
-    GPU_ROUNDING_FACTOR,
+    GPU_MIRROR_ROUNDING_FACTOR, GPU_ROUNDING_FACTOR,
 };
 pub use estimate::{three_level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
 pub use gauss::{gauss_legendre, Estimate};

@@ -4,7 +4,9 @@
 use super::info::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::SamplingLobes;
-use super::terms::{half_vector, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular};
+use super::terms::{
+    half_vector_from_sum, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular,
+};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
@@ -154,7 +156,18 @@ pub fn ashikhmin_shirley_exponent(h: DVec3, nu: f64, nv: f64) -> f64 {
 /// f = ρ_s + ρ_d in 1/sr (eqs. 4 and 5), without the cosine; `white_furnace` sets the coat's
 /// Fresnel to 1.
 pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
-    let (h, c_d) = half_vector(wi, wo);
+    ashikhmin_shirley_from_sum(p, wi, wo, wi + wo, white_furnace)
+}
+
+/// [`ashikhmin_shirley`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+pub fn ashikhmin_shirley_from_sum(
+    p: &AshikhminShirley,
+    wi: DVec3,
+    wo: DVec3,
+    s: DVec3,
+    white_furnace: bool,
+) -> DVec3 {
+    let (h, c_d) = half_vector_from_sum(s);
     let (c_i, c_o) = (wi.z, wo.z);
     let e = ashikhmin_shirley_exponent(h, p.nu, p.nv);
     let spec = ((p.nu + 1.0) * (p.nv + 1.0)).sqrt() / (8.0 * PI) * pow1m(one_minus_cos_theta(h), e)

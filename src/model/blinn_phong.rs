@@ -126,7 +126,12 @@ pub fn blinn_phong_exponent(smoothness: f64) -> f64 {
 
 /// f in 1/sr for ωi (to the light) and ωo (to the viewer) above the horizon, without the cosine.
 pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
-    let h = (wi + wo).normalize();
+    blinn_phong_from_sum(p, wi, wo, wi + wo)
+}
+
+/// [`blinn_phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+pub fn blinn_phong_from_sum(p: &BlinnPhong, _wi: DVec3, _wo: DVec3, s: DVec3) -> DVec3 {
+    let h = s.normalize();
     let n = blinn_phong_exponent(p.smoothness);
     let lobe = (n + 8.0) / (8.0 * PI) * pow1m(one_minus_cos_theta(h), n);
     p.diffuse * FRAC_1_PI + p.specular * lobe

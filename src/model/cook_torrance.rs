@@ -4,7 +4,7 @@
 use super::info::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::{beckmann_exponent, SamplingLobes};
-use super::terms::{half_vector, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
+use super::terms::{half_vector_from_sum, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
@@ -136,7 +136,18 @@ impl CookTorrance {
 /// f = diffuse/π + specular F D G/(4 c_i c_o) in 1/sr, without the cosine; `white_furnace`
 /// sets F = 1.
 pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
-    let (h, c_d) = half_vector(wi, wo);
+    cook_torrance_from_sum(p, wi, wo, wi + wo, white_furnace)
+}
+
+/// [`cook_torrance`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+pub fn cook_torrance_from_sum(
+    p: &CookTorrance,
+    wi: DVec3,
+    wo: DVec3,
+    s: DVec3,
+    white_furnace: bool,
+) -> DVec3 {
+    let (h, c_d) = half_vector_from_sum(s);
     let (c_i, c_o) = (wi.z, wo.z);
     let d = D_beckmann(h, p.roughness, p.roughness);
     let g = G_v_cavity(h.z, c_d, c_i, c_o);

@@ -15,7 +15,7 @@ use super::kulla_conty;
 use super::params::ParamSpec;
 use super::quadrature::{beckmann_exponent, SamplingLobes};
 use super::terms::{
-    alpha_tan2, half_vector, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
+    alpha_tan2, half_vector_from_sum, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
     F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,
 };
 use super::{f32x3, Layout, Model, ParamSet};
@@ -316,7 +316,18 @@ pub fn fresnel_average(p: &Microfacet) -> DVec3 {
 /// components of `p.config` (f_ms, Kulla & Conty's lobe, only with `multiscatter=kulla_conty`:
 /// [`kulla_conty`]); `white_furnace` sets F = 1, and so F_avg = F_ms = 1.
 pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> DVec3 {
-    let (h, c_d) = half_vector(wi, wo);
+    microfacet_from_sum(p, wi, wo, wi + wo, white_furnace)
+}
+
+/// [`microfacet`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+pub fn microfacet_from_sum(
+    p: &Microfacet,
+    wi: DVec3,
+    wo: DVec3,
+    s: DVec3,
+    white_furnace: bool,
+) -> DVec3 {
+    let (h, c_d) = half_vector_from_sum(s);
     let (c_i, c_o) = (wi.z, wo.z);
     let d = match p.config.distribution {
         0 => D_beckmann(h, p.alpha_x, p.alpha_y),

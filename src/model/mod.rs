@@ -87,6 +87,21 @@ impl Model {
         (self.info().v_cavity)(self)
     }
 
+    /// Whether the model's GLSL takes ωi + ωo from the caller (`MODEL_EVAL_SUM`, e.g.
+    /// `microfacet_from_sum`), so that the albedo kernel can hand it the sum formed exactly from
+    /// a node's offset from the mirror direction of ωo (`glsl/kernels/albedo.comp`): the models
+    /// whose lobe is a function of the half vector or of the mirror direction.
+    pub fn sums_from_mirror_offsets(self) -> bool {
+        matches!(
+            self,
+            Model::Phong
+                | Model::BlinnPhong
+                | Model::CookTorrance
+                | Model::AshikhminShirley
+                | Model::Microfacet(_)
+        )
+    }
+
     /// The name used on the command line, in file names and in the GLSL function.
     pub fn name(self) -> &'static str {
         self.info().name

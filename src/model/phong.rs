@@ -127,11 +127,17 @@ impl Phong {
 
 /// f in 1/sr for ωi (to the light) and ωo (to the viewer) above the horizon, without the cosine.
 pub fn phong(p: &Phong, wi: DVec3, wo: DVec3) -> DVec3 {
-    // The mirror of ωi about n = +z: 2 c_i n − ωi.
-    let r = DVec3::new(-wi.x, -wi.y, wi.z);
-    // 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation near the mirror direction.
-    let s = 0.5 * (r - wo).length_squared();
-    let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(s, p.shininess);
+    phong_from_sum(p, wi, wo, wi + wo)
+}
+
+/// [`phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+pub fn phong_from_sum(p: &Phong, wi: DVec3, wo: DVec3, s: DVec3) -> DVec3 {
+    // r − ωo with r = (−ωi.x, −ωi.y, ωi.z), the mirror of ωi about n = +z (2 c_i n − ωi): its
+    // tangential part is −(ωi + ωo)'s. 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation
+    // near the mirror direction.
+    let d = DVec3::new(-s.x, -s.y, wi.z - wo.z);
+    let one_minus_r_wo = 0.5 * d.length_squared();
+    let lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(one_minus_r_wo, p.shininess);
     p.diffuse * FRAC_1_PI + p.specular * lobe
 }
 

@@ -30,11 +30,17 @@ pub fn one_minus_cos_theta(h: DVec3) -> f64 {
     (h.x * h.x + h.y * h.y) / (1.0 + h.z)
 }
 
-/// Half vector h = normalize(ωi + ωo) and c_d = ωi·h = |ωi + ωo|/2 (see the GLSL twin for why).
-pub fn half_vector(wi: DVec3, wo: DVec3) -> (DVec3, f64) {
-    let s = wi + wo;
+/// [`half_vector`] from s = ωi + ωo given by the caller. The f32 twin's albedo kernel passes the
+/// sum formed exactly from a node's offset from the mirror direction (the f32 sum ωi + ωo would
+/// keep the roundings of their cancelling tangential parts); in f64 every caller passes ωi + ωo.
+pub fn half_vector_from_sum(s: DVec3) -> (DVec3, f64) {
     let len = s.length();
     (s / len, 0.5 * len)
+}
+
+/// Half vector h = normalize(ωi + ωo) and c_d = ωi·h = |ωi + ωo|/2 (see the GLSL twin for why).
+pub fn half_vector(wi: DVec3, wo: DVec3) -> (DVec3, f64) {
+    half_vector_from_sum(wi + wo)
 }
 
 /// Normal-incidence reflectance of a dielectric with relative IOR `eta`.
