@@ -159,7 +159,8 @@ pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furna
     ashikhmin_shirley_from_sum(p, wi, wo, wi + wo, white_furnace)
 }
 
-/// [`ashikhmin_shirley`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`ashikhmin_shirley`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
+/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
 pub fn ashikhmin_shirley_from_sum(
     p: &AshikhminShirley,
     wi: DVec3,

@@ -129,7 +129,8 @@ pub fn blinn_phong(p: &BlinnPhong, wi: DVec3, wo: DVec3) -> DVec3 {
     blinn_phong_from_sum(p, wi, wo, wi + wo)
 }
 
-/// [`blinn_phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`blinn_phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
+/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
 pub fn blinn_phong_from_sum(p: &BlinnPhong, _wi: DVec3, _wo: DVec3, s: DVec3) -> DVec3 {
     let h = s.normalize();
     let n = blinn_phong_exponent(p.smoothness);

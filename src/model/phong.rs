@@ -130,7 +130,8 @@ pub fn phong(p: &Phong, wi: DVec3, wo: DVec3) -> DVec3 {
     phong_from_sum(p, wi, wo, wi + wo)
 }
 
-/// [`phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum: [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`phong`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
+/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
 pub fn phong_from_sum(p: &Phong, wi: DVec3, wo: DVec3, s: DVec3) -> DVec3 {
     // r − ωo with r = (−ωi.x, −ωi.y, ωi.z), the mirror of ωi about n = +z (2 c_i n − ωi): its
     // tangential part is −(ωi + ωo)'s. 1 − r·ωo = |r − ωo|²/2 for unit vectors: no cancellation
