@@ -176,6 +176,16 @@ fn main() {
                     Some(lobe::Error::Cancelled(_))
                 )
         });
-        std::process::exit(if interrupted { 130 } else { 1 });
+        let status = if interrupted { 130 } else { 1 };
+        if cli::device_hung(&e) {
+            // The driver's threads (a CPU driver's) may still be running the kernel that did not
+            // finish: leave without the process's exit handlers, which tear down the driver
+            // under them (that crashed the process now and then).
+            use std::io::Write as _;
+            let _ = std::io::stderr().flush();
+            // SAFETY: _exit ends the process at once; nothing after it runs.
+            unsafe { libc::_exit(status) };
+        }
+        std::process::exit(status);
     }
 }

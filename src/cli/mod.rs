@@ -507,16 +507,30 @@ pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
     bar
 }
 
-/// The flags that help with a GPU failure, when `e` is one: the library's message says what to
-/// do in words, this names the command line's spelling of it.
-pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
-    let gpu = e.chain().find_map(|c| {
+/// Whether `e` says the device did not finish its work in time: its threads (a CPU driver's) may
+/// still be running the kernel.
+pub fn device_hung(e: &anyhow::Error) -> bool {
+    matches!(
+        gpu_error(e),
+        Some(GpuError::Timeout { .. } | GpuError::ModelTimeout { .. } | GpuError::Hung)
+    )
+}
+
+/// The GPU error in `e`'s chain, bare or inside a `lobe::Error`.
+fn gpu_error(e: &anyhow::Error) -> Option<&GpuError> {
+    e.chain().find_map(|c| {
         c.downcast_ref::<GpuError>()
             .or_else(|| match c.downcast_ref::<lobe::Error>() {
                 Some(lobe::Error::Gpu(g)) => Some(g),
                 _ => None,
             })
-    })?;
+    })
+}
+
+/// The flags that help with a GPU failure, when `e` is one: the library's message says what to
+/// do in words, this names the command line's spelling of it.
+pub fn gpu_hint(e: &anyhow::Error) -> Option<&'static str> {
+    let gpu = gpu_error(e)?;
     Some(match gpu {
         GpuError::NoLoader(_) | GpuError::NoDevice => {
             "--backend cpu runs the f64 CPU reference without Vulkan"
