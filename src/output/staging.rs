@@ -1,0 +1,145 @@
+//! A whole folder of output, staged beside its destination.
+
+use super::set::{move_all, Move};
+use super::{
+    create_folders, folder_of, is_interrupted, lock_folders, open_folder_lock, register, registry,
+    remove_created, unregister, FOLDER_MODE,
+};
+use crate::interrupt::Interrupted;
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+
+/// A folder of output built in a staging folder beside its destination (`.lobe-<name>-*`) and
+/// moved into place by [`StagingFolder::commit`]; dropped without a commit, the staging folder and
+/// everything in it are removed and the destination is left as it was.
+pub struct StagingFolder {
+    tmp: Option<tempfile::TempDir>,
+    id: u64,
+    dest: PathBuf,
+    /// Folders made for it (the destination's parents), removed again if it is not committed.
+    folders: Vec<PathBuf>,
+}
+
+impl StagingFolder {
+    /// A staging folder for `dest`, created in `dest`'s parent (made if missing); `name` goes into
+    /// the staging folder's name. Fails when a file is in the way of `dest`.
+    pub fn new(dest: &Path, name: &str) -> Result<StagingFolder> {
+        if is_interrupted() {
+            return Err(Interrupted.into());
+        }
+        if dest.exists() && !dest.is_dir() {
+            bail!(
+                "cannot write the folder {}: a file of that name is in the way",
+                dest.display()
+            );
+        }
+        let parent = folder_of(dest);
+        let mut folders = Vec::new();
+        create_folders(parent, &mut folders)?;
+        let lockable = open_folder_lock(parent)
+            .and_then(|_| match dest.is_dir() {
+                true => open_folder_lock(dest).map(drop),
+                false => Ok(()),
+            })
+            .with_context(|| format!("cannot write the folder {}", dest.display()));
+        if let Err(e) = lockable {
+            remove_created(&folders);
+            return Err(e);
+        }
+        let prefix = format!(".lobe-{name}-");
+        let mut b = tempfile::Builder::new();
+        b.prefix(&prefix);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            b.permissions(std::fs::Permissions::from_mode(FOLDER_MODE));
+        }
+        let tmp = b
+            .tempdir_in(parent)
+            .with_context(|| format!("creating a staging folder in {}", parent.display()))?;
+        let id = register(tmp.path(), true);
+        Ok(StagingFolder {
+            tmp: Some(tmp),
+            id,
+            dest: dest.to_path_buf(),
+            folders,
+        })
+    }
+
+    /// The staging folder itself.
+    pub fn root(&self) -> &Path {
+        self.tmp
+            .as_ref()
+            .expect("a staging folder has its folder until it is consumed")
+            .path()
+    }
+
+    /// Where `rel` (a path relative to the destination) is written while staged.
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.root().join(rel)
+    }
+
+    /// Moves the finished folder into place. When the destination does not exist yet, the whole
+    /// staging folder is renamed onto it in one step. Otherwise `files` (relative paths) are
+    /// moved into it as one transaction (see the module's notes) in the order given (put the file
+    /// that marks the folder complete last): every file or none, every check before the first
+    /// rename, the old files back if a step fails. Anything else staged is removed.
+    pub fn commit<S: AsRef<str>>(mut self, files: &[S]) -> Result<()> {
+        let root = self.root().to_path_buf();
+        if !self.dest.exists() {
+            let locks = lock_folders([folder_of(&self.dest)].into_iter())?;
+            let mut reg = registry();
+            if is_interrupted() {
+                return Err(Interrupted.into());
+            }
+            if !self.dest.exists() {
+                let moved = std::fs::rename(&root, &self.dest);
+                if moved.is_ok() {
+                    reg.staged.remove(&self.id);
+                    if let Some(tmp) = self.tmp.take() {
+                        let _ = tmp.keep();
+                    }
+                    self.folders.clear();
+                }
+                drop(reg);
+                drop(locks);
+                return moved.with_context(|| {
+                    format!("renaming the finished folder onto {}", self.dest.display())
+                });
+            }
+        }
+        let mut made = Vec::new();
+        let moves: Vec<Move> = files
+            .iter()
+            .map(|f| Move {
+                from: root.join(f.as_ref()),
+                to: self.dest.join(f.as_ref()),
+            })
+            .collect();
+        let prepared = moves
+            .iter()
+            .try_for_each(|m| create_folders(folder_of(&m.to), &mut made));
+        let result = prepared.and_then(|()| {
+            let _locks = lock_folders(moves.iter().map(|m| folder_of(&m.to)))?;
+            let _reg = registry();
+            if is_interrupted() {
+                return Err(Interrupted.into());
+            }
+            move_all(&moves)
+        });
+        if result.is_err() {
+            remove_created(&made);
+        }
+        result
+    }
+}
+
+impl Drop for StagingFolder {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            drop(tmp);
+            unregister(self.id);
+        }
+        remove_created(&self.folders);
+    }
+}
