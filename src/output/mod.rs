@@ -54,7 +54,7 @@ use std::sync::{Mutex, MutexGuard};
 pub use exr_header::sort_attributes as sort_exr_attributes;
 pub use pending::{write_atomic, write_exr, OutputWriter, Pending};
 pub use set::FileSet;
-pub use staging::StagingFolder;
+pub use staging::{check_folder_destination, StagingFolder};
 
 /// The EXR encoding of lobe's images: RLE in 64 × 64 tiles (lossless and fast, as exr's
 /// `FAST_LOSSLESS`), with the tiles in increasing order: the encoder compresses in parallel, and

@@ -20,19 +20,69 @@ pub struct StagingFolder {
     folders: Vec<PathBuf>,
 }
 
+/// Checks, before any work, that a folder of output can be written at `dest`: no file in the way,
+/// and the folder that would receive files (`dest` itself when it exists, else the nearest folder
+/// above it that does) is neither read-only (no write permission: refused even where the process
+/// could write anyway, as running as root, just as read-only files are) nor unwritable (a file
+/// cannot be created there: a read-only file system, an immutable folder).
+pub fn check_folder_destination(dest: &Path) -> Result<()> {
+    if dest.exists() && !dest.is_dir() {
+        bail!(
+            "cannot write the folder {}: a file of that name is in the way",
+            dest.display()
+        );
+    }
+    let Some(receiver) = dest
+        .ancestors()
+        .map(|a| match a.as_os_str().is_empty() {
+            true => Path::new("."),
+            false => a,
+        })
+        .find(|a| a.exists())
+    else {
+        return Ok(());
+    };
+    if !receiver.is_dir() {
+        bail!(
+            "cannot write the folder {}: {} is a file, not a folder",
+            dest.display(),
+            receiver.display()
+        );
+    }
+    let meta = std::fs::metadata(receiver)
+        .with_context(|| format!("cannot write the folder {}", dest.display()))?;
+    if meta.permissions().readonly() {
+        bail!(
+            "cannot write the folder {}: {} is read-only, and lobe does not write into read-only \
+             folders; make it writable (chmod u+w) or write elsewhere",
+            dest.display(),
+            receiver.display()
+        );
+    }
+    tempfile::Builder::new()
+        .prefix(".lobe-probe-")
+        .tempfile_in(receiver)
+        .map(drop)
+        .map_err(|e| {
+            let cause = e
+                .raw_os_error()
+                .map_or(e.kind().into(), std::io::Error::from_raw_os_error);
+            anyhow::anyhow!(
+                "cannot write the folder {}: creating a file in {} failed: {cause}",
+                dest.display(),
+                receiver.display()
+            )
+        })
+}
+
 impl StagingFolder {
     /// A staging folder for `dest`, created in `dest`'s parent (made if missing); `name` goes into
-    /// the staging folder's name. Fails when a file is in the way of `dest`.
+    /// the staging folder's name. Fails as [`check_folder_destination`] does.
     pub fn new(dest: &Path, name: &str) -> Result<StagingFolder> {
         if is_interrupted() {
             return Err(Interrupted.into());
         }
-        if dest.exists() && !dest.is_dir() {
-            bail!(
-                "cannot write the folder {}: a file of that name is in the way",
-                dest.display()
-            );
-        }
+        check_folder_destination(dest)?;
         let parent = folder_of(dest);
         let mut folders = Vec::new();
         create_folders(parent, &mut folders)?;
