@@ -36,6 +36,7 @@
 
 mod exr_header;
 
+mod commit;
 mod pending;
 mod set;
 mod staging;

@@ -1,5 +1,6 @@
 //! One file written through a temporary file beside its destination.
 
+use super::commit::recover_folder;
 use super::{
     check_replaceable, encoder_error, folder_of, is_interrupted, open_folder_lock, register,
     sort_exr_attributes, temp_affixes, temp_builder, unregister, why_not_a_folder, FileSet,
@@ -41,6 +42,7 @@ impl Pending {
             bail!("cannot write {}: {}", dest.display(), why_not_a_folder(dir));
         }
         open_folder_lock(dir).with_context(|| format!("cannot write {}", dest.display()))?;
+        recover_folder(dir);
         check_replaceable(dest)?;
         let name = dest
             .file_name()
@@ -70,6 +72,10 @@ impl Pending {
                     )
                 }
             })?;
+        // Held while the file lives: how a later run tells it from one left by a run that died.
+        tmp.as_file()
+            .try_lock()
+            .with_context(|| format!("cannot lock the temporary file for {}", dest.display()))?;
         let id = register(tmp.path(), false);
         Ok(Pending {
             tmp: Some(tmp),

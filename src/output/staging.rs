@@ -1,6 +1,6 @@
 //! A whole folder of output, staged beside its destination.
 
-use super::set::{move_all, Move};
+use super::commit::{commit, recover_folder, sync_folder, sync_tree, Move};
 use super::{
     create_folders, folder_of, is_interrupted, lock_folders, open_folder_lock, register, registry,
     remove_created, unregister, FOLDER_MODE,
@@ -14,6 +14,9 @@ use std::path::{Path, PathBuf};
 /// everything in it are removed and the destination is left as it was.
 pub struct StagingFolder {
     tmp: Option<tempfile::TempDir>,
+    /// A lock on the staging folder, held while it lives: how a later run tells it from one left
+    /// by a run that died.
+    _lock: std::fs::File,
     id: u64,
     dest: PathBuf,
     /// Folders made for it (the destination's parents), removed again if it is not committed.
@@ -96,6 +99,10 @@ impl StagingFolder {
             remove_created(&folders);
             return Err(e);
         }
+        recover_folder(parent);
+        if dest.is_dir() {
+            recover_folder(dest);
+        }
         let prefix = format!(".lobe-{name}-");
         let mut b = tempfile::Builder::new();
         b.prefix(&prefix);
@@ -107,8 +114,12 @@ impl StagingFolder {
         let tmp = b
             .tempdir_in(parent)
             .with_context(|| format!("creating a staging folder in {}", parent.display()))?;
+        let lock = std::fs::File::open(tmp.path())
+            .and_then(|f| f.try_lock().map(|()| f).map_err(std::io::Error::other))
+            .with_context(|| format!("locking the staging folder {}", tmp.path().display()))?;
         let id = register(tmp.path(), true);
         Ok(StagingFolder {
+            _lock: lock,
             tmp: Some(tmp),
             id,
             dest: dest.to_path_buf(),
@@ -143,7 +154,9 @@ impl StagingFolder {
                 return Err(Interrupted.into());
             }
             if !self.dest.exists() {
-                let moved = std::fs::rename(&root, &self.dest);
+                let moved = sync_tree(&root)
+                    .and_then(|()| std::fs::rename(&root, &self.dest))
+                    .and_then(|()| sync_folder(folder_of(&self.dest)));
                 if moved.is_ok() {
                     reg.staged.remove(&self.id);
                     if let Some(tmp) = self.tmp.take() {
@@ -175,7 +188,7 @@ impl StagingFolder {
             if is_interrupted() {
                 return Err(Interrupted.into());
             }
-            move_all(&moves)
+            commit(&moves, &[])
         });
         if result.is_err() {
             remove_created(&made);

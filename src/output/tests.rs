@@ -1,4 +1,4 @@
-use super::set::FAIL_RENAME_AT;
+use super::commit::FAIL_RENAME_AT;
 use super::*;
 use std::io::Write;
 
