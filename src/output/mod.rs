@@ -37,6 +37,7 @@
 mod exr_header;
 
 mod commit;
+mod owner;
 mod pending;
 mod set;
 mod staging;
@@ -53,6 +54,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
 pub use exr_header::sort_attributes as sort_exr_attributes;
+pub use owner::{replace_sets, set_json};
 pub use pending::{write_atomic, write_exr, OutputWriter, Pending};
 pub use set::FileSet;
 pub use staging::{check_folder_destination, StagingFolder};
@@ -204,9 +206,11 @@ fn check_replaceable(dest: &Path) -> Result<()> {
 }
 
 /// Checks, before any work, that `dest` can be written: no folder of that name, no read-only file
-/// there, no file in the way of its folder.
+/// there, no file in the way of its folder, and no member of a set of a kind unless sets are
+/// replaced ([`replace_sets`]).
 pub fn check_destination(dest: &Path) -> Result<()> {
     check_replaceable(dest)?;
+    owner::check_single(dest)?;
     let mut at = Some(folder_of(dest));
     while let Some(p) = at.filter(|p| !p.as_os_str().is_empty()) {
         if p.exists() {

@@ -1,6 +1,7 @@
 //! One file written through a temporary file beside its destination.
 
 use super::commit::recover_folder;
+use super::owner::check_single;
 use super::{
     check_replaceable, encoder_error, folder_of, is_interrupted, open_folder_lock, register,
     sort_exr_attributes, temp_affixes, temp_builder, unregister, why_not_a_folder, FileSet,
@@ -23,17 +24,23 @@ impl Pending {
     /// A temporary file `.lobe-*.partial` beside `dest`. Fails, naming `dest`, when its folder
     /// does not exist or no file can be created there, when the name is too long for the file
     /// system, when `dest` is a folder or a read-only file, and once output is interrupted.
+    /// A member of a set (see [`FileSet::add_set`]) is refused too, unless sets are replaced
+    /// ([`super::replace_sets`]).
     pub fn new(dest: &Path) -> Result<Pending> {
+        check_single(dest)?;
         Pending::with_suffix(dest, ".partial")
     }
 
     /// As [`Pending::new`], but the temporary name ends in `.ext`, for writers that pick their
     /// format from the name of the file they are given (plotters' PNG backend).
     pub fn with_extension(dest: &Path, ext: &str) -> Result<Pending> {
+        check_single(dest)?;
         Pending::with_suffix(dest, &format!(".{ext}"))
     }
 
-    fn with_suffix(dest: &Path, suffix: &str) -> Result<Pending> {
+    /// [`Pending::new`] without the check of which set owns `dest`: for a [`FileSet`], which
+    /// checks its members as sets.
+    pub(super) fn with_suffix(dest: &Path, suffix: &str) -> Result<Pending> {
         if is_interrupted() {
             return Err(Interrupted.into());
         }
@@ -116,9 +123,7 @@ impl Pending {
 
     /// Renames the finished file onto its destination: a [`FileSet`] of one.
     pub fn commit(self) -> Result<()> {
-        let mut set = FileSet::empty();
-        set.files.push(self);
-        set.commit()
+        FileSet::of_one(self).commit()
     }
 
     /// Puts the header attributes of this finished EXR in name order: see

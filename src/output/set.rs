@@ -1,6 +1,7 @@
 //! Files committed together: the transaction.
 
 use super::commit::{commit, Move};
+use super::owner::{plan, Group};
 use super::{
     check_replaceable, create_folders, folder_of, is_interrupted, lock_folders, registry,
     remove_created, resolve, Pending,
@@ -19,6 +20,8 @@ pub struct FileSet {
     resolved: HashMap<PathBuf, usize>,
     /// Folders this set created, removed again (when empty) if it is not committed.
     folders: Vec<PathBuf>,
+    /// The sets the files make up (see [`super::owner`]).
+    pub(super) groups: Vec<Group>,
 }
 
 impl FileSet {
@@ -36,29 +39,81 @@ impl FileSet {
         Ok(set)
     }
 
+    /// [`FileSet::new`] for the members of one set of `kind` whose record (its JSON sidecar,
+    /// which must hold [`super::set_json`] of the members as `"set"`) is `dests[record]`: see
+    /// [`FileSet::add_set`].
+    pub fn new_set(kind: &str, dests: &[&Path], record: usize) -> Result<FileSet> {
+        for dest in dests {
+            check_replaceable(dest)?;
+        }
+        let mut set = FileSet::empty();
+        set.add_set(kind, dests, record)?;
+        Ok(set)
+    }
+
     /// A set with no files yet.
     pub fn empty() -> FileSet {
         FileSet {
             files: Vec::new(),
             resolved: HashMap::new(),
             folders: Vec::new(),
+            groups: Vec::new(),
         }
     }
 
-    /// Adds a [`Pending`] file for `dest` (see [`Pending::new`]), returning its index; a
-    /// destination already in the set, however written (`./t.json` and `t.json`), is refused.
+    /// Adds a [`Pending`] file for `dest` (see [`Pending::new`]), written on its own (a plot, a
+    /// picture), returning its index; a destination already in the set, however written
+    /// (`./t.json` and `t.json`), is refused, and so is a member of a set of a kind unless sets
+    /// are replaced ([`super::replace_sets`]).
     pub fn add(&mut self, dest: &Path) -> Result<usize> {
-        let resolved = resolve(dest);
-        if let Some(&other) = self.resolved.get(&resolved) {
-            bail!(
-                "cannot write {}: the same file as {} in one set",
-                dest.display(),
-                self.files[other].dest.display()
-            );
+        self.add_group(None, &[dest], 0)
+    }
+
+    /// Adds the members of one set of `kind` (`"table"`, `"lut"`, …) whose record is
+    /// `dests[record]`, returning the index of the first. Refused before any file is created
+    /// (see [`super::owner`]) when a destination belongs to another set or (an existing file) to
+    /// none, unless sets are replaced ([`super::replace_sets`]); the commit removes the members
+    /// of this set's earlier version that it no longer has.
+    pub fn add_set(&mut self, kind: &str, dests: &[&Path], record: usize) -> Result<usize> {
+        self.add_group(Some(kind), dests, record)
+    }
+
+    fn add_group(&mut self, kind: Option<&str>, dests: &[&Path], record: usize) -> Result<usize> {
+        let mut resolved = Vec::with_capacity(dests.len());
+        for dest in dests {
+            let r = resolve(dest);
+            let earlier = self.resolved.get(&r).copied().or_else(|| {
+                let k = resolved.iter().position(|o| *o == r)?;
+                Some(self.files.len() + k)
+            });
+            if let Some(other) = earlier {
+                let other = self
+                    .files
+                    .get(other)
+                    .map_or(dests[other - self.files.len()], |p| p.dest.as_path());
+                bail!(
+                    "cannot write {}: the same file as {} in one set",
+                    dest.display(),
+                    other.display()
+                );
+            }
+            resolved.push(r);
         }
-        self.files.push(Pending::new(dest)?);
-        self.resolved.insert(resolved, self.files.len() - 1);
-        Ok(self.files.len() - 1)
+        let group = Group {
+            kind: kind.map(str::to_string),
+            record: kind.and(dests.get(record)).map(|r| r.to_path_buf()),
+            members: dests.iter().map(|d| d.to_path_buf()).collect(),
+        };
+        plan(&group, &|p| {
+            self.resolved.contains_key(p) || resolved.iter().any(|r| r == p)
+        })?;
+        let first = self.files.len();
+        for (dest, r) in dests.iter().zip(resolved) {
+            self.files.push(Pending::with_suffix(dest, ".partial")?);
+            self.resolved.insert(r, self.files.len() - 1);
+        }
+        self.groups.push(group);
+        Ok(first)
     }
 
     /// Creates `dir` and the missing folders above it (with the umask's permissions); those this
@@ -93,7 +148,9 @@ impl FileSet {
         let result = if is_interrupted() {
             Err(Interrupted.into())
         } else {
-            commit(&moves, &[])
+            // Again under the locks: another run may have committed a set here since.
+            self.removals()
+                .and_then(|removals| commit(&moves, &removals))
         };
         if result.is_ok() {
             for p in &files {
@@ -112,6 +169,35 @@ impl FileSet {
             }
         }
         result
+    }
+}
+
+impl FileSet {
+    /// The set of the one file `p`, written on its own.
+    pub(super) fn of_one(p: Pending) -> FileSet {
+        let mut set = FileSet::empty();
+        set.resolved.insert(resolve(&p.dest), 0);
+        set.groups.push(Group {
+            kind: None,
+            record: None,
+            members: vec![p.dest.clone()],
+        });
+        set.files.push(p);
+        set
+    }
+
+    /// What the commit removes besides renaming its files (see [`plan`]).
+    fn removals(&self) -> Result<Vec<PathBuf>> {
+        let claimed = |p: &Path| self.resolved.contains_key(p);
+        let mut removals: Vec<PathBuf> = Vec::new();
+        for g in &self.groups {
+            for r in plan(g, &claimed)? {
+                if !removals.contains(&r) {
+                    removals.push(r);
+                }
+            }
+        }
+        Ok(removals)
     }
 }
 
