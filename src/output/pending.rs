@@ -56,33 +56,26 @@ impl Pending {
             .map(|n| n.as_encoded_bytes())
             .unwrap_or(b"");
         let (prefix, suffix) = temp_affixes(name, suffix);
-        let tmp = temp_builder(&prefix, &suffix)
-            .tempfile_in(dir)
-            .map_err(|e| {
-                // ENAMETOOLONG: the temporary name is as long as the destination's.
-                if e.kind() == io::ErrorKind::InvalidFilename {
-                    anyhow::anyhow!(
-                        "cannot write {}: the name is too long for the file system ({} bytes)",
-                        dest.display(),
-                        name.len()
-                    )
-                } else {
-                    // The temporary-file error repeats its path once per attempt: the OS error
-                    // alone says what went wrong.
-                    let cause = e
-                        .raw_os_error()
-                        .map_or(e.kind().into(), io::Error::from_raw_os_error);
-                    anyhow::anyhow!(
-                        "cannot write {}: creating a file in {} failed: {cause}",
-                        dest.display(),
-                        dir.display()
-                    )
-                }
-            })?;
+        // A run cleaning up after dead runs removes the temporary files it can lock: one made
+        // here and removed before this run locked it is made again.
+        let mut attempts = 0;
+        let tmp = loop {
+            let tmp = temp_builder(&prefix, &suffix)
+                .tempfile_in(dir)
+                .map_err(|e| temp_error(e, dest, dir, name.len()))?;
+            attempts += 1;
+            if held(tmp.as_file(), tmp.path()) || attempts == MAX_TEMP_ATTEMPTS {
+                break tmp;
+            }
+        };
         // Held while the file lives: how a later run tells it from one left by a run that died.
-        tmp.as_file()
-            .try_lock()
-            .with_context(|| format!("cannot lock the temporary file for {}", dest.display()))?;
+        if !held(tmp.as_file(), tmp.path()) {
+            bail!(
+                "cannot write {}: no temporary file in {} could be locked",
+                dest.display(),
+                dir.display()
+            );
+        }
         let id = register(tmp.path(), false);
         Ok(Pending {
             tmp: Some(tmp),
@@ -130,6 +123,51 @@ impl Pending {
     /// [`sort_exr_attributes`].
     fn sort_exr(&self) -> Result<()> {
         sort_exr_attributes(self.file()).with_context(|| format!("writing {}", self.dest.display()))
+    }
+}
+
+/// How many temporary files [`Pending::new`] makes before giving up when each is removed under it.
+const MAX_TEMP_ATTEMPTS: usize = 8;
+
+/// Locks `file`, just made at `path`, for as long as it is open, and says whether `path` is still
+/// that file (not removed under it by a run cleaning up before the lock was taken).
+pub(super) fn held(file: &File, path: &Path) -> bool {
+    if file.try_lock().is_err() {
+        return false;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (file.metadata(), std::fs::symlink_metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        path.exists()
+    }
+}
+
+/// The error of a temporary file that could not be made for `dest` in `dir`.
+fn temp_error(e: io::Error, dest: &Path, dir: &Path, name_len: usize) -> anyhow::Error {
+    // ENAMETOOLONG: the temporary name is as long as the destination's.
+    if e.kind() == io::ErrorKind::InvalidFilename {
+        anyhow::anyhow!(
+            "cannot write {}: the name is too long for the file system ({name_len} bytes)",
+            dest.display()
+        )
+    } else {
+        // The temporary-file error repeats its path once per attempt: the OS error alone says
+        // what went wrong.
+        let cause = e
+            .raw_os_error()
+            .map_or(e.kind().into(), io::Error::from_raw_os_error);
+        anyhow::anyhow!(
+            "cannot write {}: creating a file in {} failed: {cause}",
+            dest.display(),
+            dir.display()
+        )
     }
 }
 

@@ -104,13 +104,22 @@ impl FileSet {
             record: kind.and(dests.get(record)).map(|r| r.to_path_buf()),
             members: dests.iter().map(|d| d.to_path_buf()).collect(),
         };
-        plan(&group, &|p| {
-            self.resolved.contains_key(p) || resolved.iter().any(|r| r == p)
-        })?;
+        // The files first (a folder in the way, a name too long), then which sets they belong to.
         let first = self.files.len();
-        for (dest, r) in dests.iter().zip(resolved) {
+        let staged = dests.iter().zip(&resolved).try_for_each(|(dest, r)| {
             self.files.push(Pending::with_suffix(dest, ".partial")?);
-            self.resolved.insert(r, self.files.len() - 1);
+            self.resolved.insert(r.clone(), self.files.len() - 1);
+            Ok(())
+        });
+        let planned = staged.and_then(|()| plan(&group, &|p| self.resolved.contains_key(p)));
+        if let Err(e) = planned {
+            for r in &resolved {
+                if self.resolved.get(r).is_some_and(|&k| k >= first) {
+                    self.resolved.remove(r);
+                }
+            }
+            self.files.truncate(first);
+            return Err(e);
         }
         self.groups.push(group);
         Ok(first)

@@ -1,6 +1,7 @@
 //! A whole folder of output, staged beside its destination.
 
 use super::commit::{commit, recover_folder, sync_folder, sync_tree, Move};
+use super::pending::held;
 use super::{
     create_folders, folder_of, is_interrupted, lock_folders, open_folder_lock, register, registry,
     remove_created, unregister, FOLDER_MODE,
@@ -111,12 +112,18 @@ impl StagingFolder {
             use std::os::unix::fs::PermissionsExt;
             b.permissions(std::fs::Permissions::from_mode(FOLDER_MODE));
         }
-        let tmp = b
-            .tempdir_in(parent)
-            .with_context(|| format!("creating a staging folder in {}", parent.display()))?;
-        let lock = std::fs::File::open(tmp.path())
-            .and_then(|f| f.try_lock().map(|()| f).map_err(std::io::Error::other))
-            .with_context(|| format!("locking the staging folder {}", tmp.path().display()))?;
+        // As for temporary files (see `Pending::new`): one removed before it was locked is made
+        // again.
+        let (tmp, lock) = loop {
+            let tmp = b
+                .tempdir_in(parent)
+                .with_context(|| format!("creating a staging folder in {}", parent.display()))?;
+            let lock = std::fs::File::open(tmp.path())
+                .with_context(|| format!("opening the staging folder {}", tmp.path().display()))?;
+            if held(&lock, tmp.path()) {
+                break (tmp, lock);
+            }
+        };
         let id = register(tmp.path(), true);
         Ok(StagingFolder {
             _lock: lock,
