@@ -26,6 +26,7 @@
 
 use super::{check_replaceable, folder_of, lock_folders};
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::collections::HashSet;
 use std::fs::File;
@@ -111,11 +112,13 @@ pub(super) fn commit(moves: &[Move], removals: &[PathBuf]) -> Result<()> {
     for to in moves.iter().map(|m| &m.to).chain(removals) {
         check_replaceable(to).context("nothing was changed")?;
     }
-    for m in moves {
+    // In parallel: a scene commits thousands of small files, and the file system groups
+    // concurrent flushes into few journal commits.
+    moves.par_iter().try_for_each(|m| {
         File::open(&m.from)
             .and_then(|f| f.sync_all())
-            .with_context(|| format!("flushing {} to the disk", m.to.display()))?;
-    }
+            .with_context(|| format!("flushing {} to the disk", m.to.display()))
+    })?;
     crash_point();
     let id = format!("{:08x}{:08x}", std::process::id(), rand_u32());
     let mut steps: Vec<Step> = Vec::new();
@@ -138,7 +141,15 @@ pub(super) fn commit(moves: &[Move], removals: &[PathBuf]) -> Result<()> {
         });
     }
     let dirs = folders(steps.iter().map(|s| s.to.as_path()));
-    let journals: Vec<PathBuf> = dirs
+    // A record also beside each staging folder the new files come from: a run cleaning up there
+    // finishes the commit before it removes the staging folder.
+    let mut record_dirs = dirs.clone();
+    for d in moves.iter().filter_map(|m| staging_parent(&m.from)) {
+        if !record_dirs.contains(&d) {
+            record_dirs.push(d);
+        }
+    }
+    let journals: Vec<PathBuf> = record_dirs
         .iter()
         .map(|d| d.join(format!(".lobe-{id}.journal")))
         .collect();
@@ -179,6 +190,15 @@ pub(super) fn commit(moves: &[Move], removals: &[PathBuf]) -> Result<()> {
     crash_point();
     remove_journals(&journals);
     Ok(())
+}
+
+/// The folder holding the staging folder (`.lobe-*`) that `path` lies in, if it lies in one.
+fn staging_parent(path: &Path) -> Option<PathBuf> {
+    let staged = path.ancestors().skip(1).find(|a| {
+        a.file_name()
+            .is_some_and(|n| n.as_encoded_bytes().starts_with(b".lobe-"))
+    })?;
+    Some(folder_of(staged).to_path_buf())
 }
 
 fn rand_u32() -> u32 {

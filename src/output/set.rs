@@ -90,7 +90,7 @@ impl FileSet {
                 let other = self
                     .files
                     .get(other)
-                    .map_or(dests[other - self.files.len()], |p| p.dest.as_path());
+                    .map_or_else(|| dests[other - self.files.len()], |p| p.dest.as_path());
                 bail!(
                     "cannot write {}: the same file as {} in one set",
                     dest.display(),

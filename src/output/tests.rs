@@ -225,3 +225,57 @@ fn a_merge_with_a_folder_in_the_way_changes_nothing() -> Result<()> {
     assert_eq!(names(dir.path()), ["out"]);
     Ok(())
 }
+
+/// Writes a record `name` in `dir` for a set of `kind` with `members`.
+fn record(dir: &Path, name: &str, kind: &str, members: &[&str]) -> Result<()> {
+    let paths: Vec<PathBuf> = members.iter().map(|m| dir.join(m)).collect();
+    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let v = serde_json::json!({ "set": set_json(kind, &refs) });
+    std::fs::write(dir.join(name), v.to_string())?;
+    Ok(())
+}
+
+/// `L_avg.npy` belongs to the LUT whose record is `L.json` (its name cut at the `_`): a file
+/// written on its own over it is refused, naming the set, before any file is made.
+#[test]
+fn a_member_is_found_through_its_records_name() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    record(
+        dir.path(),
+        "L.json",
+        "lut",
+        &["L.npy", "L_avg.npy", "L.json"],
+    )?;
+    std::fs::write(dir.path().join("L_avg.npy"), "old")?;
+    let text = FileSet::new(&[&dir.path().join("L_avg.npy")])
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap_or_default();
+    assert!(
+        text.contains("lut set") && text.contains("L.json"),
+        "{text}"
+    );
+    assert_eq!(names(dir.path()), ["L.json", "L_avg.npy"]);
+    Ok(())
+}
+
+/// A set of the same kind and record replaces the earlier one and removes the members it no
+/// longer has; a file named like a member but listed by no record is left alone.
+#[test]
+fn a_set_of_the_same_kind_loses_its_stale_members() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    record(d, "t.json", "table", &["t.npy", "t_extra.npy", "t.json"])?;
+    for n in ["t.npy", "t_extra.npy", "t_other.npy"] {
+        std::fs::write(d.join(n), "old")?;
+    }
+    let (npy, json) = (d.join("t.npy"), d.join("t.json"));
+    let set = FileSet::new_set("table", &[&npy, &json], 1)?;
+    set[0].file().write_all(b"new")?;
+    let v = serde_json::json!({ "set": set_json("table", &[&npy, &json]) });
+    set[1].file().write_all(v.to_string().as_bytes())?;
+    set.commit()?;
+    assert_eq!(names(d), ["t.json", "t.npy", "t_other.npy"]);
+    assert_eq!(std::fs::read_to_string(&npy)?, "new");
+    Ok(())
+}
