@@ -542,9 +542,6 @@ pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
     ))
 }
 
-/// The kind a LUT's files name in its sidecar (see [`crate::output::set_json`]).
-pub const LUT_SET_KIND: &str = "lut";
-
 /// Computes the LUT on `eval` and writes `exr_path` (`.exr`), its two `.npy` files and its
 /// `.json` sidecar (see the module's documentation). `progress` receives (rows done, rows).
 pub fn write(
@@ -556,7 +553,7 @@ pub fn write(
     let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
     // Checked and created before anything is computed; the data first, the sidecar last.
     let members = [npy_path.as_path(), &avg_path, exr_path, &json_path];
-    let set = FileSet::new_set(LUT_SET_KIND, &members, 3)?;
+    let set = FileSet::new_set(crate::output::LUT_SET, &members, 3)?;
     let (npy_tmp, avg_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2], &set[3]);
     let mut lut = compute(eval, spec, progress)?;
     check_max_error(lut.max_error, spec.max_error)?;
@@ -568,8 +565,7 @@ pub fn write(
     write_npy(npy_tmp, &[spec.n_p, spec.n_mu, 3], &flat(&lut.e), &npy_path)?;
     write_npy(avg_tmp, &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
     write_exr(exr_tmp, spec, &lut)?;
-    let mut sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
-    sidecar["set"] = crate::output::set_json(LUT_SET_KIND, &members);
+    let sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
     let mut w = json_tmp.writer();
     w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
         .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;

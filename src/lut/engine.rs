@@ -292,9 +292,6 @@ pub fn compute_engine(
     })
 }
 
-/// The kind an engine LUT's files name in its sidecar (see [`crate::output::set_json`]).
-pub const ENGINE_SET_KIND: &str = "engine_lut";
-
 /// The header beside `exr_path`: `PATH.h`.
 pub fn header_path(exr_path: &Path) -> PathBuf {
     exr_path.with_extension("h")
@@ -315,7 +312,7 @@ pub fn write_engine(
         dests.push(&avg_path);
     }
     dests.extend([exr_path, h_path.as_path(), json_path.as_path()]);
-    let set = FileSet::new_set(ENGINE_SET_KIND, &dests, dests.len() - 1)?;
+    let set = FileSet::new_set(crate::output::ENGINE_LUT_SET, &dests, dests.len() - 1)?;
     let mut table = compute_engine(eval, spec, progress)?;
     check_max_error(table.max_error, spec.lut.max_error)?;
     let (n_mu, n_p, c) = (spec.lut.n_mu, spec.lut.n_p, table.channels);
@@ -335,8 +332,7 @@ pub fn write_engine(
     let header = c_header(spec, &table, eval, exr_path);
     std::fs::write(set[next + 1].path(), header)
         .with_context(|| format!("writing {}", h_path.display()))?;
-    let mut sidecar = engine_sidecar(spec, &table, eval, &dests);
-    sidecar["set"] = crate::output::set_json(ENGINE_SET_KIND, &dests);
+    let sidecar = engine_sidecar(spec, &table, eval, &dests);
     std::fs::write(
         set[next + 2].path(),
         serde_json::to_string_pretty(&sidecar)? + "\n",

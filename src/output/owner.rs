@@ -18,6 +18,13 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// The kind of a table's set (`.npy`, `.exr`, `.json`).
+pub const TABLE_SET: &str = "table";
+/// The kind of an albedo LUT's set (`.npy`, `_avg.npy`, `.exr`, `.json`).
+pub const LUT_SET: &str = "lut";
+/// The kind of an engine LUT's set (`.npy`, maybe `_avg.npy`, `.exr`, `.h`, `.json`).
+pub const ENGINE_LUT_SET: &str = "engine_lut";
+
 static REPLACE: AtomicBool = AtomicBool::new(false);
 
 /// Lets every later commit of this process replace whole the sets (and the files no set owns)
@@ -48,6 +55,7 @@ pub(super) fn check_single(dest: &Path) -> Result<()> {
     let group = Group {
         kind: None,
         record: None,
+        record_file: None,
         members: vec![dest.to_path_buf()],
     };
     let dest = resolve(dest);
@@ -141,6 +149,8 @@ pub(super) struct Group {
     pub(super) kind: Option<String>,
     /// The record's destination.
     pub(super) record: Option<PathBuf>,
+    /// The record's index in its [`super::FileSet`].
+    pub(super) record_file: Option<usize>,
     pub(super) members: Vec<PathBuf>,
 }
 

@@ -7,7 +7,7 @@ use super::{
     remove_created, resolve, Pending,
 };
 use crate::interrupt::Interrupted;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -39,9 +39,8 @@ impl FileSet {
         Ok(set)
     }
 
-    /// [`FileSet::new`] for the members of one set of `kind` whose record (its JSON sidecar,
-    /// which must hold [`super::set_json`] of the members as `"set"`) is `dests[record]`: see
-    /// [`FileSet::add_set`].
+    /// [`FileSet::new`] for the members of one set of `kind` whose record (its JSON sidecar) is
+    /// `dests[record]`: see [`FileSet::add_set`].
     pub fn new_set(kind: &str, dests: &[&Path], record: usize) -> Result<FileSet> {
         for dest in dests {
             check_replaceable(dest)?;
@@ -73,7 +72,8 @@ impl FileSet {
     /// `dests[record]`, returning the index of the first. Refused before any file is created
     /// (see [`super::owner`]) when a destination belongs to another set or (an existing file) to
     /// none, unless sets are replaced ([`super::replace_sets`]); the commit removes the members
-    /// of this set's earlier version that it no longer has.
+    /// of this set's earlier version that it no longer has. The record must hold a JSON object;
+    /// the commit adds [`super::set_json`] of the members to it as `"set"`.
     pub fn add_set(&mut self, kind: &str, dests: &[&Path], record: usize) -> Result<usize> {
         self.add_group(Some(kind), dests, record)
     }
@@ -102,6 +102,7 @@ impl FileSet {
         let group = Group {
             kind: kind.map(str::to_string),
             record: kind.and(dests.get(record)).map(|r| r.to_path_buf()),
+            record_file: kind.map(|_| self.files.len() + record),
             members: dests.iter().map(|d| d.to_path_buf()).collect(),
         };
         // The files first (a folder in the way, a name too long), then which sets they belong to.
@@ -144,6 +145,7 @@ impl FileSet {
     /// Renames every file onto its destination, in order, as one transaction (see the module's
     /// notes): all or none, the old files back if a step fails.
     pub fn commit(mut self) -> Result<()> {
+        self.stamp_records()?;
         let files = std::mem::take(&mut self.files);
         let moves: Vec<Move> = files
             .iter()
@@ -189,10 +191,34 @@ impl FileSet {
         set.groups.push(Group {
             kind: None,
             record: None,
+            record_file: None,
             members: vec![p.dest.clone()],
         });
         set.files.push(p);
         set
+    }
+
+    /// Adds to each record of a set of a kind its `"set"`: kind and members.
+    fn stamp_records(&self) -> Result<()> {
+        for g in &self.groups {
+            let (Some(kind), Some(k)) = (&g.kind, g.record_file) else {
+                continue;
+            };
+            let file = &self.files[k];
+            let bytes = std::fs::read(file.path())
+                .with_context(|| format!("reading back {}", file.dest.display()))?;
+            let mut v: serde_json::Value = serde_json::from_slice(&bytes)
+                .with_context(|| format!("{} is not JSON", file.dest.display()))?;
+            let Some(record) = v.as_object_mut() else {
+                bail!("{} is not a JSON object", file.dest.display());
+            };
+            let members: Vec<&Path> = g.members.iter().map(PathBuf::as_path).collect();
+            record.insert("set".into(), super::set_json(kind, &members));
+            let text = serde_json::to_string_pretty(&v)? + "\n";
+            std::fs::write(file.path(), text)
+                .map_err(|e| super::encoder_error(&file.dest, "JSON", e))?;
+        }
+        Ok(())
     }
 
     /// What the commit removes besides renaming its files (see [`plan`]).

@@ -184,9 +184,6 @@ fn layout_text(grid: &Grid) -> &'static str {
     }
 }
 
-/// The kind a table's files name in its sidecar (see [`crate::output::set_json`]).
-pub const TABLE_SET_KIND: &str = "table";
-
 /// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json`, as one
 /// transaction ([`FileSet`]): the three appear together, from this run, or not at all. See
 /// [`stage_table`].
@@ -249,7 +246,7 @@ pub fn stage_table_with(
     shape.push(3);
     // The npy first: the EXR is written from it; the sidecar last.
     let members = [npy_path.as_path(), exr_path, &json_path];
-    let first = set.add_set(TABLE_SET_KIND, &members, 2)?;
+    let first = set.add_set(crate::output::TABLE_SET, &members, 2)?;
     let (npy_tmp, exr_tmp, json_tmp) = (&set[first], &set[first + 1], &set[first + 2]);
     {
         let mut w = npy_tmp.writer();
@@ -291,8 +288,7 @@ pub fn stage_table_with(
         }
     }
     write_exr_from_npy(npy_tmp.path(), meta, exr_tmp)?;
-    let mut sidecar = sidecar_json(meta, exr_path, &count);
-    sidecar["set"] = crate::output::set_json(TABLE_SET_KIND, &members);
+    let sidecar = sidecar_json(meta, exr_path, &count);
     let mut w = json_tmp.writer();
     w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
         .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
