@@ -483,7 +483,8 @@ pub fn write(
 ) -> Result<LutSummary> {
     let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
     // Checked and created before anything is computed; the data first, the sidecar last.
-    let set = FileSet::new(&[&npy_path, &avg_path, exr_path, &json_path])?;
+    let members = [npy_path.as_path(), &avg_path, exr_path, &json_path];
+    let set = FileSet::new_set(crate::output::LUT_SET, &members, 3)?;
     let (npy_tmp, avg_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2], &set[3]);
     let mut lut = compute(eval, spec, progress)?;
     check_max_error(lut.max_error, spec.max_error)?;

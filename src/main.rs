@@ -17,6 +17,11 @@ wo to the viewer; f is in 1/sr, linear RGB, without the cosine. The command line
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Let this run's outputs replace whole any set of files of another kind or name (a table, a
+    /// LUT, …), or any file no lobe set owns, that they would overwrite; without it such a run is
+    /// refused before any work.
+    #[arg(long, global = true)]
+    replace: bool,
 }
 
 #[derive(Subcommand)]
@@ -128,7 +133,9 @@ fn main() {
         );
         std::process::exit(1);
     }
-    let command = Cli::parse().command;
+    let cli = Cli::parse();
+    lobe::output::replace_sets(cli.replace);
+    let command = cli.command;
     // Ctrl-C, SIGTERM and SIGHUP set the cancellation token every session carries and stop all
     // output, for every command that writes files; the others (eval, models: standard output
     // only) end at once.

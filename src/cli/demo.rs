@@ -25,6 +25,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     } else {
         lobe::demo::Settings::full()
     };
+    lobe::demo::check_output(&a.output)?;
     let session = open_session(&a.backend)?;
     eprintln!(
         "lobe demo: {} settings on {}, writing {}",

@@ -4,7 +4,7 @@ use super::{
     open_albedo_session, open_session, parse_size, resolve_all, split_specs, with_flag,
     BackendArgs, MethodArg,
 };
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::plot::{self, hemisphere::Projection, Channel, Common, Request, Subject};
 use std::path::PathBuf;
@@ -363,6 +363,14 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             phi_deg: a.phi_i_deg,
         }),
     };
+    // The picture and the two files beside it, checked before any work: none may belong to a set.
+    for dest in [
+        a.output.clone(),
+        plot::params_json_path(&a.output),
+        plot::csv::data_csv_path(&a.output),
+    ] {
+        lobe::output::check_destination(&dest).context("-o")?;
+    }
     let session = match a.kind {
         PlotKind::Albedo => open_albedo_session(&a.backend, a.method.into())?,
         _ => open_session(&a.backend)?,

@@ -434,6 +434,19 @@ pub fn models() -> Vec<Model> {
 /// Pixel sizes of the preview's PNG and EXR, for the page.
 type PreviewSizes = ((usize, usize), (usize, usize));
 
+/// Checks, before any work, that the demo can write the folder `dir`: no file in the way, and
+/// neither `dir` (or, while it does not exist, the folder that would hold it) read-only nor
+/// unwritable. The message names `-o`.
+pub fn check_output(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "-o {}: a file of that name is in the way; the demo writes a folder",
+            dir.display()
+        );
+    }
+    crate::output::check_folder_destination(dir).with_context(|| format!("-o {}", dir.display()))
+}
+
 /// Runs the demo into `dir` (see the module's notes).
 pub fn run(
     eval: &Evaluator,
@@ -442,12 +455,7 @@ pub fn run(
     progress: &mut dyn Progress,
 ) -> Result<Report> {
     let started = Instant::now();
-    if dir.exists() && !dir.is_dir() {
-        bail!(
-            "-o {}: a file of that name is in the way; the demo writes a folder",
-            dir.display()
-        );
-    }
+    check_output(dir)?;
     let staging = StagingFolder::new(dir, "demo")?;
     let backend = eval.name();
     let materials: Vec<&'static str> = MATERIALS.to_vec();

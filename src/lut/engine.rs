@@ -312,7 +312,7 @@ pub fn write_engine(
         dests.push(&avg_path);
     }
     dests.extend([exr_path, h_path.as_path(), json_path.as_path()]);
-    let set = FileSet::new(&dests)?;
+    let set = FileSet::new_set(crate::output::ENGINE_LUT_SET, &dests, dests.len() - 1)?;
     let mut table = compute_engine(eval, spec, progress)?;
     check_max_error(table.max_error, spec.lut.max_error)?;
     let (n_mu, n_p, c) = (spec.lut.n_mu, spec.lut.n_p, table.channels);

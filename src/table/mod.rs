@@ -245,10 +245,8 @@ pub fn stage_table_with(
     let mut shape = meta.grid.shape();
     shape.push(3);
     // The npy first: the EXR is written from it; the sidecar last.
-    let first = set.len();
-    for p in [&npy_path, exr_path, &json_path] {
-        set.add(p)?;
-    }
+    let members = [npy_path.as_path(), exr_path, &json_path];
+    let first = set.add_set(crate::output::TABLE_SET, &members, 2)?;
     let (npy_tmp, exr_tmp, json_tmp) = (&set[first], &set[first + 1], &set[first + 2]);
     {
         let mut w = npy_tmp.writer();
