@@ -4,7 +4,7 @@ use super::commit::recover_folder;
 use super::owner::check_single;
 use super::{
     check_replaceable, encoder_error, folder_of, is_interrupted, open_folder_lock, register,
-    sort_exr_attributes, temp_affixes, temp_builder, unregister, why_not_a_folder, FileSet,
+    sort_exr_attributes, temp_affixes, temp_builder, unregister, why_not_a_folder,
 };
 use crate::interrupt::Interrupted;
 use anyhow::{bail, Context, Result};
@@ -13,7 +13,7 @@ use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// A file being written: a temporary file beside its destination, renamed onto it by
-/// [`Pending::commit`] (or its [`FileSet`]'s commit); dropped without a commit, it is removed.
+/// [`Pending::commit`] (or its [`FileSet`](super::FileSet)'s commit); dropped without a commit, it is removed.
 pub struct Pending {
     pub(super) tmp: Option<tempfile::NamedTempFile>,
     pub(super) id: u64,
@@ -24,7 +24,7 @@ impl Pending {
     /// A temporary file `.lobe-*.partial` beside `dest`. Fails, naming `dest`, when its folder
     /// does not exist or no file can be created there, when the name is too long for the file
     /// system, when `dest` is a folder or a read-only file, and once output is interrupted.
-    /// A member of a set (see [`FileSet::add_set`]) is refused too, unless sets are replaced
+    /// A member of a set (see [`FileSet::add_set`](super::FileSet::add_set)) is refused too, unless sets are replaced
     /// ([`super::replace_sets`]).
     pub fn new(dest: &Path) -> Result<Pending> {
         check_single(dest)?;
@@ -38,7 +38,7 @@ impl Pending {
         Pending::with_suffix(dest, &format!(".{ext}"))
     }
 
-    /// [`Pending::new`] without the check of which set owns `dest`: for a [`FileSet`], which
+    /// [`Pending::new`] without the check of which set owns `dest`: for a [`FileSet`](super::FileSet), which
     /// checks its members as sets.
     pub(super) fn with_suffix(dest: &Path, suffix: &str) -> Result<Pending> {
         if is_interrupted() {
@@ -112,11 +112,6 @@ impl Pending {
     /// Where the file goes.
     pub fn dest(&self) -> &Path {
         &self.dest
-    }
-
-    /// Renames the finished file onto its destination: a [`FileSet`] of one.
-    pub fn commit(self) -> Result<()> {
-        FileSet::of_one(self).commit()
     }
 
     /// Puts the header attributes of this finished EXR in name order: see

@@ -11,6 +11,13 @@ use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+impl Pending {
+    /// Renames the finished file onto its destination: a [`FileSet`] of one.
+    pub fn commit(self) -> Result<()> {
+        FileSet::of_one(self).commit()
+    }
+}
+
 /// Files that are only correct together, committed as one transaction (see the module's notes):
 /// all of them replace their destinations, or none does.
 pub struct FileSet {
