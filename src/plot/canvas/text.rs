@@ -280,16 +280,21 @@ pub(crate) fn keep_apart(
     kept
 }
 
-/// Draws `label` (from [`Placed`]) centred on its position, black, text size `size`.
+/// Draws `label` (placed in canvas pixels) centred on its position on `area`, in `colour` at
+/// text size `size`.
 pub(crate) fn draw_placed<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
+    area: &DrawingArea<DB, Shift>,
     label: &Placed,
     size: u32,
     colour: RGBColor,
 ) -> Result<()> {
-    root.draw(&Text::new(
+    let (ox, oy) = area.get_base_pixel();
+    area.draw(&Text::new(
         label.text.clone(),
-        (label.x.round() as i32, label.y.round() as i32),
+        (
+            (label.x - ox as f64).round() as i32,
+            (label.y - oy as f64).round() as i32,
+        ),
         text_style(size, colour).pos(Pos::new(HPos::Center, VPos::Center)),
     ))
     .drawing("a label")
