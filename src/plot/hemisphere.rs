@@ -387,11 +387,13 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
         left as i32,
         (w - left - side) as i32,
     );
-    // A paper panel's disc leaves room for the widest azimuth label on each side.
+    // A paper panel's disc leaves room for the azimuth labels above and below it; those beside
+    // it are drawn only where the panel has room for them (a narrow panel's disc would otherwise
+    // shrink to a third of its width).
     let lim = match paper {
         true => {
             let half = side as f64 / 2.0;
-            let label = super::text_width("180°", super::svg_em(12), false) + 2.0 * LABEL_GAP;
+            let label = super::svg_em(12) + 2.0 * LABEL_GAP;
             (half / (half - label).max(1.0)).max(1.16)
         }
         false => 1.16,
