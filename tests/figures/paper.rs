@@ -259,3 +259,34 @@ fn a_paper_polar_figure_is_mostly_half_disc() {
         MIN_HALF_DISC_SHARE * 100.0
     );
 }
+
+/// The cells of a paper slice are drawn at sub-pixel precision, one rectangle a cell, so the
+/// 1050-px PNG rasterises them at its own resolution: with 24 cells across, the cells' left edges
+/// are 24 evenly spaced positions. Before, the cells were whole-canvas-pixel rectangles (3 or 4
+/// canvas pixels, 10.5 or 14 written pixels), merged into runs of one colour.
+#[test]
+fn paper_heat_map_cells_are_drawn_at_the_written_resolution() {
+    // Positions are written with two decimals.
+    const POSITION_ROUNDING_PX: f64 = 0.011;
+    let svg = paper_svg("slice", "cook_torrance", "gold", &["--res", "24"]);
+    let mut lefts: Vec<f64> = svg
+        .lines()
+        .filter(|l| l.starts_with("<rect") && !l.contains("opacity"))
+        .filter_map(|l| attr(l, "x")?.parse().ok())
+        .collect();
+    lefts.sort_by(f64::total_cmp);
+    lefts.dedup_by(|a, b| (*a - *b).abs() < POSITION_ROUNDING_PX);
+    assert_eq!(
+        lefts.len(),
+        24,
+        "expected the left edges of 24 columns of cells drawn at sub-pixel precision: {lefts:?}"
+    );
+    let steps: Vec<f64> = lefts.windows(2).map(|w| w[1] - w[0]).collect();
+    let (lo, hi) = steps
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(*s), b.max(*s)));
+    assert!(
+        hi - lo <= 2.0 * POSITION_ROUNDING_PX,
+        "the columns are not evenly spaced: steps {steps:?}"
+    );
+}
