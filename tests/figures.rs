@@ -11,6 +11,9 @@ use lobe::Evaluator;
 use std::collections::BTreeSet;
 use std::path::Path;
 
+#[path = "figures/paper.rs"]
+mod paper;
+
 /// Text may pass the canvas edge by this much: plotters rounds text positions to whole pixels
 /// and resvg's anti-aliasing spreads a glyph's edge over one more.
 const TEXT_SLACK_PX: f64 = 1.5;

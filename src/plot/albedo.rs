@@ -7,7 +7,7 @@
 
 use super::{
     bad, check_finite_deg, describe_subjects, header_in, legend, legend_width, pixel_map, render,
-    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, Marker, Subject,
+    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Subject,
 };
 use crate::eval::Evaluator;
 use crate::integrate::{directional, Method, Settings};
@@ -188,21 +188,37 @@ fn draw<DB: DrawingBackend>(
             marker: Marker::None,
         }))
         .collect();
-    let (w, _) = body.dim_in_pixel();
-    // At least 150 px, but never more than a third of a narrow canvas.
-    let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
-    let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
+    let (w, h) = body.dim_in_pixel();
+    let paper = common.style == super::Style::Paper;
+    // A paper figure's legend goes in rows under the chart, whose axes take only the room
+    // their labels need (and half of the last μ label right of the chart); on the screen the legend is a column of at least 150 px, but never
+    // more than a third of the canvas.
+    let rows = LegendRows::new(&entries, w as f64 - 4.0);
+    let (plot_area, legend_area, legend_w) = if paper {
+        let (a, b) = body.split_vertically(h - rows.height() - 2);
+        (a, b, 0)
+    } else {
+        let legend_w = legend_width(&body, &entries).max(150).min(w / 3);
+        let (a, b) = body.split_horizontally(w - legend_w);
+        (a, b, legend_w)
+    };
+    let (_, h) = plot_area.dim_in_pixel();
+    let (margin, bottom, top, left) = if paper {
+        (6, 34, 30, 44)
+    } else {
+        (16, 44, 36, 60)
+    };
     // About one μ label per 55 px (a label of "0.5" and room on either side), one E label per
     // 28 px of the plot's height (about 80 px go to the axes): at least 3, and at most plotters'
     // default of 11 (the θo axis: 10), which a screen canvas has room for.
     let x_fit = ((w - legend_w) / 55).max(3) as usize;
-    let (_, h) = body.dim_in_pixel();
     let y_labels = (h.saturating_sub(80) / 28).clamp(3, 11) as usize;
     let mut chart = ChartBuilder::on(&plot_area)
-        .margin(16)
-        .x_label_area_size(44)
-        .top_x_label_area_size(36)
-        .y_label_area_size(60)
+        .margin(margin)
+        .margin_right(if paper { 12 } else { margin })
+        .x_label_area_size(bottom)
+        .top_x_label_area_size(top)
+        .y_label_area_size(left)
         .build_cartesian_2d(0.0..1.0, 0.0..data.y_max)
         .drawing("the albedo chart")?
         .set_secondary_coord(0.0..1.0, 0.0..data.y_max);
@@ -246,6 +262,10 @@ fn draw<DB: DrawingBackend>(
         let phase = (c.subject % 4) as f64 / 4.0;
         ink.markers_along(&pts, st.marker, st.colour, MARKER_SPACING, phase);
     }
-    legend(&legend_area, ink, &entries)?;
+    if paper {
+        rows.draw(&legend_area, ink, &entries)?;
+    } else {
+        legend(&legend_area, ink, &entries)?;
+    }
     Ok(())
 }

@@ -140,7 +140,7 @@ fn draw<DB: DrawingBackend>(
     let areas = maps.split_evenly((1, opts.theta_deg.len()));
     let only = std::slice::from_ref(a);
     for (panel, area) in data.panels.iter().zip(areas.iter()) {
-        draw_panel(area, ink, panel, data, only, opts)?;
+        draw_panel(area, ink, panel, data, only, opts, common.style)?;
     }
     colour_bar(&bar, &data.scale, "relative difference (B − A)")?;
     Ok(())

@@ -11,8 +11,9 @@
 //! Every panel is one (model, fixed direction); all panels share one colour scale.
 
 use super::{
-    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, fmt_value,
-    header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Scale, Subject,
+    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, draw_placed,
+    fmt_value, header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Placed,
+    Scale, Style, Subject, LABEL_GAP,
 };
 use crate::eval::Evaluator;
 pub use crate::grid::angles_deg;
@@ -24,6 +25,9 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::f64::consts::SQRT_2;
 use std::path::Path;
+
+mod cells;
+use cells::draw_cells;
 
 /// How a direction (θ, φ) of the hemisphere maps to the disc point r·(cosφ, sinφ); both put the
 /// horizon at r = 1.
@@ -321,7 +325,7 @@ fn draw<DB: DrawingBackend>(
     for (k, panel) in data.panels.iter().enumerate() {
         let (subject, angle) = (k / n_angles, k % n_angles);
         let cell = (subject * rows_each + angle / cols) * cols + angle % cols;
-        draw_panel(&areas[cell], ink, panel, data, subjects, opts)?;
+        draw_panel(&areas[cell], ink, panel, data, subjects, opts, common.style)?;
     }
     let caption = format!(
         "{}{}",
@@ -348,7 +352,8 @@ pub fn panel_columns(width: u32, n_angles: usize) -> usize {
 
 /// Draws one heat map of `data` into `area`: the cells, the horizon and the rings at 30° and
 /// 60°, azimuth labels, the mirror direction (×) and the fixed direction (○); the caption names
-/// the subject when there are several.
+/// the subject when there are several. A paper figure's panel leaves its azimuth labels room
+/// beside the disc and draws its cells at sub-pixel precision ([`draw_cells`]).
 pub(crate) fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     ink: &mut Ink,
@@ -356,46 +361,46 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
     data: &HemisphereData,
     subjects: &[Subject],
     opts: &HemisphereOptions,
+    style: Style,
 ) -> Result<()> {
+    let paper = style == Style::Paper;
     let (w, h) = area.dim_in_pixel();
-    let caption_h = 22u32;
+    let caption = panel_caption(panel, data, subjects, w, paper);
+    let caption_h = match paper {
+        true => 2 + CAPTION_LINE * caption.len() as u32,
+        false => 22u32,
+    };
     let side = w.min(h.saturating_sub(caption_h)).saturating_sub(8).max(20);
     let left = (w - side) / 2;
     let spare = h.saturating_sub(caption_h + side);
-    let fixed = if data.reverse { "ωo" } else { "ωi" };
-    let caption = if subjects.len() > 1 {
-        format!(
-            "{}, {fixed} = ({}°, {}°)",
-            subjects[panel.subject].label,
-            fmt_value(panel.theta_deg),
-            fmt_value(panel.phi_deg)
-        )
-    } else {
-        format!(
-            "{fixed}: θ = {}°, φ = {}°",
-            fmt_value(panel.theta_deg),
-            fmt_value(panel.phi_deg)
-        )
-    };
-    // A panel too narrow for the caption (a paper figure's) names θ alone.
-    let caption = if super::text_width(&caption, super::svg_em(14), false) > w as f64 {
-        format!("θ = {}°", fmt_value(panel.theta_deg))
-    } else {
-        caption
-    };
-    area.draw(&Text::new(
-        caption,
-        (w as i32 / 2, (spare / 2) as i32 + 2),
-        text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-    ))
-    .drawing("a panel caption")?;
+    for (k, line) in caption.into_iter().enumerate() {
+        area.draw(&Text::new(
+            line,
+            (
+                w as i32 / 2,
+                (spare / 2) as i32 + 2 + (k as u32 * CAPTION_LINE) as i32,
+            ),
+            text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .drawing("a panel caption")?;
+    }
     let square = area.margin(
         (caption_h + spare / 2) as i32,
         (spare - spare / 2) as i32,
         left as i32,
         (w - left - side) as i32,
     );
-    let lim = 1.16;
+    // A paper panel's disc leaves room for the azimuth labels above and below it; those beside
+    // it are drawn only where the panel has room for them (a narrow panel's disc would otherwise
+    // shrink to a third of its width).
+    let lim = match paper {
+        true => {
+            let half = side as f64 / 2.0;
+            let label = super::svg_em(12) + 2.0 * LABEL_GAP;
+            (half / (half - label).max(1.0)).max(1.16)
+        }
+        false => 1.16,
+    };
     let chart = ChartBuilder::on(&square)
         .build_cartesian_2d(-lim..lim, -lim..lim)
         .drawing("a hemisphere chart")?;
@@ -428,8 +433,11 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
         .find(|v| v.is_finite())
         .unwrap_or(f64::NAN)
     };
+    if paper {
+        draw_cells(ink, &pixel_map(pa), n, &value, &data.scale);
+    }
     // Runs of cells of one colour along a row are drawn as one rectangle (smaller SVG files).
-    for row in 0..n {
+    for row in (0..n).filter(|_| !paper) {
         let mut col = 0;
         while col < n {
             let v = value(row, col);
@@ -470,6 +478,23 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
     ink.line(&circle(90.0), BLACK, 1.0, Dash::Solid, 1.0);
     for k in 0..4 {
         let phi = 90.0 * k as f64;
+        if paper {
+            let (ox, oy) = area.get_base_pixel();
+            let bounds = (
+                ox as f64,
+                oy as f64,
+                (ox + w as i32) as f64,
+                (oy + h as i32) as f64,
+            );
+            let label = format!("{}°", k * 90);
+            // Clockwise from up: φ = 90° is up, φ = 0 to the right.
+            let angle = rad(90.0 - phi);
+            let l = Placed::by_circle(label, 12, c, edge.0 - c.0, angle, true);
+            if l.inside(bounds) {
+                draw_placed(area, &l, 12, BLACK)?;
+            }
+            continue;
+        }
         let (x, y) = (1.08 * rad(phi).cos(), 1.08 * rad(phi).sin());
         pa.draw(&Text::new(
             format!("{}°", k * 90),
@@ -498,4 +523,54 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
     ink.line(&ring, WHITE, 3.0, Dash::Solid, 1.0);
     ink.line(&ring, BLACK, 1.0, Dash::Solid, 1.0);
     Ok(())
+}
+
+/// Height of a line of a paper panel's caption, in pixels.
+const CAPTION_LINE: u32 = 15;
+
+/// A panel's caption lines: the fixed direction, and the subject when there are several. On the
+/// screen one line, θ alone when the full line is wider than the panel; on paper the subject and
+/// θ wrapped to the panel's width.
+fn panel_caption(
+    panel: &HemispherePanel,
+    data: &HemisphereData,
+    subjects: &[Subject],
+    w: u32,
+    paper: bool,
+) -> Vec<String> {
+    let theta = format!("θ = {}°", fmt_value(panel.theta_deg));
+    if paper {
+        if subjects.len() == 1 {
+            return vec![theta];
+        }
+        let label = &subjects[panel.subject].label;
+        let line = format!("{label}, {theta}");
+        if super::text_width(&line, super::svg_em(14), false) <= w as f64 {
+            return vec![line];
+        }
+        let mut lines = super::wrap_to_width(label, w as f64, 14, false);
+        lines.push(theta);
+        return lines;
+    }
+    let fixed = if data.reverse { "ωo" } else { "ωi" };
+    let caption = if subjects.len() > 1 {
+        format!(
+            "{}, {fixed} = ({}°, {}°)",
+            subjects[panel.subject].label,
+            fmt_value(panel.theta_deg),
+            fmt_value(panel.phi_deg)
+        )
+    } else {
+        format!(
+            "{fixed}: θ = {}°, φ = {}°",
+            fmt_value(panel.theta_deg),
+            fmt_value(panel.phi_deg)
+        )
+    };
+    // A panel too narrow for the caption names θ alone.
+    if super::text_width(&caption, super::svg_em(14), false) > w as f64 {
+        vec![theta]
+    } else {
+        vec![caption]
+    }
 }

@@ -19,6 +19,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
+mod paper;
+
 /// View angles per curve: cell-centred over (−90°, 90°), 0.125° apart, fine enough that a
 /// Phong lobe of exponent 8192 (half-width ≈ 1/√n rad ≈ 0.6°) is drawn with ~10 points.
 pub const DEFAULT_SAMPLES: usize = 1440;
@@ -418,6 +420,9 @@ fn draw<DB: DrawingBackend>(
     common: &Common,
     opts: &PolarOptions,
 ) -> Result<()> {
+    if common.style == super::Style::Paper {
+        return paper::draw_paper(root, ink, data, subjects, common, opts);
+    }
     let mut lines = super::describe_subjects(subjects);
     let mut notes = vec![
         "light on the left at φi = 180°; signed θo > 0 is the mirror side (φo = 0)".to_string(),

@@ -9,14 +9,15 @@
 //! drawn grey. The colour is always logarithmic: a specular peak spans decades.
 
 use super::{
-    bad, check_finite_deg, colour_bar, colour_map, fmt_value, header_in, rad, render, Common,
-    Drawn, Scale, Subject,
+    anchored, bad, check_finite_deg, colour_bar, colour_map, fmt_value, header_in, pixel_map, rad,
+    render, wrap_to_width, Common, Drawn, Ink, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use anyhow::{bail, Result};
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
 use std::path::Path;
 
 /// Options of the θh × θd slice: its resolution and its φd.
@@ -151,8 +152,8 @@ pub fn plot_slice(
 ) -> Result<SliceData> {
     super::Format::of(path)?;
     let data = slice_data(eval, subjects, common, opts)?;
-    render(path, common.page(), |root, _ink| {
-        draw(root, &data, subjects, common)
+    render(path, common.page(), |root, ink| {
+        draw(root, ink, &data, subjects, common)
     })?;
     Ok(data)
 }
@@ -167,6 +168,7 @@ const ZERO_GREY: RGBColor = RGBColor(215, 215, 215);
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
     data: &SliceData,
     subjects: &[Subject],
     common: &Common,
@@ -185,6 +187,17 @@ fn draw<DB: DrawingBackend>(
     let body = header_in(common.style, root, &data.title, &lines)?;
     let (w, _) = body.dim_in_pixel();
     let (maps, bar) = body.split_horizontally(w - 110);
+    if common.style == super::Style::Paper {
+        // As many panels side by side as are at least PAPER_PANEL_WIDTH wide.
+        let cols = ((w - 110) / PAPER_PANEL_WIDTH).max(1) as usize;
+        let cols = cols.min(data.panels.len());
+        let areas = maps.split_evenly((data.panels.len().div_ceil(cols), cols));
+        for (panel, area) in data.panels.iter().zip(areas.iter()) {
+            paper_panel(area, ink, panel, data, subjects)?;
+        }
+        let caption = format!("{}, log scale", common.quantity());
+        return colour_bar(&bar, &data.scale, &caption);
+    }
     let areas = maps.split_evenly((1, data.panels.len()));
     let n = data.res;
     let step = 90.0 / n as f64;
@@ -247,5 +260,88 @@ fn draw<DB: DrawingBackend>(
         &data.scale,
         &format!("{}, log scale", common.quantity()),
     )?;
+    Ok(())
+}
+
+/// The narrowest slice panel of a paper figure, in canvas pixels: axis labels, a readable image
+/// and the panel's caption wrapped onto at most two lines.
+const PAPER_PANEL_WIDTH: u32 = 90;
+
+/// Height of a line of a paper panel's caption, in canvas pixels.
+const PAPER_CAPTION_LINE: i32 = 14;
+
+/// One slice of a paper figure in `area`: the model's name wrapped above it when there are
+/// several, short axis names (the labels carry the degrees), four labels an axis, and the cells
+/// drawn at sub-pixel precision so that the zoomed picture rasterises them at its own resolution.
+fn paper_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    ink: &mut Ink,
+    panel: &SlicePanel,
+    data: &SliceData,
+    subjects: &[Subject],
+) -> Result<()> {
+    let (w, _) = area.dim_in_pixel();
+    let lines = match data.panels.len() {
+        1 => Vec::new(),
+        _ => wrap_to_width(&subjects[panel.subject].label, w as f64 - 4.0, 13, false),
+    };
+    for (k, line) in lines.iter().enumerate() {
+        area.draw(&Text::new(
+            line.clone(),
+            (w as i32 / 2, 2 + PAPER_CAPTION_LINE * k as i32),
+            anchored(13, HPos::Center, VPos::Top),
+        ))
+        .drawing("a slice caption")?;
+    }
+    let top = 4 + PAPER_CAPTION_LINE * lines.len() as i32;
+    let inner = area.margin(top, 0, 0, 0);
+    let mut chart = ChartBuilder::on(&inner)
+        .margin(4)
+        .margin_right(10)
+        .x_label_area_size(30)
+        .y_label_area_size(40)
+        .build_cartesian_2d(0.0..90.0, 0.0..90.0)
+        .drawing("a slice chart")?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("θh")
+        .y_desc("θd")
+        .label_style((super::FONT, 12))
+        .axis_desc_style((super::FONT, 13))
+        .x_labels(4)
+        .y_labels(4)
+        .x_label_formatter(&|v| format!("{}°", fmt_value(*v)))
+        // The corner's 0° is the θh axis's: the θd axis's would touch it.
+        .y_label_formatter(&|v| {
+            if *v == 0.0 {
+                String::new()
+            } else {
+                format!("{}°", fmt_value(*v))
+            }
+        })
+        .draw()
+        .drawing("the slice axes")?;
+    let px = pixel_map(chart.plotting_area());
+    // Each cell reaches a third of a canvas pixel into its right and upper neighbours, which are
+    // drawn after it: no background shows between anti-aliased edges.
+    const OVERLAP_PX: f64 = 1.0 / 3.0;
+    let n = data.res;
+    let step = 90.0 / n as f64;
+    for row in 0..n {
+        for col in 0..n {
+            let v = panel.values[row * n + col];
+            let colour = if v > 0.0 && v.is_finite() {
+                colour_map(data.scale.unit(v))
+            } else {
+                ZERO_GREY
+            };
+            let (x0, y0) = px((col as f64 * step, row as f64 * step));
+            let (x1, y1) = px(((col + 1) as f64 * step, (row + 1) as f64 * step));
+            let right = if col + 1 < n { OVERLAP_PX } else { 0.0 };
+            let up = if row + 1 < n { OVERLAP_PX } else { 0.0 };
+            ink.rect((x0, y0, x1 + right, y1 - up), colour);
+        }
+    }
     Ok(())
 }

@@ -6,7 +6,7 @@
 
 use super::{
     bad, check_deg, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
-    text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, Subject,
+    text_style, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -14,6 +14,7 @@ use anyhow::{bail, Result};
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// Options of the 3D wireframe: the incidence directions (one panel each) and the wireframe's rings
@@ -244,14 +245,30 @@ fn draw<DB: DrawingBackend>(
     }
     lines.push(note);
     let body = header_in(common.style, root, &data.title, &lines)?;
-    let (w, _) = body.dim_in_pixel();
-    let (charts, legend_area) = if subjects.len() > 1 {
+    let (w, h) = body.dim_in_pixel();
+    let paper = common.style == super::Style::Paper;
+    let styles = subject_styles(subjects);
+    let entries: Vec<LegendEntry> = subjects
+        .iter()
+        .zip(&styles)
+        .map(|(s, st)| LegendEntry {
+            label: s.label.clone(),
+            colour: st.colour,
+            dash: Dash::Solid,
+            marker: Marker::None,
+        })
+        .collect();
+    // A paper figure's legend goes in rows under the charts, which keep the whole width.
+    let rows = LegendRows::new(&entries, w as f64 - 4.0);
+    let (charts, legend_area) = if paper && subjects.len() > 1 {
+        let (a, b) = body.split_vertically(h - rows.height() - 2);
+        (a, Some(b))
+    } else if subjects.len() > 1 {
         let (a, b) = body.split_horizontally(w - (w / 5).clamp(160, 300));
         (a, Some(b))
     } else {
         (body, None)
     };
-    let styles = subject_styles(subjects);
     let n_angles = data.panels.len() / subjects.len();
     let areas = charts.split_evenly((1, n_angles));
     let e = data.extent;
@@ -273,18 +290,27 @@ fn draw<DB: DrawingBackend>(
             .configure_axes()
             .light_grid_style(BLACK.mix(0.12))
             .max_light_lines(4)
+            .x_labels(if paper { 3 } else { 10 })
+            .y_labels(if paper { 3 } else { 10 })
+            .z_labels(if paper { 3 } else { 10 })
             .label_style((super::FONT, 11))
             .x_formatter(&|v| fmt_value(*v))
             .y_formatter(&|v| fmt_value(*v))
             .z_formatter(&|v| fmt_value(*v))
             .draw()
             .drawing("the 3d axes")?;
-        let axis_label =
-            |s: &str, p: (f64, f64, f64)| Text::new(s.to_string(), p, text_style(14, BLACK));
+        // On paper the names of x and y stand above the axes' ends, clear of their tick labels.
+        let (out, name_pos) = match paper {
+            true => (1.15, Pos::new(HPos::Left, VPos::Bottom)),
+            false => (1.1, Pos::new(HPos::Left, VPos::Top)),
+        };
+        let axis_label = |s: &str, p: (f64, f64, f64)| {
+            Text::new(s.to_string(), p, text_style(14, BLACK).pos(name_pos))
+        };
         chart
             .draw_series([
-                axis_label("x", (e * 1.1, 0.0, 0.0)),
-                axis_label("y", (0.0, 0.0, e * 1.1)),
+                axis_label("x", (e * out, 0.0, 0.0)),
+                axis_label("y", (0.0, 0.0, e * out)),
                 axis_label("z (normal)", (0.0, e * 1.08, 0.0)),
             ])
             .drawing("the axis names")?;
@@ -330,18 +356,10 @@ fn draw<DB: DrawingBackend>(
             ))
             .drawing("the mirror direction")?;
     }
-    if let Some(area) = legend_area {
-        let entries: Vec<LegendEntry> = subjects
-            .iter()
-            .zip(&styles)
-            .map(|(s, st)| LegendEntry {
-                label: s.label.clone(),
-                colour: st.colour,
-                dash: Dash::Solid,
-                marker: Marker::None,
-            })
-            .collect();
-        legend(&area, ink, &entries)?;
+    match legend_area {
+        Some(area) if paper => rows.draw(&area, ink, &entries)?,
+        Some(area) => legend(&area, ink, &entries)?,
+        None => {}
     }
     Ok(())
 }

@@ -179,6 +179,19 @@ impl Ink {
         ));
     }
 
+    /// A rectangle (x0, y0)–(x1, y1) in canvas pixels filled with `colour`, unstroked: a heat
+    /// map's cell at sub-pixel precision, so that it is rasterised at the written resolution.
+    pub fn rect(&mut self, (x0, y0, x1, y1): (f64, f64, f64, f64), colour: RGBColor) {
+        self.svg.push_str(&format!(
+            "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
+            coord(x0.min(x1)),
+            coord(y0.min(y1)),
+            coord((x1 - x0).abs()),
+            coord((y1 - y0).abs()),
+            hex(colour)
+        ));
+    }
+
     /// A white mask over everything outside the circle of radius `r` about `c` within the
     /// rectangle (x0, y0)–(x1, y1): an anti-aliased round edge for a heat map drawn in square
     /// cells.

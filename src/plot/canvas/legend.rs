@@ -126,3 +126,102 @@ pub(crate) fn colour_bar<DB: DrawingBackend>(
     .drawing("the colour bar")?;
     Ok(())
 }
+
+/// A legend laid out in rows under a plot (a narrow paper figure has no room beside it): entries
+/// left to right, a new row when the next would pass the width.
+pub(crate) struct LegendRows {
+    /// Each entry's row and left edge in pixels from the area's left.
+    places: Vec<(usize, f64)>,
+    /// The number of rows.
+    rows: usize,
+}
+
+/// Text size of a legend in rows, in pixels.
+const ROWS_TEXT: u32 = 13;
+
+/// Height of a row of a legend in rows, in pixels.
+pub(crate) const ROWS_HEIGHT: u32 = 14;
+
+/// Length of a row legend's line sample, the space after it and the space after a label.
+const ROWS_SAMPLE: f64 = 16.0;
+const ROWS_SAMPLE_GAP: f64 = 3.0;
+const ROWS_ENTRY_GAP: f64 = 9.0;
+
+impl LegendRows {
+    /// The rows `entries` take in a width of `width` pixels. A label wider than a row is drawn
+    /// on a row of its own.
+    pub fn new(entries: &[LegendEntry], width: f64) -> LegendRows {
+        let mut places = Vec::new();
+        let (mut row, mut x) = (0usize, 0.0);
+        for e in entries {
+            let w = ROWS_SAMPLE + ROWS_SAMPLE_GAP + text_width(&e.label, svg_em(ROWS_TEXT), false);
+            if x > 0.0 && x + w > width {
+                row += 1;
+                x = 0.0;
+            }
+            places.push((row, x));
+            x += w + ROWS_ENTRY_GAP;
+        }
+        LegendRows {
+            places,
+            rows: if entries.is_empty() { 0 } else { row + 1 },
+        }
+    }
+
+    /// The height in pixels the rows take.
+    pub fn height(&self) -> u32 {
+        self.rows as u32 * ROWS_HEIGHT
+    }
+
+    /// Draws `entries` (those given to [`LegendRows::new`]) centred in `area`, row by row.
+    pub fn draw<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        ink: &mut Ink,
+        entries: &[LegendEntry],
+    ) -> Result<()> {
+        let (w, _) = area.dim_in_pixel();
+        let (ox, oy) = area.get_base_pixel();
+        for row in 0..self.rows {
+            let in_row: Vec<(usize, f64)> = self
+                .places
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.0 == row)
+                .map(|(k, p)| (k, p.1))
+                .collect();
+            let Some(&(last, last_x)) = in_row.last() else {
+                continue;
+            };
+            let used = last_x
+                + ROWS_SAMPLE
+                + ROWS_SAMPLE_GAP
+                + text_width(&entries[last].label, svg_em(ROWS_TEXT), false);
+            let left = ((w as f64 - used) / 2.0).max(0.0);
+            let mid = (row as u32 * ROWS_HEIGHT + ROWS_HEIGHT / 2) as i32;
+            for (k, x) in in_row {
+                let e = &entries[k];
+                let x0 = ox as f64 + left + x;
+                let y = (oy + mid) as f64;
+                ink.line(
+                    &[(x0, y), (x0 + ROWS_SAMPLE, y)],
+                    e.colour,
+                    2.0,
+                    e.dash,
+                    1.0,
+                );
+                ink.marker((x0 + ROWS_SAMPLE / 2.0, y), e.marker, e.colour, 3.0);
+                area.draw(&Text::new(
+                    e.label.clone(),
+                    (
+                        (left + x + ROWS_SAMPLE + ROWS_SAMPLE_GAP).round() as i32,
+                        mid,
+                    ),
+                    anchored(ROWS_TEXT, HPos::Left, VPos::Center),
+                ))
+                .drawing("the legend")?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -190,3 +190,112 @@ pub(crate) fn header<DB: DrawingBackend>(
     }
     Ok(root.split_vertically(y + 6).1)
 }
+
+/// A text's box on the canvas, centred on (`x`, `y`) in canvas pixels: its advance width
+/// measured on the embedded font, its height one em (DejaVu Sans's glyphs reach 0.76 em above
+/// the baseline and 0.24 em below it).
+#[derive(Clone, Debug)]
+pub(crate) struct Placed {
+    pub text: String,
+    pub x: f64,
+    pub y: f64,
+    pub half_w: f64,
+    pub half_h: f64,
+}
+
+/// Space kept between two placed texts, and between a text and the circle it sits around, in
+/// canvas pixels.
+pub(crate) const LABEL_GAP: f64 = 1.5;
+
+impl Placed {
+    /// `text` of plotters text size `size` centred on (`x`, `y`).
+    pub fn new(text: String, size: u32, x: f64, y: f64) -> Placed {
+        let em = svg_em(size);
+        let half_w = text_width(&text, em, false) / 2.0;
+        Placed {
+            text,
+            x,
+            y,
+            half_w,
+            half_h: em / 2.0,
+        }
+    }
+
+    /// `text` just outside (`outside` true) or just inside the circle of radius `r` about
+    /// `centre`, in the direction `angle` (radians clockwise from straight up): its box touches
+    /// the circle's tangent there, [`LABEL_GAP`] away.
+    pub fn by_circle(
+        text: String,
+        size: u32,
+        centre: (f64, f64),
+        r: f64,
+        angle: f64,
+        outside: bool,
+    ) -> Placed {
+        let mut p = Placed::new(text, size, 0.0, 0.0);
+        let (s, c) = angle.sin_cos();
+        let reach = s.abs() * p.half_w + c.abs() * p.half_h + LABEL_GAP;
+        let d = if outside { r + reach } else { r - reach };
+        p.x = centre.0 + d * s;
+        p.y = centre.1 - d * c;
+        p
+    }
+
+    /// Whether the boxes of `self` and `o`, each grown by half of [`LABEL_GAP`], meet.
+    pub fn overlaps(&self, o: &Placed) -> bool {
+        (self.x - o.x).abs() < self.half_w + o.half_w + LABEL_GAP
+            && (self.y - o.y).abs() < self.half_h + o.half_h + LABEL_GAP
+    }
+
+    /// Whether `p` lies in the box.
+    pub fn covers(&self, p: (f64, f64)) -> bool {
+        (self.x - p.0).abs() <= self.half_w + LABEL_GAP
+            && (self.y - p.1).abs() <= self.half_h + LABEL_GAP
+    }
+
+    /// Whether the box lies inside the rectangle (x0, y0)–(x1, y1).
+    pub fn inside(&self, rect: (f64, f64, f64, f64)) -> bool {
+        self.x - self.half_w >= rect.0
+            && self.y - self.half_h >= rect.1
+            && self.x + self.half_w <= rect.2
+            && self.y + self.half_h <= rect.3
+    }
+}
+
+/// `labels`, in order of priority, less each one that would overlap a label kept before it or
+/// one of `fixed`, or cover one of `points` (the curves it must leave readable).
+pub(crate) fn keep_apart(
+    labels: Vec<Placed>,
+    fixed: &[Placed],
+    points: &[(f64, f64)],
+) -> Vec<Placed> {
+    let mut kept: Vec<Placed> = Vec::new();
+    for l in labels {
+        let clear = kept.iter().chain(fixed).all(|k| !l.overlaps(k))
+            && !points.iter().any(|p| l.covers(*p));
+        if clear {
+            kept.push(l);
+        }
+    }
+    kept
+}
+
+/// Draws `label` (placed in canvas pixels) centred on its position on `area`, in `colour` at
+/// text size `size`.
+pub(crate) fn draw_placed<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    label: &Placed,
+    size: u32,
+    colour: RGBColor,
+) -> Result<()> {
+    let (ox, oy) = area.get_base_pixel();
+    area.draw(&Text::new(
+        label.text.clone(),
+        (
+            (label.x - ox as f64).round() as i32,
+            (label.y - oy as f64).round() as i32,
+        ),
+        text_style(size, colour).pos(Pos::new(HPos::Center, VPos::Center)),
+    ))
+    .drawing("a label")
+}
