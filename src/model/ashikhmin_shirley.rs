@@ -160,7 +160,7 @@ pub fn ashikhmin_shirley(p: &AshikhminShirley, wi: DVec3, wo: DVec3, white_furna
 }
 
 /// [`ashikhmin_shirley`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
-/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`half_vector_from_sum`]).
 pub fn ashikhmin_shirley_from_sum(
     p: &AshikhminShirley,
     wi: DVec3,

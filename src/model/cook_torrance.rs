@@ -140,7 +140,7 @@ pub fn cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool
 }
 
 /// [`cook_torrance`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
-/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`half_vector_from_sum`]).
 pub fn cook_torrance_from_sum(
     p: &CookTorrance,
     wi: DVec3,

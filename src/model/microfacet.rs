@@ -320,7 +320,7 @@ pub fn microfacet(p: &Microfacet, wi: DVec3, wo: DVec3, white_furnace: bool) -> 
 }
 
 /// [`microfacet`] with s = ωi + ωo given (the GLSL albedo kernel's exact sum:
-/// [`half_vector_from_sum`](super::terms::half_vector_from_sum)).
+/// [`half_vector_from_sum`]).
 pub fn microfacet_from_sum(
     p: &Microfacet,
     wi: DVec3,

@@ -19,8 +19,8 @@
 //!      replaced get their old contents back and the new ones are removed.
 //!
 //!   The commit flushes the new files and writes a record first, so that a process killed
-//!   part-way leaves what the next run completes ([`commit`](self::commit)'s notes), and it
-//!   refuses to overwrite a member of another set ([`owner`](self::owner)'s notes).
+//!   part-way leaves what the next run completes (`output/commit.rs`), and it
+//!   refuses to overwrite a member of another set (`output/owner.rs`).
 //!
 //!   Names a file system cannot hold are found earlier: each temporary name is as long as its
 //!   destination's, so a name that is too long fails when the set is created, before any work.

@@ -176,7 +176,7 @@ impl Drop for Pending {
 }
 
 /// A buffered writer on a [`Pending`] file that fails at its next write once output is
-/// interrupted ([`interrupt`]), so that a long encoding stops part-way. Call
+/// interrupted ([`interrupt`](super::interrupt)), so that a long encoding stops part-way. Call
 /// [`OutputWriter::finish`] at the end: a late write error is not lost.
 pub struct OutputWriter<'a> {
     inner: BufWriter<&'a File>,
@@ -238,7 +238,7 @@ pub fn write_atomic<T>(
 /// Encodes an EXR into `pending` through `encode` (given an [`OutputWriter`]: the encoding stops
 /// at its next chunk once output is interrupted), then puts the header's attributes in name order
 /// so that one input gives the same bytes every run (exr keeps custom attributes in a hash map,
-/// whose order changes from run to run). Use [`EXR_ENCODING`] for the layers.
+/// whose order changes from run to run). Use [`EXR_ENCODING`](super::EXR_ENCODING) for the layers.
 pub fn write_exr(
     pending: &Pending,
     encode: impl FnOnce(&mut OutputWriter) -> exr::error::UnitResult,

@@ -77,7 +77,7 @@ impl FileSet {
 
     /// Adds the members of one set of `kind` (`"table"`, `"lut"`, …) whose record is
     /// `dests[record]`, returning the index of the first. Refused before any file is created
-    /// (see [`super::owner`]) when a destination belongs to another set or (an existing file) to
+    /// (`output/owner.rs`) when a destination belongs to another set or (an existing file) to
     /// none, unless sets are replaced ([`super::replace_sets`]); the commit removes the members
     /// of this set's earlier version that it no longer has. The record must hold a JSON object;
     /// the commit adds [`super::set_json`] of the members to it as `"set"`.
