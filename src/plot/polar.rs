@@ -19,7 +19,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
+mod curves;
 mod paper;
+
+use curves::{at, draw_curves};
 
 /// View angles per curve: cell-centred over (−90°, 90°), 0.125° apart, fine enough that a
 /// Phong lobe of exponent 8192 (half-width ≈ 1/√n rad ≈ 0.6°) is drawn with ~10 points.
@@ -474,10 +477,6 @@ fn draw<DB: DrawingBackend>(
         .drawing("the polar chart")?;
     let pa = chart.plotting_area().clone();
     let px = pixel_map(&pa);
-    let at = |rho: f64, s_deg: f64| {
-        let s = rad(s_deg);
-        (rho * s.sin(), rho * s.cos())
-    };
     let arc = |rho: f64| -> Vec<(f64, f64)> {
         (0..=360)
             .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
@@ -550,18 +549,7 @@ fn draw<DB: DrawingBackend>(
         .drawing("an incidence label")?;
     }
     // Curves, in canvas pixels with sub-pixel precision.
-    for (s, &peak) in data.series.iter().zip(&data.peaks) {
-        let (colour, marker, dash) = style_of(s, &styles, angle_index(s.theta_i_deg));
-        let pts: Vec<(f64, f64)> = s
-            .theta_o_deg
-            .iter()
-            .zip(&s.value)
-            .map(|(&a, &v)| px(at(radius(data, peak, v), a)))
-            .collect();
-        ink.line(&pts, colour, 2.0, dash, 1.0);
-        let phase = (s.subject % 3) as f64 / 3.0;
-        ink.markers_along(&pts, marker, colour, 90.0, phase);
-    }
+    draw_curves(ink, data, &styles, &opts.theta_i_deg, &px, 90.0);
     // Delta lobes: an arrow to the horizon circle along the mirror direction, labelled with the
     // spike's albedo (it has no finite value to plot).
     for d in &data.deltas {

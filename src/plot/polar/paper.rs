@@ -107,10 +107,6 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     let spare = hf - legend_h - (label_h + r + below);
     let centre = (wf / 2.0, (spare / 2.0).max(0.0) + label_h + r);
     let px = |(x, y): (f64, f64)| (centre.0 + x * r, centre.1 - y * r);
-    let at = |rho: f64, s_deg: f64| {
-        let s = rad(s_deg);
-        (rho * s.sin(), rho * s.cos())
-    };
     let arc = |rho: f64| -> Vec<(f64, f64)> {
         (0..=360)
             .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
@@ -147,20 +143,7 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
         let (colour, dash) = incidence_colour(t);
         ink.line(&[px((0.0, 0.0)), px(at(1.0, -t))], colour, 1.0, dash, 0.6);
     }
-    let mut curve_points = Vec::new();
-    for (s, &peak) in data.series.iter().zip(&data.peaks) {
-        let (colour, marker, dash) = style_of(s, &styles, angle_index(s.theta_i_deg));
-        let pts: Vec<(f64, f64)> = s
-            .theta_o_deg
-            .iter()
-            .zip(&s.value)
-            .map(|(&a, &v)| px(at(radius(data, peak, v), a)))
-            .collect();
-        ink.line(&pts, colour, 2.0, dash, 1.0);
-        let phase = (s.subject % 3) as f64 / 3.0;
-        ink.markers_along(&pts, marker, colour, 60.0, phase);
-        curve_points.extend(pts);
-    }
+    let curve_points = draw_curves(ink, data, &styles, &opts.theta_i_deg, &px, 60.0);
     let canvas = (0.0, 0.0, wf, hf);
     // Spoke labels just outside the horizon, at the finest step whose labels stand apart.
     let spokes = SPOKE_STEPS
