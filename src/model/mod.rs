@@ -3,12 +3,9 @@
 
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
-pub mod components;
 pub mod cook_torrance;
 pub mod coupled;
 pub mod eon;
-pub mod info;
-pub mod kernels;
 pub mod kulla_conty;
 pub mod lambert;
 pub mod merl;
@@ -17,7 +14,7 @@ pub mod oren_nayar;
 pub mod params;
 pub mod phong;
 pub mod registry;
-pub use registry::{catalogue, quadrature, runtime};
+pub use registry::{catalogue, components, info, kernels, quadrature, runtime};
 pub mod smooth_layered;
 pub mod terms;
 

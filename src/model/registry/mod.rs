@@ -1,11 +1,14 @@
 //! What the crate knows about each model, stated once, by the model's own file, as a
-//! [`ModelInfo`] (`src/model/info.rs`). The rest of the crate asks the model ([`Model::info`]
+//! [`ModelInfo`] (`info.rs` beside this file). The rest of the crate asks the model ([`Model::info`]
 //! and the methods built on it) instead of matching on its name. Adding a built-in model is its GLSL file, its Rust twin
 //! (with its `INFO`), and its registry entry: the `Model` variant and its place in `Model::ALL`,
 //! the `Brdf` variant with its three dispatch arms (`src/model/mod.rs`), and its line in
 //! [`Model::info`] (docs/architecture.md §2.1).
 
 pub mod catalogue;
+pub mod components;
+pub mod info;
+pub mod kernels;
 pub mod quadrature;
 pub mod runtime;
 

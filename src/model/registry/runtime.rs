@@ -7,9 +7,9 @@
 //! Registered models live for the rest of the process (their names must be unique), so that a
 //! [`Model`] stays a small `Copy` value whatever defined it.
 
+use super::info::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::quadrature::no_lobes;
 use crate::axis::Mapping;
-use crate::model::info::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
 use crate::model::{Model, ParamSet};
 use glam::DVec3;

@@ -1,11 +1,11 @@
 //! The description every built-in model states about itself in its own file ([`ModelInfo`]),
-//! and the small functions many of them share in it; `registry` answers the rest of the crate's
-//! questions from these.
+//! and the small functions many of them share in it; the registry (`registry/mod.rs`) answers
+//! the rest of the crate's questions from these.
 
-use super::params::{ParamError, ParamSpec, Value};
 use super::quadrature::SamplingLobes;
-use super::{Layout, Model, ParamSet};
 use crate::axis::Mapping;
+use crate::model::params::{ParamError, ParamSpec, Value};
+use crate::model::{Layout, Model, ParamSet};
 use glam::DVec3;
 
 /// The parameter axis a model's albedo look-up table sweeps by default. Every key takes the same

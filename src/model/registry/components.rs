@@ -3,7 +3,7 @@
 //! is its own pipeline (the indices are specialization constants), and the Kulla–Conty tables
 //! are computed per combination.
 
-use super::Value;
+use crate::model::Value;
 
 /// Options of the `distribution` parameter, in the order of their index (specialization
 /// constant 3).
