@@ -7,6 +7,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lobe::gpu::{Device, DeviceOptions, Gpu};
 use lobe::grid::Grid;
 use lobe::tradeoff::{eval_variants, variant_table};
+use lobe::Evaluator;
 
 /// 0.5e6 evaluations per iteration.
 const GRID: Grid = Grid::Isotropic {
@@ -18,6 +19,7 @@ const GRID: Grid = Grid::Isotropic {
 fn variants(c: &mut Criterion) {
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = Gpu::new(dev);
+    let gpu = Evaluator::gpu(&gpu);
     for (model, sets) in [
         ("cook_torrance", vec![]),
         ("phong", vec!["shininess=8192".to_string()]),

@@ -51,16 +51,11 @@ fn time_task(
 ) -> Result<Throughput> {
     let run = || -> Result<(f64, Option<f64>)> {
         eval.check_cancelled()?;
-        if let Some(g) = eval.as_gpu() {
-            g.take_gpu_time();
-        }
+        eval.take_device_time();
         let t = Instant::now();
         work()?;
         let wall = t.elapsed().as_secs_f64();
-        let kernel = eval
-            .as_gpu()
-            .and_then(|g| g.take_gpu_time())
-            .map(|d| d.as_secs_f64());
+        let kernel = eval.take_device_time().map(|d| d.as_secs_f64());
         Ok((wall, kernel))
     };
     run()?;

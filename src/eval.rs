@@ -1,60 +1,52 @@
-//! One interface over the two backends: the Vulkan kernels (f32) and the CPU reference (f64).
+//! The jobs' handle on a backend: the [`Backend`] behind one interface with the cancellation
+//! token, the invalid-value policy and the speed-for-accuracy switches.
 
+use crate::backend::{Backend, CpuBackend, Precision, Query};
 use crate::finite::InvalidCount;
-use crate::gpu::{Gpu, GpuPair, TableSwitches};
+use crate::gpu::Gpu;
 use crate::grid::Grid;
 use crate::interrupt::{CancelToken, Interrupted};
-use crate::model::{Brdf, ParamSet, Reference};
+use crate::model::{Model, ParamSet};
 use anyhow::Result;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::Mutex;
-
-/// Cells per CPU chunk of a table: bounded memory, enough work for every thread.
-const CPU_CHUNK_CELLS: u64 = 1 << 22;
+use std::time::Duration;
 
 /// Cells per chunk of a table evaluated as explicit pairs (`halfdiff`): 48 MiB of f64 pairs.
 const PAIR_CHUNK_CELLS: u64 = 1 << 20;
-
-/// Which backend an [`Evaluator`] runs on.
-#[derive(Clone, Copy)]
-pub enum Backend<'a> {
-    /// The Vulkan kernels, in f32.
-    Gpu(&'a Gpu),
-    /// The CPU reference, in f64 (rayon over every core).
-    Cpu,
-}
 
 /// Where f is evaluated, and the token that stops long jobs between chunks. Cheap to copy; a
 /// [`crate::Session`] hands one out with [`crate::Session::evaluator`].
 #[derive(Clone, Copy)]
 pub struct Evaluator<'a> {
-    backend: Backend<'a>,
+    backend: &'a dyn Backend,
     cancel: Option<&'a CancelToken>,
     fast_pow: bool,
     /// Where invalid values are counted instead of refused ([`Evaluator::counting_invalid`]).
     tally: Option<&'a Mutex<InvalidCount>>,
 }
 
-fn f32x4(v: DVec3) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, 0.0]
-}
-
 impl<'a> Evaluator<'a> {
-    /// The GPU kernels of `gpu`, never cancelled.
-    pub fn gpu(gpu: &'a Gpu) -> Evaluator<'a> {
+    /// `backend`, never cancelled.
+    pub fn on(backend: &'a dyn Backend) -> Evaluator<'a> {
         Evaluator {
-            backend: Backend::Gpu(gpu),
+            backend,
             cancel: None,
             fast_pow: false,
             tally: None,
         }
     }
 
+    /// The GPU kernels of `gpu`, never cancelled.
+    pub fn gpu(gpu: &'a Gpu) -> Evaluator<'a> {
+        Evaluator::on(gpu)
+    }
+
     /// The f64 CPU reference, never cancelled.
     pub const fn cpu() -> Evaluator<'static> {
         Evaluator {
-            backend: Backend::Cpu,
+            backend: &CpuBackend,
             cancel: None,
             fast_pow: false,
             tally: None,
@@ -101,21 +93,18 @@ impl<'a> Evaluator<'a> {
     }
 
     /// The backend.
-    pub fn backend(&self) -> Backend<'a> {
+    pub fn backend(&self) -> &'a dyn Backend {
         self.backend
     }
 
-    /// The GPU runner, where this evaluates on the GPU.
-    pub fn as_gpu(&self) -> Option<&'a Gpu> {
-        match self.backend {
-            Backend::Gpu(g) => Some(g),
-            Backend::Cpu => None,
-        }
+    /// The arithmetic of the backend's values and sums.
+    pub fn precision(&self) -> Precision {
+        self.backend.precision()
     }
 
-    /// Whether this evaluates on the GPU.
-    pub fn is_gpu(&self) -> bool {
-        self.as_gpu().is_some()
+    /// Ok where the backend can evaluate `model` (the CPU reference needs its f64 twin).
+    pub fn supports(&self, model: Model) -> Result<()> {
+        self.backend.supports(model)
     }
 
     /// `Err(Interrupted)` once the cancellation token is set: long loops call it between chunks.
@@ -133,18 +122,22 @@ impl<'a> Evaluator<'a> {
 
     /// A one-line description: the backend and the device.
     pub fn name(&self) -> String {
-        match self.backend {
-            Backend::Gpu(g) => format!("gpu ({})", g.device().name()),
-            Backend::Cpu => "cpu (f64 reference)".to_string(),
-        }
+        self.backend.name()
+    }
+
+    /// The device's name, where the backend runs on one.
+    pub fn device(&self) -> Option<String> {
+        self.backend.device()
     }
 
     /// The GPU's driver and its version ("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"); None on the CPU.
     pub fn driver(&self) -> Option<String> {
-        match self.backend {
-            Backend::Gpu(g) => Some(g.device().driver().to_string()),
-            Backend::Cpu => None,
-        }
+        self.backend.driver()
+    }
+
+    /// Device time of every dispatch since the last call, where the backend has such a clock.
+    pub fn take_device_time(&self) -> Option<Duration> {
+        self.backend.take_device_time()
     }
 
     /// f at each (ωi, ωo) pair, for one parameter set.
@@ -167,30 +160,32 @@ impl<'a> Evaluator<'a> {
         white_furnace: bool,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
-        match self.backend {
-            Backend::Gpu(gpu) => {
-                let block = Brdf::new(params).gpu_block();
-                let gp: Vec<GpuPair> = pairs
-                    .iter()
-                    .map(|(wi, wo)| GpuPair {
-                        wi: [wi.x as f32, wi.y as f32, wi.z as f32],
-                        param_index: 0,
-                        wo: [wo.x as f32, wo.y as f32, wo.z as f32],
-                        pad: 0,
-                    })
-                    .collect();
-                let out = gpu.eval_pairs(params.model(), &[block], &gp, white_furnace)?;
-                Ok(out.into_iter().map(|c| c.map(f64::from)).collect())
-            }
-            Backend::Cpu => {
-                params.model().require_reference("the CPU backend")?;
-                let r = Reference::new(params, white_furnace);
-                Ok(pairs
-                    .par_iter()
-                    .map(|(wi, wo)| r.eval(*wi, *wo).to_array())
-                    .collect())
-            }
+        let mut f = self
+            .backend
+            .pairs(Query::one(params, white_furnace), pairs)?;
+        Ok(f.pop().unwrap_or_default())
+    }
+
+    /// f of each parameter set of `sets` at every pair: `[set][pair]`, as the backend computed
+    /// them (NaN, ±Inf and negative values included), for jobs that count or refuse such values
+    /// themselves. Sets of one model go to the backend as one job, which it may batch.
+    pub fn eval_sets_unchecked(
+        &self,
+        sets: &[ParamSet],
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<Vec<[f64; 3]>>> {
+        self.check_cancelled()?;
+        let query = Query {
+            sets,
+            white_furnace,
+        };
+        if query.one_model() {
+            return self.backend.pairs(query, pairs);
         }
+        sets.iter()
+            .map(|p| self.eval_pairs_unchecked(p, white_furnace, pairs))
+            .collect()
     }
 
     /// The lobe table on `grid`, handed to `sink` in order, one chunk at a time, as
@@ -211,46 +206,15 @@ impl<'a> Evaluator<'a> {
         if !grid.is_product() {
             return self.eval_table_by_pairs(params, white_furnace, grid, sink);
         }
-        let wi = grid.wi_list();
-        let wo = grid.wo_list();
-        match self.backend {
-            Backend::Gpu(gpu) => {
-                let block = Brdf::new(params).gpu_block();
-                let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
-                let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
-                gpu.eval_table::<anyhow::Error>(
-                    params.model(),
-                    &block,
-                    &wi,
-                    &wo,
-                    TableSwitches {
-                        white_furnace,
-                        fast_pow: self.fast_pow,
-                    },
-                    sink,
-                )
-            }
-            Backend::Cpu => {
-                params.model().require_reference("the CPU backend")?;
-                let r = Reference::new(params, white_furnace);
-                let cells = wi.len() as u64 * wo.len() as u64;
-                let n_wo = wo.len() as u64;
-                let mut first = 0u64;
-                let mut buf = Vec::new();
-                while first < cells {
-                    let count = CPU_CHUNK_CELLS.min(cells - first);
-                    buf.resize(count as usize * 3, 0.0f32);
-                    buf.par_chunks_mut(3).enumerate().for_each(|(k, out)| {
-                        let cell = first + k as u64;
-                        let f = r.eval(wi[(cell / n_wo) as usize], wo[(cell % n_wo) as usize]);
-                        out.copy_from_slice(&[f.x as f32, f.y as f32, f.z as f32]);
-                    });
-                    sink(first, &buf)?;
-                    first += count;
-                }
-                Ok(())
-            }
-        }
+        let (wi, wo) = (grid.wi_list(), grid.wo_list());
+        self.backend.table(
+            Query::one(params, white_furnace),
+            &wi,
+            &wo,
+            self.fast_pow,
+            self.cancel,
+            sink,
+        )
     }
 
     /// A table on a grid that is not an outer product (`halfdiff`): each chunk's (ωi, ωo) pairs

@@ -16,6 +16,7 @@
 //! linear RGB, without the cosine, and 0 whenever cosθi ≤ 0 or cosθo ≤ 0.
 
 pub mod axis;
+pub mod backend;
 pub mod bench;
 pub mod brdf;
 pub mod compare;
@@ -48,8 +49,9 @@ pub mod table;
 pub mod tolerance;
 pub mod tradeoff;
 
+pub use backend::Backend;
 pub use error::{Error, Result};
-pub use eval::{Backend, Evaluator};
+pub use eval::Evaluator;
 pub use glam;
 pub use interrupt::CancelToken;
 pub use model::{Model, ParamSet, Reference};

@@ -6,6 +6,15 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
+/// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    /// ωi, the unit direction to the light, in the local frame.
+    pub wi: DVec3,
+    /// The node's weight in sr, the cosine c_i included.
+    pub weight: f64,
+}
+
 /// Refinement stops at this many panels even if the tolerance is not met; the reported error
 /// then says so.
 const MAX_PANELS: usize = 4000;

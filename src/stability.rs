@@ -16,10 +16,10 @@
 //! renderer resolves do not dominate), and as a fraction of the tolerance the parity test allows
 //! ([`crate::tolerance`]): a ratio above 1 is a value the parity test would reject.
 
+use crate::backend::Precision;
 use crate::eval::Evaluator;
-use crate::gpu::GpuPair;
 use crate::grid::direction;
-use crate::model::{Brdf, Model, ParamSet, Reference};
+use crate::model::{Model, ParamSet, Reference};
 use anyhow::{Context, Result};
 use glam::DVec3;
 use serde::Serialize;
@@ -448,6 +448,9 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
     let regions = regions();
     let mut by_key: BTreeMap<(usize, &'static str, String), Stats> = BTreeMap::new();
     let mut model_order: Vec<String> = Vec::new();
+    // Values of an f32 backend are compared with the reference; the reference alone is checked
+    // for invalid values.
+    let compared = opts.backend.precision() == Precision::F32;
     for (mi, &model) in opts.models.iter().enumerate() {
         opts.backend.check_cancelled()?;
         model.require_reference("the stability sweep")?;
@@ -459,34 +462,34 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
             if white_furnace && !model.has_specular_fresnel() {
                 continue;
             }
+            // Every case at every region's pairs, in one job of the backend.
             let mut pairs = Vec::new();
-            let mut meta = Vec::new();
-            let mut blocks = Vec::new();
-            for (k, case) in cases.iter().enumerate() {
-                let p32 = case.params.rounded_to_f32();
-                // A preset may choose components of another pipeline; the sweep keeps each case
-                // on its model's pipeline (cases only set numbers).
-                debug_assert_eq!(p32.model(), model);
-                blocks.push(Brdf::new(&p32).gpu_block());
-                for (ri, region) in regions.iter().enumerate() {
-                    for &(wi, wo) in &region.pairs {
-                        pairs.push(GpuPair {
-                            wi: [wi.x as f32, wi.y as f32, wi.z as f32],
-                            param_index: k as u32,
-                            wo: [wo.x as f32, wo.y as f32, wo.z as f32],
-                            pad: 0,
-                        });
-                        meta.push((k, ri, wi, wo));
-                    }
-                }
+            let mut region_of = Vec::new();
+            for (ri, region) in regions.iter().enumerate() {
+                pairs.extend_from_slice(&region.pairs);
+                region_of.extend(std::iter::repeat_n(ri, region.pairs.len()));
             }
-            let gpu_values = match opts.backend.as_gpu() {
-                Some(gpu) => Some(
-                    gpu.eval_pairs(model, &blocks, &pairs, white_furnace)
+            let sets: Vec<ParamSet> = cases.iter().map(|c| c.params.rounded_to_f32()).collect();
+            // A preset may choose components of another pipeline; the sweep keeps each case on
+            // its model's pipeline (cases only set numbers).
+            debug_assert!(sets.iter().all(|p| p.model() == model));
+            let gpu_values = match compared {
+                true => Some(
+                    opts.backend
+                        .eval_sets_unchecked(&sets, white_furnace, &pairs)
                         .with_context(|| format!("evaluating {label} on the GPU"))?,
                 ),
-                None => None,
+                false => None,
             };
+            let meta: Vec<(usize, usize, DVec3, DVec3)> = (0..sets.len())
+                .flat_map(|k| {
+                    let region_of = &region_of;
+                    pairs
+                        .iter()
+                        .enumerate()
+                        .map(move |(j, &(wi, wo))| (k, region_of[j], wi, wo))
+                })
+                .collect();
             let refs: Vec<(ParamSet, Reference)> = cases
                 .iter()
                 .map(|c| {
@@ -498,13 +501,13 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
             for (n, &(k, ri, wi, wo)) in meta.iter().enumerate() {
                 let (p32, r) = &refs[k];
                 let c = r.eval(wi, wo);
-                let g = gpu_values.as_ref().map(|v| v[n]);
+                let g = gpu_values.as_ref().map(|v| v[k][n % pairs.len()]);
                 let tol = g.map(|_| parity_tolerance(p32, r, wi, wo, c));
                 let mut s = Stats::default();
                 for ch in 0..3 {
                     s.values += 1;
                     let cv = c[ch];
-                    let gv = g.map(|g| g[ch] as f64);
+                    let gv = g.map(|g| g[ch]);
                     let sample = |tolerance: Option<f64>| Sample {
                         model: label.clone(),
                         case: cases[k].label.clone(),
@@ -588,11 +591,11 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
         }
     }
     Ok(Report {
-        backend: match opts.backend.as_gpu() {
-            Some(g) => format!("gpu ({}) vs cpu (f64 reference)", g.device().name()),
-            None => "cpu (f64 reference) only".to_string(),
+        backend: match compared {
+            true => format!("{} vs cpu (f64 reference)", opts.backend.name()),
+            false => "cpu (f64 reference) only".to_string(),
         },
-        gpu: opts.backend.is_gpu(),
+        gpu: compared,
         rel_floor: REL_FLOOR,
         rows,
         total,

@@ -320,7 +320,7 @@ fn check_gauss_ladder(backend: &Evaluator, what: &str) {
         assert_eq!(errors.len(), ladder.len(), "{what}: {rows:#?}");
         let model = params.model().name();
         if exact {
-            let atol = if backend.is_gpu() {
+            let atol = if backend.precision() == lobe::backend::Precision::F32 {
                 LAMBERT_GAUSS_ATOL_F32
             } else {
                 LAMBERT_GAUSS_ATOL_F64

@@ -8,6 +8,7 @@
 use super::html::{albedo_row as albedo_html, esc, figure, rgb_text, ALBEDO_HEADER};
 use super::steps::{albedo_row, Demo};
 use super::{AlbedoRow, Progress, ALBEDO_MU};
+use crate::backend::Precision;
 use crate::compare::{self, Bins, Comparison, Options, Side};
 use crate::eval::Evaluator;
 use crate::grid::Grid;
@@ -90,7 +91,7 @@ pub(super) fn shipped(
     files: &mut Vec<String>,
     p: &mut dyn Progress,
 ) -> Result<(Option<Shipped>, String)> {
-    if !eval.is_gpu() {
+    if eval.precision() == Precision::F64 {
         return Ok((
             None,
             "not run: a .brdf shader has no f64 twin for the CPU backend".into(),

@@ -19,18 +19,16 @@ pub mod batch;
 pub mod space;
 pub mod target;
 
-use crate::eval::{Backend, Evaluator};
-use crate::gpu::GpuPair;
+use crate::eval::Evaluator;
 use crate::input::BadInput;
 use crate::integrate::{self, PointAlbedo};
 use crate::loss::{ChannelErrors, LossKind};
-use crate::model::{Brdf, ParamSet, Reference};
+use crate::model::ParamSet;
 use anyhow::{Context, Result};
 use argmin::core::observers::{Observe, ObserverMode};
 use argmin::core::{CostFunction, Executor, State, KV};
 use argmin::solver::neldermead::NelderMead;
 use glam::DVec3;
-use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -175,8 +173,8 @@ pub struct Objective<'a> {
     eval: Evaluator<'a>,
     samples: &'a Samples,
     loss: LossKind,
-    /// Pairs for the GPU: candidate j's copy of the samples at [j·N, (j + 1)·N), param_index j.
-    gpu_pairs: Vec<GpuPair>,
+    /// Candidates evaluated in one backend job at most (bounds its memory).
+    batch: usize,
 }
 
 impl<'a> Objective<'a> {
@@ -187,31 +185,23 @@ impl<'a> Objective<'a> {
         loss: LossKind,
         batch: usize,
     ) -> Objective<'a> {
-        let gpu_pairs = if eval.is_gpu() {
-            (0..batch as u32)
-                .flat_map(|j| {
-                    samples.pairs.iter().map(move |(wi, wo)| GpuPair {
-                        wi: [wi.x as f32, wi.y as f32, wi.z as f32],
-                        param_index: j,
-                        wo: [wo.x as f32, wo.y as f32, wo.z as f32],
-                        pad: 0,
-                    })
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
         Objective {
             eval,
             samples,
             loss,
-            gpu_pairs,
+            batch: batch.max(1),
         }
     }
 
     /// The fit's values at the samples for each parameter set (all of one model).
     pub fn values(&self, sets: &[ParamSet]) -> Result<Vec<Vec<[f64; 3]>>> {
-        let values = self.values_unchecked(sets)?;
+        let mut values = Vec::with_capacity(sets.len());
+        for part in sets.chunks(self.batch) {
+            values.extend(
+                self.eval
+                    .eval_sets_unchecked(part, false, &self.samples.pairs)?,
+            );
+        }
         // NaN, ±Inf and negative values are refused (docs/design.md §2.1): a loss of them
         // would steer the search by garbage.
         for (p, v) in sets.iter().zip(&values) {
@@ -220,47 +210,6 @@ impl<'a> Objective<'a> {
             count.refuse(p.model().name(), &format!("fit at {}", p.to_text()))?;
         }
         Ok(values)
-    }
-
-    fn values_unchecked(&self, sets: &[ParamSet]) -> Result<Vec<Vec<[f64; 3]>>> {
-        self.eval.check_cancelled()?;
-        let n = self.samples.pairs.len();
-        match self.eval.backend() {
-            Backend::Gpu(gpu) if sets.len() * n <= self.gpu_pairs.len() => {
-                let model = sets[0].model();
-                if sets.iter().any(|p| p.model() != model) {
-                    // Component choices differ (never in a fit: only numbers vary): one by one.
-                    return sets
-                        .iter()
-                        .map(|p| self.eval.eval_pairs(p, false, &self.samples.pairs))
-                        .collect();
-                }
-                let blocks: Vec<Vec<u8>> = sets.iter().map(|p| Brdf::new(p).gpu_block()).collect();
-                let out =
-                    gpu.eval_pairs(model, &blocks, &self.gpu_pairs[..sets.len() * n], false)?;
-                Ok(out
-                    .chunks(n)
-                    .map(|c| c.iter().map(|v| v.map(f64::from)).collect())
-                    .collect())
-            }
-            Backend::Gpu(_) => sets
-                .iter()
-                .map(|p| self.eval.eval_pairs(p, false, &self.samples.pairs))
-                .collect(),
-            Backend::Cpu => sets
-                .iter()
-                .map(|p| {
-                    p.model().require_reference("the CPU backend")?;
-                    let r = Reference::new(p, false);
-                    Ok(self
-                        .samples
-                        .pairs
-                        .par_iter()
-                        .map(|(wi, wo)| r.eval(*wi, *wo).to_array())
-                        .collect())
-                })
-                .collect(),
-        }
     }
 
     /// The loss of each parameter set against the target.
@@ -335,9 +284,7 @@ pub fn fit(
         )
         .into());
     }
-    if !eval.is_gpu() {
-        space.base.model().require_reference("the CPU backend")?;
-    }
+    eval.supports(space.base.model())?;
     let t0 = Instant::now();
     let samples = target::samples(target, eval, opts.max_bins)?;
     let objective = Objective::new(*eval, &samples, opts.loss, opts.starts);
@@ -526,7 +473,7 @@ fn albedo_side_by_side(
     let fit_e = e(fit)?;
     let target_e = match target_model(target)? {
         // A model without the f64 twin (a .brdf file) on the CPU backend has no albedo here.
-        Some(p) if eval.is_gpu() || p.model().has_reference() => Some(e(&p)?),
+        Some(p) if eval.supports(p.model()).is_ok() => Some(e(&p)?),
         _ => None,
     };
     Ok(fit_e

@@ -3,12 +3,14 @@
 //! memory stays bounded whatever the job's size.
 
 pub mod albedo;
+mod backend;
 pub mod buffer;
 pub mod device;
 pub mod error;
 pub mod pipeline;
 pub mod preview;
 pub mod spirv;
+mod sums;
 
 use crate::model::Model;
 use buffer::Buffer;

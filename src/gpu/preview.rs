@@ -1,11 +1,12 @@
 //! The GPU path of `lobe preview` (`glsl/kernels/preview.comp`): uploads a scene and one object
 //! per cell, shades every pixel of every cell with one model, and reads the radiance back. The
-//! scene itself (camera, lights, what the numbers mean) is described in `src/preview/mod.rs`, whose
-//! f64 twin renders the same image.
+//! scene itself (camera, lights, what the numbers mean) is described in `src/preview/mod.rs`; its
+//! f64 twin (`src/backend/shade.rs`) renders the same image.
 
 use super::buffer::Buffer;
 use super::pipeline::{ChunkPush, Dispatcher, Kernel};
 use super::{Gpu, GpuError, Result};
+use crate::backend::scene::{LightKind, Scene};
 use crate::model::Model;
 
 /// The fixed part of the `Scene` buffer of `preview.comp` (std430).
@@ -44,6 +45,51 @@ pub struct GpuObject {
     pub param_index: u32,
     /// Padding to the std430 size of 32 bytes; always 0.
     pub pad: [u32; 2],
+}
+
+/// The kernel's view of `scene` for `cells` cells: header and lights.
+pub fn scene_header(scene: &Scene, cells: usize) -> (GpuSceneHeader, Vec<GpuLight>) {
+    let a = scene.ambient;
+    let header = GpuSceneHeader {
+        dims: [
+            scene.cell_width,
+            scene.cell_height,
+            cells as u32,
+            scene.lights.len() as u32,
+        ],
+        camera: [scene.tan_half_fov as f32, scene.aspect() as f32, 0.0, 0.0],
+        ambient: [a.x as f32, a.y as f32, a.z as f32, 0.0],
+    };
+    let lights = scene
+        .lights
+        .iter()
+        .map(|l| {
+            let (p, i) = (l.position, l.intensity);
+            let w = match l.kind {
+                LightKind::Point => 1.0,
+                LightKind::Directional => 0.0,
+            };
+            GpuLight {
+                position: [p.x as f32, p.y as f32, p.z as f32, w],
+                intensity: [i.x as f32, i.y as f32, i.z as f32, 0.0],
+            }
+        })
+        .collect();
+    (header, lights)
+}
+
+/// One object per cell, cell k shaded with parameter block k.
+pub fn scene_objects(scene: &Scene, cells: usize) -> Vec<GpuObject> {
+    let c = scene.centre;
+    (0..cells)
+        .map(|k| GpuObject {
+            centre: [c.x as f32, c.y as f32, c.z as f32],
+            radius: scene.radius as f32,
+            shape: scene.shape.code(),
+            param_index: k as u32,
+            pad: [0; 2],
+        })
+        .collect()
 }
 
 impl Gpu {

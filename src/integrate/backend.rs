@@ -5,10 +5,9 @@ use super::estimate::three_level_error;
 use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::Rule;
-use super::Node;
-use crate::eval::{Backend, Evaluator};
-use crate::finite;
-use crate::model::{Brdf, ParamSet, Reference};
+use crate::backend::{NodeRule, Precision, Query};
+use crate::eval::Evaluator;
+use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -88,7 +87,7 @@ fn f32_rounding(
     model: crate::model::Model,
     rule: Rule,
 ) -> impl Fn(DVec3, DVec3) -> DVec3 {
-    let on_gpu = matches!(backend.backend(), Backend::Gpu(_));
+    let on_gpu = backend.precision() == Precision::F32;
     let mirror = model.sums_from_mirror_offsets() && rule.depends_on_wo();
     move |v: DVec3, wo: DVec3| {
         if !on_gpu {
@@ -101,8 +100,7 @@ fn f32_rounding(
     }
 }
 
-/// One rule's sums for several parameter sets: `[row][ωo]` of (Σ w f, the number of nodes).
-pub type RowSums = Vec<Vec<(DVec3, u64)>>;
+pub use crate::backend::RowSums;
 
 /// Σ w f(ωi, ωo) for each ωo: f64 sums on the CPU, the reduction kernel on the GPU.
 pub fn sum_rule(
@@ -120,215 +118,6 @@ pub fn sum_rule(
         wo,
     )?;
     Ok(sums.pop().and_then(|mut r| r.pop()).unwrap_or_default())
-}
-
-/// Nodes of ωo-dependent rules in one batch on the GPU: 1M nodes, a node buffer of 16 MiB as
-/// f32x4. Small enough that first touching its pages stays a small part of a directional
-/// albedo's time (each page of a fresh mapping faults once), large enough for dispatches of
-/// ~1000 workgroups.
-const GPU_BUFFER_NODES: usize = 1 << 20;
-
-/// Σ w f(ωi, ωo) of each rule of `rules`, for each parameter block of `blocks` (one model) and
-/// each ωo, on the GPU: results indexed `[rule][row][ωo]`. Every rule, row and direction of a
-/// batch goes out in the same dispatches. Shared node lists go out once, at the front of the
-/// node buffer; lists per direction follow, a batch of directions at a time, made straight into
-/// the buffer that serves every batch.
-fn gpu_sum_rules(
-    backend: &Evaluator,
-    gpu: &crate::gpu::Gpu,
-    model: crate::model::Model,
-    blocks: &[Vec<u8>],
-    white_furnace: bool,
-    rules: &[Rule],
-    wo: &[DVec3],
-) -> Result<Vec<RowSums>> {
-    use crate::gpu::albedo::{span_nodes, AlbedoSum, DISPATCH_NODES};
-    let span = span_nodes(gpu.device().cpu_kernels());
-    // Lists made per direction go as offsets from its mirror direction where the model's kernel
-    // takes ωi + ωo from them (`Model::sums_from_mirror_offsets`).
-    let mirror = model.sums_from_mirror_offsets();
-    // Workgroup spans in one batch: about one dispatch's worth, which bounds the host's span
-    // list and partial sums however many rows and directions a job has, and lets Ctrl-C act
-    // between dispatches.
-    let batch_spans = DISPATCH_NODES / span;
-    let shared: Vec<Option<std::sync::Arc<Vec<Node>>>> =
-        rules.iter().map(Rule::shared_nodes).collect();
-    // Where each shared list starts in the node buffer.
-    let mut front = 0;
-    let shared_at: Vec<usize> = shared
-        .iter()
-        .map(|l| {
-            let at = front;
-            front += l.as_ref().map_or(0, |l| l.len());
-            at
-        })
-        .collect();
-    // Nodes of each rule at each direction (counted in parallel unless every list is shared:
-    // then there is nothing worth waking the thread pool for), and what one direction costs:
-    // the nodes it adds to the buffer and the spans of all its sums.
-    let all_shared = shared.iter().all(Option::is_some);
-    let count = |&o: &DVec3| -> Vec<usize> {
-        rules
-            .iter()
-            .zip(&shared)
-            .map(|(r, l)| l.as_ref().map_or_else(|| r.node_count(o), |l| l.len()))
-            .collect()
-    };
-    let counts: Vec<Vec<usize>> = if all_shared {
-        wo.iter().map(count).collect()
-    } else {
-        wo.par_iter().map(count).collect()
-    };
-    let own = |o: usize| -> usize {
-        counts[o]
-            .iter()
-            .zip(&shared)
-            .filter(|(_, l)| l.is_none())
-            .map(|(c, _)| c)
-            .sum()
-    };
-    let spans = |o: usize| -> usize {
-        blocks.len() * counts[o].iter().map(|c| c.div_ceil(span)).sum::<usize>()
-    };
-    // Batches of consecutive directions, each within both budgets (at least one direction).
-    let mut batches: Vec<std::ops::Range<usize>> = Vec::new();
-    let (mut start, mut nodes_in, mut spans_in) = (0, 0, 0);
-    for o in 0..wo.len() {
-        let (n, k) = (own(o), spans(o));
-        if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > batch_spans) {
-            batches.push(start..o);
-            (start, nodes_in, spans_in) = (o, 0, 0);
-        }
-        nodes_in += n;
-        spans_in += k;
-    }
-    if start < wo.len() {
-        batches.push(start..wo.len());
-    }
-    let capacity = front
-        + batches
-            .iter()
-            .map(|b| b.clone().map(own).sum::<usize>())
-            .max()
-            .unwrap_or(0);
-    let mut nodes = gpu.albedo_nodes(capacity)?;
-    nodes.fill(front, |d| {
-        for (l, &at) in shared.iter().zip(&shared_at) {
-            if let Some(l) = l {
-                for (d, x) in d[at..at + l.len()].iter_mut().zip(l.iter()) {
-                    *d = f4(x.wi, x.weight);
-                }
-            }
-        }
-    })?;
-    let mut out = vec![vec![Vec::with_capacity(wo.len()); blocks.len()]; rules.len()];
-    for batch in batches {
-        backend.check_cancelled()?;
-        // Where each (direction, rule) list starts: shared lists at the front, the rest of the
-        // batch's lists after them, direction by direction.
-        let mut at = front;
-        let mut starts: Vec<Vec<usize>> = Vec::with_capacity(batch.len());
-        for o in batch.clone() {
-            starts.push(
-                shared_at
-                    .iter()
-                    .zip(&shared)
-                    .zip(&counts[o])
-                    .map(|((&s, l), &c)| match l {
-                        Some(_) => s,
-                        None => {
-                            at += c;
-                            at - c
-                        }
-                    })
-                    .collect(),
-            );
-        }
-        // The batch's own lists (none where every list is shared: the buffer holds those).
-        if at > front {
-            nodes.fill(at, |d| {
-                // One slot per direction, then filled in parallel.
-                let mut slots = Vec::with_capacity(batch.len());
-                let mut rest = &mut d[front..];
-                for o in batch.clone() {
-                    let (slot, tail) = std::mem::take(&mut rest).split_at_mut(own(o));
-                    slots.push((o, slot));
-                    rest = tail;
-                }
-                slots.into_par_iter().for_each(|(o, slot)| {
-                    let mut k = 0;
-                    for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
-                        if l.is_none() {
-                            fill_nodes(*r, wo[o], mirror, &mut slot[k..k + c]);
-                            k += c;
-                        }
-                    }
-                });
-            })?;
-        }
-        let mut sums = Vec::with_capacity(rules.len() * blocks.len() * batch.len());
-        for r in 0..rules.len() {
-            for param in 0..blocks.len() {
-                for (o, s) in batch.clone().zip(&starts) {
-                    sums.push(AlbedoSum {
-                        wo: f32_wo(wo[o]),
-                        param,
-                        begin: s[r],
-                        len: counts[o][r],
-                        mirror: mirror && shared[r].is_none(),
-                    });
-                }
-            }
-        }
-        let e = gpu.albedo_sums(model, blocks, white_furnace, &nodes, &sums)?;
-        let mut e = e.into_iter();
-        for (r, rule_out) in out.iter_mut().enumerate() {
-            for row in rule_out.iter_mut() {
-                for o in batch.clone() {
-                    let v = e.next().unwrap_or_default();
-                    row.push((DVec3::from_array(v), counts[o][r] as u64));
-                }
-            }
-        }
-    }
-    Ok(out)
-}
-
-/// Σ term(node) over `nodes` in parallel and in a fixed order: sums of 4096-node chunks, then
-/// those sums in chunk order. (rayon's own `sum` combines partial sums in an order that depends
-/// on which thread stole what, so the same integral could differ in its last bit between runs.)
-fn weighted_sum(nodes: &[Node], term: impl Fn(&Node) -> DVec3 + Sync) -> DVec3 {
-    let parts: Vec<DVec3> = nodes
-        .par_chunks(4096)
-        .map(|c| c.iter().map(&term).sum::<DVec3>())
-        .collect();
-    parts.into_iter().sum()
-}
-
-/// f32x4 (xyz, w) of a direction and a weight, as the GPU kernels read them.
-fn f4(v: DVec3, w: f64) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, w as f32]
-}
-
-/// ωo as the GPU kernels read it.
-fn f32_wo(wo: DVec3) -> [f32; 3] {
-    [wo.x as f32, wo.y as f32, wo.z as f32]
-}
-
-/// Writes the nodes of `rule` at `wo` into `slot` (as long as their count) as f32x4 (ωi, w), or
-/// with `mirror` as offsets from the mirror direction of ωo
-/// ([`mirror_node`](crate::gpu::albedo::mirror_node)).
-fn fill_nodes(rule: Rule, wo: DVec3, mirror: bool, slot: &mut [[f32; 4]]) {
-    let mut k = 0;
-    rule.for_each_node(wo, |x| {
-        slot[k] = if mirror {
-            crate::gpu::albedo::mirror_node(x.wi, x.weight, wo)
-        } else {
-            f4(x.wi, x.weight)
-        };
-        k += 1;
-    });
-    debug_assert_eq!(k, slot.len(), "node_count and for_each_node disagree");
 }
 
 /// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
@@ -421,79 +210,12 @@ pub fn sum_rules_rows(
     rules: &[Rule],
     wo: &[DVec3],
 ) -> Result<Vec<RowSums>> {
-    let Some(first) = rows.first() else {
-        return Ok(vec![Vec::new(); rules.len()]);
+    let rules: Vec<&dyn NodeRule> = rules.iter().map(|r| r as &dyn NodeRule).collect();
+    let query = Query {
+        sets: rows,
+        white_furnace,
     };
-    if let Backend::Gpu(gpu) = backend.backend() {
-        let blocks: Vec<Vec<u8>> = rows.iter().map(|p| Brdf::new(p).gpu_block()).collect();
-        return gpu_sum_rules(
-            backend,
-            gpu,
-            first.model(),
-            &blocks,
-            white_furnace,
-            rules,
-            wo,
-        );
-    }
-    first.model().require_reference("the CPU backend")?;
-    let refs: Vec<Reference> = rows
-        .iter()
-        .map(|p| Reference::new(p, white_furnace))
-        .collect();
-    let name = first.model().name();
-    rules
-        .iter()
-        .map(|&rule| cpu_sum_rule_rows(backend, name, &refs, rule, wo))
-        .collect()
-}
-
-/// One rule's f64 sums for every reference of `refs` at each ωo: row-major results. The view
-/// directions run in parallel, each making its nodes (unless the rule shares one list) and
-/// summing them for every row: one list per running thread, made once for all rows.
-fn cpu_sum_rule_rows(
-    backend: &Evaluator,
-    model: &str,
-    refs: &[Reference],
-    rule: Rule,
-    wo: &[DVec3],
-) -> Result<RowSums> {
-    let shared = rule.shared_nodes();
-    let per_wo: Vec<Vec<(DVec3, u64)>> = wo
-        .par_iter()
-        .map(|&o| {
-            // Ctrl-C: one view direction's sums at most run on.
-            backend.check_cancelled()?;
-            let own;
-            let nodes = match &shared {
-                Some(n) => n,
-                None => {
-                    own = rule.nodes(o);
-                    &own
-                }
-            };
-            refs.iter()
-                .map(|r| {
-                    // NaN, ±Inf and negative values are refused (docs/design.md §2.1).
-                    let bad = std::sync::atomic::AtomicBool::new(false);
-                    let sum = weighted_sum(nodes, |n| {
-                        let f = r.eval(n.wi, o);
-                        if !finite::is_valid_rgb(f) {
-                            bad.store(true, std::sync::atomic::Ordering::Relaxed);
-                        }
-                        n.weight * f
-                    });
-                    if bad.into_inner() {
-                        let pairs = nodes.iter().map(|n| (n.wi, o));
-                        let eval = |wi, wo| r.eval(wi, wo);
-                        return Err(finite::refuse_pairs(model, "albedo", pairs, eval).into());
-                    }
-                    Ok((sum, nodes.len() as u64))
-                })
-                .collect()
-        })
-        .collect::<Result<_>>()?;
-    Ok((0..refs.len())
-        .map(|r| per_wo.iter().map(|sums| sums[r]).collect())
-        .collect())
+    backend
+        .backend()
+        .rule_sums(query, &rules, wo, backend.cancel_token())
 }

@@ -47,6 +47,7 @@ mod vcavity;
 // The one-dimensional rules live in the core layer; the integrators reach them by this name.
 use crate::quadrature as gauss;
 
+pub use crate::quadrature::Node;
 pub use albedo::{
     albedo_rows, directional, hemispherical, hemispherical_directions, HemiAlbedo, PointAlbedo,
 };
@@ -65,15 +66,6 @@ pub use vcavity::{v_cavity_kinks, v_cavity_turns};
 use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
-
-/// One quadrature node: E ≈ Σ weight · f(wi, wo). The weight holds c_i.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Node {
-    /// ωi, the unit direction to the light, in the local frame.
-    pub wi: DVec3,
-    /// The node's weight in sr, the cosine c_i included.
-    pub weight: f64,
-}
 
 /// The plastic number ρ (ρ³ = ρ + 1), the generator of Roberts' R2 sequence (Roberts 2018, "The
 /// unreasonable effectiveness of quasirandom sequences").

@@ -7,6 +7,7 @@ use super::importance::{importance_node_count, importance_nodes, Mixture, REPLIC
 use super::kept::Kept;
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use super::{Node, PLASTIC};
+use crate::backend::NodeRule;
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::Arc;
@@ -234,6 +235,25 @@ pub(super) fn qmc_nodes(n: usize) -> Vec<Node> {
             }
         })
         .collect()
+}
+
+/// A rule's node lists as the backends read them.
+impl NodeRule for Rule {
+    fn shared(&self) -> Option<Arc<Vec<Node>>> {
+        self.shared_nodes()
+    }
+
+    fn count(&self, wo: DVec3) -> usize {
+        self.node_count(wo)
+    }
+
+    fn visit(&self, wo: DVec3, emit: &mut dyn FnMut(Node)) {
+        self.for_each_node(wo, emit)
+    }
+
+    fn list(&self, wo: DVec3) -> Vec<Node> {
+        self.nodes(wo)
+    }
 }
 
 #[cfg(test)]

@@ -41,18 +41,20 @@
 //! `label.rs` the text the PNG's labels are drawn with.
 
 mod label;
-mod shade;
 mod sheet;
 
-pub use shade::{icosahedron_normal, intersect, radiance_along, render_cells_cpu, shade};
+pub use crate::backend::scene::{Light, LightKind, Scene, Shape};
+pub use crate::backend::shade::{
+    icosahedron_normal, intersect, radiance_along, render_cells_cpu, shade,
+};
 pub use sheet::{
     caption, encode_exr, encode_png, read_exr, srgb_encode, tone_map, write_exr, write_png, Sheet,
     SheetImage,
 };
 
-use crate::eval::{Backend, Evaluator};
-use crate::gpu::preview::{GpuLight, GpuObject, GpuSceneHeader};
-use crate::model::{Brdf, Model, Reference};
+use crate::backend::Query;
+use crate::eval::Evaluator;
+use crate::model::{Model, ParamSet};
 use anyhow::{bail, Context, Result};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -77,88 +79,6 @@ pub const DEFAULT_CELL: u32 = 128;
 /// The most pixels of a contact sheet's cells: 2^26 (an 8192 x 8192 sheet), about 1 GB with the
 /// linear radiance, the sRGB image and the encoders' buffers.
 pub const MAX_SHEET_PIXELS: u64 = 1 << 26;
-
-/// The object drawn in every cell of the sheet.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Shape {
-    /// A sphere of radius [`OBJECT_RADIUS`], shaded with its smooth normal.
-    Sphere,
-    /// The lab report's regular icosahedron of circumradius [`OBJECT_RADIUS`], one normal per flat
-    /// face.
-    Icosahedron,
-}
-
-impl Shape {
-    /// Every shape, in the order the error for an unknown name lists them.
-    pub const ALL: [Shape; 2] = [Shape::Sphere, Shape::Icosahedron];
-
-    /// The shape's name on the command line and in scene files: `sphere` or `icosahedron`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Shape::Sphere => "sphere",
-            Shape::Icosahedron => "icosahedron",
-        }
-    }
-
-    /// The shape called `name`; an unknown name is an error that lists the shapes.
-    pub fn from_name(name: &str) -> Result<Shape> {
-        Shape::ALL
-            .into_iter()
-            .find(|s| s.name() == name)
-            .with_context(|| format!("unknown shape '{name}'; the shapes are: sphere, icosahedron"))
-    }
-
-    /// The code `preview.comp` switches on.
-    fn gpu_code(self) -> u32 {
-        match self {
-            Shape::Sphere => 0,
-            Shape::Icosahedron => 1,
-        }
-    }
-}
-
-/// How the lab's light vectors are read (see the module's notes).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LightKind {
-    /// A point light at the position; intensity in W/sr, falling off as 1/d².
-    Point,
-    /// A light infinitely far along the vector; intensity is the irradiance at normal incidence.
-    Directional,
-}
-
-/// One light of a preview scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Light {
-    /// A point light's position in the camera's space, or, for a directional light, the vector
-    /// toward it.
-    pub position: DVec3,
-    /// How `position` is read.
-    pub kind: LightKind,
-    /// RGB: W/sr (point) or W/m² (directional).
-    pub intensity: DVec3,
-}
-
-/// Everything a cell's image depends on besides the model and its parameters. Every number is
-/// representable in f32, so the GPU and the CPU twin start from identical inputs.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Scene {
-    /// Width of every cell, in pixels.
-    pub cell_width: u32,
-    /// Height of every cell, in pixels.
-    pub cell_height: u32,
-    /// tan(vertical field of view / 2).
-    pub tan_half_fov: f64,
-    /// The object in every cell.
-    pub shape: Shape,
-    /// The object's centre in the camera's space.
-    pub centre: DVec3,
-    /// The sphere's radius, or the icosahedron's circumradius.
-    pub radius: f64,
-    /// The lights whose contributions add up to the radiance.
-    pub lights: Vec<Light>,
-    /// RGB radiance of a uniform sky; 0 in the lab.
-    pub ambient: DVec3,
-}
 
 fn f32_exact(x: f64) -> f64 {
     x as f32 as f64
@@ -203,72 +123,6 @@ impl Scene {
                 .collect(),
             ambient: f32_exact3(ambient),
         }
-    }
-
-    fn aspect(&self) -> f64 {
-        f32_exact(self.cell_width as f64 / self.cell_height as f64)
-    }
-
-    /// Unit direction of the camera ray through the centre of pixel (x, y), row 0 on top.
-    pub fn camera_ray(&self, x: u32, y: u32) -> DVec3 {
-        let (w, h) = (self.cell_width as f64, self.cell_height as f64);
-        let u = (2.0 * (x as f64 + 0.5) / w - 1.0) * self.tan_half_fov * self.aspect();
-        let v = (1.0 - 2.0 * (y as f64 + 0.5) / h) * self.tan_half_fov;
-        DVec3::new(u, v, -1.0).normalize()
-    }
-
-    /// The pixel (x, y), continuous, at which the point p (in front of the camera) appears: the
-    /// inverse of [`Scene::camera_ray`].
-    pub fn project(&self, p: DVec3) -> (f64, f64) {
-        let (w, h) = (self.cell_width as f64, self.cell_height as f64);
-        let u = p.x / -p.z / (self.tan_half_fov * self.aspect());
-        let v = p.y / -p.z / self.tan_half_fov;
-        ((u + 1.0) / 2.0 * w - 0.5, (1.0 - v) / 2.0 * h - 0.5)
-    }
-
-    /// The GPU's view of the scene for `cells` cells: header and lights.
-    pub fn gpu_scene(&self, cells: usize) -> (GpuSceneHeader, Vec<GpuLight>) {
-        let a = self.ambient;
-        let header = GpuSceneHeader {
-            dims: [
-                self.cell_width,
-                self.cell_height,
-                cells as u32,
-                self.lights.len() as u32,
-            ],
-            camera: [self.tan_half_fov as f32, self.aspect() as f32, 0.0, 0.0],
-            ambient: [a.x as f32, a.y as f32, a.z as f32, 0.0],
-        };
-        let lights = self
-            .lights
-            .iter()
-            .map(|l| {
-                let (p, i) = (l.position, l.intensity);
-                let w = match l.kind {
-                    LightKind::Point => 1.0,
-                    LightKind::Directional => 0.0,
-                };
-                GpuLight {
-                    position: [p.x as f32, p.y as f32, p.z as f32, w],
-                    intensity: [i.x as f32, i.y as f32, i.z as f32, 0.0],
-                }
-            })
-            .collect();
-        (header, lights)
-    }
-
-    /// One object per cell, cell k shaded with parameter block k.
-    pub fn gpu_objects(&self, cells: usize) -> Vec<GpuObject> {
-        let c = self.centre;
-        (0..cells)
-            .map(|k| GpuObject {
-                centre: [c.x as f32, c.y as f32, c.z as f32],
-                radius: self.radius as f32,
-                shape: self.shape.gpu_code(),
-                param_index: k as u32,
-                pad: [0; 2],
-            })
-            .collect()
     }
 
     /// One-line description for file headers and captions.
@@ -345,27 +199,18 @@ pub fn render(
             }
         }
         for (model, group) in &groups {
-            let cells = group.len();
-            let pixels = match e.backend() {
-                Backend::Gpu(gpu) => {
-                    let blocks: Vec<Vec<u8>> = group
-                        .iter()
-                        .map(|&row| Brdf::new(&column[row]).gpu_block())
-                        .collect();
-                    let (header, lights) = scene.gpu_scene(cells);
-                    let objects = scene.gpu_objects(cells);
-                    gpu.render_preview(*model, &blocks, &header, &lights, &objects)
-                        .with_context(|| format!("rendering the {} column", model.name()))?
-                }
-                Backend::Cpu => {
-                    model.require_reference("the CPU backend")?;
-                    let refs: Vec<Reference> = group
-                        .iter()
-                        .map(|&row| Reference::new(&column[row], false))
-                        .collect();
-                    render_cells_cpu(&refs, scene)
-                }
-            };
+            e.supports(*model)?;
+            let sets: Vec<ParamSet> = group.iter().map(|&row| column[row].clone()).collect();
+            let pixels = e
+                .backend()
+                .preview(
+                    Query {
+                        sets: &sets,
+                        white_furnace: false,
+                    },
+                    scene,
+                )
+                .with_context(|| format!("rendering the {} column", model.name()))?;
             // A pixel is a sum of f cosθi E over the lights: NaN, ±Inf or a negative f shows
             // in it (docs/design.md §2.1), and the preview is refused.
             let mut invalid = crate::finite::InvalidCount::default();

@@ -2,6 +2,7 @@
 //! node counts, table resolutions, repeats), the reference E(μ) both are judged against, the
 //! error measure, and the backend's tag in variant names.
 
+use crate::backend::Precision;
 use crate::eval::Evaluator;
 use crate::input::BadInput;
 use crate::integrate::{reference_albedo, view_direction, Estimate, DEFAULT_MUS, REFERENCE_RTOL};
@@ -113,7 +114,7 @@ pub fn albedo_errors(got: &[DVec3], truth: &[DVec3]) -> (f64, f64) {
 
 /// "f32 GPU" or "f64 CPU": the precision and place of a backend, for variant names.
 pub(super) fn backend_tag(backend: &Evaluator) -> &'static str {
-    if backend.is_gpu() {
+    if backend.precision() == Precision::F32 {
         "f32 GPU"
     } else {
         "f64 CPU"

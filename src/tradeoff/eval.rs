@@ -3,9 +3,9 @@
 //! its cost per evaluation (see the notes of [`crate::tradeoff`]).
 
 use super::{mark_pareto, Row, Section};
+use crate::backend::Precision;
 use crate::bench;
 use crate::eval::Evaluator;
-use crate::gpu::Gpu;
 use crate::grid::Grid;
 use crate::model::microfacet::MicrofacetConfig;
 use crate::model::{Model, ParamSet, Reference, Value};
@@ -149,14 +149,14 @@ pub fn truth_table(truth: &ParamSet, grid: &Grid) -> Vec<f64> {
 
 /// A variant's table on `grid` (cells × rgb, f32 as the backend produced it, f64 rounded to f32
 /// for the CPU).
-pub fn variant_table(gpu: Option<&Gpu>, v: &EvalVariant, grid: &Grid) -> Result<Vec<f32>> {
+pub fn variant_table(gpu: Option<&Evaluator>, v: &EvalVariant, grid: &Grid) -> Result<Vec<f32>> {
     let mut out = Vec::new();
     let mut sink = |_: u64, values: &[f32]| {
         out.extend_from_slice(values);
         Ok(())
     };
     match (v.gpu, gpu) {
-        (true, Some(g)) => Evaluator::gpu(g)
+        (true, Some(g)) => g
             .with_fast_pow(v.fast_pow)
             .eval_table(&v.params, false, grid, &mut sink)?,
         (true, None) => anyhow::bail!("variant '{}' needs the GPU backend", v.name),
@@ -178,7 +178,8 @@ pub fn measure_eval(
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<Row>> {
     truth.model().require_reference("the trade-off's truth")?;
-    let gpu = backend.as_gpu();
+    // The f32 backend where there is one; its variants are left out without it.
+    let gpu = (backend.precision() == Precision::F32).then_some(backend);
     let t = truth_table(truth, error_grid);
     let mut rows = Vec::new();
     for v in variants {
@@ -191,7 +192,7 @@ pub fn measure_eval(
         let (max_rel_error, rms_rel_error) = relative_errors(&got, &t);
         let (cost, backend) = match (v.gpu, gpu) {
             (true, Some(g)) => {
-                let ev = Evaluator::gpu(g).with_fast_pow(v.fast_pow);
+                let ev = g.with_fast_pow(v.fast_pow);
                 let m = bench::measure(&ev, &v.params, timing_grid, repeats)?;
                 (1e9 / m.kernel_per_s.unwrap_or(m.wall_per_s), m.backend)
             }

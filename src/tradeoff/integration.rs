@@ -89,18 +89,14 @@ pub fn measure_integration(
             let (max_error, rms_error) = albedo_errors(&values, truth);
             let (mut walls, mut kernels) = (Vec::new(), Vec::new());
             for _ in 0..setup.repeats {
-                if let Some(g) = backend.as_gpu() {
-                    g.take_gpu_time();
-                }
+                backend.take_device_time();
                 let t = Instant::now();
                 for &o in &wo {
                     std::hint::black_box(rule_albedo_once(backend, params, &v.rule, o)?);
                 }
                 walls.push(t.elapsed().as_secs_f64() * 1e3 / wo.len() as f64);
-                if let Some(g) = backend.as_gpu() {
-                    if let Some(k) = g.take_gpu_time() {
-                        kernels.push(k.as_secs_f64() * 1e3 / wo.len() as f64);
-                    }
+                if let Some(k) = backend.take_device_time() {
+                    kernels.push(k.as_secs_f64() * 1e3 / wo.len() as f64);
                 }
             }
             let mean_nodes = (nodes as f64 / wo.len() as f64).round() as u64;

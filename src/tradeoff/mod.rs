@@ -59,6 +59,7 @@ pub use integration::{
 };
 pub use resolution::{measure_tables, table_albedo, table_grid};
 
+use crate::backend::Precision;
 use crate::eval::Evaluator;
 use crate::grid::Grid;
 use crate::integrate::Estimate;
@@ -240,7 +241,8 @@ pub fn run(
         .model()
         .require_reference("lobe tradeoff (its errors are against the f64 reference)")?;
     let (truth, variants) = eval_variants(params, conductor_of(material));
-    let gpu = backend.as_gpu();
+    // The f32 backend where there is one; its variants are left out without it.
+    let gpu = (backend.precision() == Precision::F32).then_some(*backend);
     let backends: Vec<Evaluator> = match (gpu, backend.cancel_token()) {
         (None, _) => vec![*backend],
         (Some(_), Some(cancel)) => vec![*backend, Evaluator::cpu().with_cancel(cancel)],
@@ -317,7 +319,7 @@ pub fn run(
         },
         params: params.clone(),
         truth,
-        device: gpu.map(|g| g.device().name().to_string()),
+        device: gpu.and_then(|g| g.device()),
         options: opts.clone(),
         reference,
         rows,

@@ -1,9 +1,9 @@
 //! The CPU twin of `glsl/kernels/preview.comp`, in f64: the camera ray's hit on the cell's
-//! object, the radiance the lights send from there toward the camera (see the notes of
-//! [`crate::preview`] for the scene and the shading frame), and whole cells of it. The functions
+//! object, the radiance the lights send from there toward the camera (the preview job's notes
+//! give the scene and the shading frame), and whole cells of it. The functions
 //! mirror the kernel line by line, so that the GPU's image can be checked pixel by pixel.
 
-use super::{LightKind, Scene, Shape};
+use super::scene::{LightKind, Scene, Shape};
 use crate::model::Reference;
 use glam::DVec3;
 use rayon::prelude::*;

@@ -1,0 +1,146 @@
+//! The seam between the jobs and where f is evaluated. A job states what it wants as a
+//! [`Query`] (parameter sets of one model and the white-furnace switch) and hands it to a
+//! [`Backend`]: the f64 CPU reference ([`CpuBackend`]) or the Vulkan kernels
+//! ([`crate::gpu::Gpu`]). Each backend owns everything its side needs (direction formats,
+//! parameter blocks, node buffers, dispatch batching); the jobs see directions, parameter sets
+//! and rules as node lists, and results as f64.
+
+mod cpu;
+pub mod scene;
+pub mod shade;
+
+pub use cpu::CpuBackend;
+
+use crate::interrupt::CancelToken;
+use crate::model::{Model, ParamSet};
+use crate::quadrature::Node;
+use anyhow::Result;
+use glam::DVec3;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// What a job asks a backend to evaluate: one or more parameter sets of one model (the same
+/// component choices: a model is one kernel), with every Fresnel factor of a specular lobe
+/// replaced by 1 where `white_furnace` is set.
+#[derive(Clone, Copy)]
+pub struct Query<'a> {
+    /// The parameter sets; every one has the model of the first.
+    pub sets: &'a [ParamSet],
+    /// The white-furnace switch (docs/design.md §4).
+    pub white_furnace: bool,
+}
+
+impl<'a> Query<'a> {
+    /// One parameter set.
+    pub fn one(params: &'a ParamSet, white_furnace: bool) -> Query<'a> {
+        Query {
+            sets: std::slice::from_ref(params),
+            white_furnace,
+        }
+    }
+
+    /// The model of every set (of the first; None without sets).
+    pub fn model(&self) -> Option<Model> {
+        self.sets.first().map(ParamSet::model)
+    }
+
+    /// Whether every set has the same model (component choices included), as a backend needs.
+    pub fn one_model(&self) -> bool {
+        self.sets.windows(2).all(|w| w[0].model() == w[1].model())
+    }
+}
+
+/// The arithmetic a backend evaluates and sums in: what an error estimate must allow for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// f32 kernels (directions, f and sums rounded to f32).
+    F32,
+    /// The f64 reference.
+    F64,
+}
+
+/// A hemispherical rule as a backend sees it: the node list at each view direction, either one
+/// list shared by every direction or one made per direction.
+pub trait NodeRule: Sync {
+    /// The one list every view direction shares, or None where the list depends on ωo.
+    fn shared(&self) -> Option<Arc<Vec<Node>>>;
+    /// How many nodes the list at `wo` holds.
+    fn count(&self, wo: DVec3) -> usize;
+    /// Each node of the list at `wo`, in order, without making the list.
+    fn visit(&self, wo: DVec3, emit: &mut dyn FnMut(Node));
+    /// The list at `wo`.
+    fn list(&self, wo: DVec3) -> Vec<Node>;
+}
+
+/// One rule's sums for several parameter sets: `[set][ωo]` of (Σ w f, the number of nodes).
+pub type RowSums = Vec<Vec<(DVec3, u64)>>;
+
+/// Receives each finished chunk of a table, in order: its first cell and its RGB values.
+pub type TableSink<'a> = dyn FnMut(u64, &[f32]) -> Result<()> + 'a;
+
+/// Where f is evaluated: the jobs' one way down to the CPU reference or the Vulkan kernels.
+/// Values come back as the backend computed them (NaN, ±Inf and negative values included: the
+/// [`crate::Evaluator`] applies the refusal policy); a backend stops between chunks once
+/// `cancel` is set.
+pub trait Backend: Send + Sync {
+    /// A one-line description: "gpu (device name)" or "cpu (f64 reference)".
+    fn name(&self) -> String;
+
+    /// The device's name, where the backend runs on one.
+    fn device(&self) -> Option<String> {
+        None
+    }
+
+    /// The driver and its version where there is one ("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)").
+    fn driver(&self) -> Option<String> {
+        None
+    }
+
+    /// The arithmetic of the backend's values and sums.
+    fn precision(&self) -> Precision;
+
+    /// Ok where the backend can evaluate `model`; the error says why not (the CPU reference
+    /// needs the model's f64 twin).
+    fn supports(&self, model: Model) -> Result<()>;
+
+    /// f of every parameter set of `query` at every pair: `[set][pair]`.
+    fn pairs(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<Vec<[f64; 3]>>>;
+
+    /// The outer-product table f(`wi[i]`, `wo[o]`) of the query's first set, cell
+    /// i · wo.len() + o, handed to `sink` in order one chunk at a time. `fast_pow` asks for
+    /// cos^n lobes by the plain pow (a speed-for-accuracy variant; the reference ignores it).
+    fn table(
+        &self,
+        query: Query,
+        wi: &[DVec3],
+        wo: &[DVec3],
+        fast_pow: bool,
+        cancel: Option<&CancelToken>,
+        sink: &mut TableSink<'_>,
+    ) -> Result<()>;
+
+    /// Σ w f(ωi, ωo) over each rule's nodes, for each parameter set and each ωo:
+    /// `[rule][set][ωo]`. A direction's nodes are made once for every set.
+    fn rule_sums(
+        &self,
+        query: Query,
+        rules: &[&dyn NodeRule],
+        wo: &[DVec3],
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<RowSums>>;
+
+    /// The radiance of every pixel of one cell per parameter set of `query` (cell k shaded with
+    /// set k), in the order (cell, row from the top, column).
+    fn preview(&self, query: Query, scene: &scene::Scene) -> Result<Vec<[f32; 3]>>;
+
+    /// Device time (from timestamps) of every dispatch since the last call, where the backend
+    /// has such a clock.
+    fn take_device_time(&self) -> Option<Duration> {
+        None
+    }
+
+    /// Every kernel built so far, with its build time.
+    fn built_kernels(&self) -> Vec<(String, Duration)> {
+        Vec::new()
+    }
+}

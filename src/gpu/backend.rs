@@ -1,0 +1,135 @@
+//! The Vulkan kernels as a [`Backend`]: directions and parameter blocks in their std430 forms,
+//! f32 results widened to f64.
+
+use super::{Gpu, GpuPair, TableSwitches};
+use crate::backend::scene::Scene;
+use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink};
+use crate::interrupt::CancelToken;
+use crate::model::{Brdf, Model, ParamSet};
+use anyhow::Result;
+use glam::DVec3;
+use std::time::Duration;
+
+/// A direction as the kernels read it: f32 xyz, padded to 16 bytes.
+fn f32x4(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+/// The std430 parameter block of each set.
+fn blocks(sets: &[ParamSet]) -> Vec<Vec<u8>> {
+    sets.iter().map(|p| Brdf::new(p).gpu_block()).collect()
+}
+
+/// The kernel's model: the query's, which must be one.
+fn one_model(query: &Query) -> Result<Option<Model>> {
+    if !query.one_model() {
+        anyhow::bail!("one GPU job evaluates parameter sets of one model (one kernel)");
+    }
+    Ok(query.model())
+}
+
+impl Backend for Gpu {
+    fn name(&self) -> String {
+        format!("gpu ({})", self.device().name())
+    }
+
+    fn device(&self) -> Option<String> {
+        Some(self.device().name().to_string())
+    }
+
+    fn driver(&self) -> Option<String> {
+        Some(self.device().driver().to_string())
+    }
+
+    fn precision(&self) -> Precision {
+        Precision::F32
+    }
+
+    fn supports(&self, _model: Model) -> Result<()> {
+        Ok(())
+    }
+
+    fn pairs(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<Vec<[f64; 3]>>> {
+        let Some(model) = one_model(&query)? else {
+            return Ok(Vec::new());
+        };
+        if pairs.is_empty() {
+            return Ok(vec![Vec::new(); query.sets.len()]);
+        }
+        // Every set at every pair, in one list: each pair names its set's block.
+        let gp: Vec<GpuPair> = (0..query.sets.len() as u32)
+            .flat_map(|set| {
+                pairs.iter().map(move |(wi, wo)| GpuPair {
+                    wi: [wi.x as f32, wi.y as f32, wi.z as f32],
+                    param_index: set,
+                    wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+                    pad: 0,
+                })
+            })
+            .collect();
+        let out = self.eval_pairs(model, &blocks(query.sets), &gp, query.white_furnace)?;
+        Ok(out
+            .chunks(pairs.len())
+            .map(|c| c.iter().map(|v| v.map(f64::from)).collect())
+            .collect())
+    }
+
+    fn table(
+        &self,
+        query: Query,
+        wi: &[DVec3],
+        wo: &[DVec3],
+        fast_pow: bool,
+        _cancel: Option<&CancelToken>,
+        sink: &mut TableSink<'_>,
+    ) -> Result<()> {
+        let Some(params) = query.sets.first() else {
+            return Ok(());
+        };
+        let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
+        let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
+        self.eval_table::<anyhow::Error>(
+            params.model(),
+            &Brdf::new(params).gpu_block(),
+            &wi,
+            &wo,
+            TableSwitches {
+                white_furnace: query.white_furnace,
+                fast_pow,
+            },
+            sink,
+        )
+    }
+
+    fn rule_sums(
+        &self,
+        query: Query,
+        rules: &[&dyn NodeRule],
+        wo: &[DVec3],
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<RowSums>> {
+        let Some(model) = one_model(&query)? else {
+            return Ok(vec![Vec::new(); rules.len()]);
+        };
+        let blocks = blocks(query.sets);
+        super::sums::sum_rules(self, model, &blocks, query.white_furnace, rules, wo, cancel)
+    }
+
+    fn preview(&self, query: Query, scene: &Scene) -> Result<Vec<[f32; 3]>> {
+        let Some(model) = one_model(&query)? else {
+            return Ok(Vec::new());
+        };
+        let cells = query.sets.len();
+        let (header, lights) = super::preview::scene_header(scene, cells);
+        let objects = super::preview::scene_objects(scene, cells);
+        Ok(self.render_preview(model, &blocks(query.sets), &header, &lights, &objects)?)
+    }
+
+    fn take_device_time(&self) -> Option<Duration> {
+        self.take_gpu_time()
+    }
+
+    fn built_kernels(&self) -> Vec<(String, Duration)> {
+        self.built_pipelines()
+    }
+}
