@@ -125,10 +125,16 @@ impl Gpu {
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
         }
+        let source = model
+            .kernel_source(kernel.name())
+            .ok_or_else(|| GpuError::MissingKernel {
+                kernel: kernel.name().into(),
+                model: model.name().into(),
+            })?;
         let p = Arc::new(Pipeline::new(
             &self.dev,
             kernel,
-            model,
+            &source,
             white_furnace,
             fast_pow,
             texel_directions,

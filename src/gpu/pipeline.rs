@@ -6,7 +6,7 @@ use super::buffer::Buffer;
 use super::device::Device;
 use super::error::{Context, GpuError, Result};
 use super::CHUNK_TIMEOUT;
-use crate::model::Model;
+use crate::model::kernels::KernelSource;
 use ash::vk;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -56,7 +56,7 @@ impl Kernel {
 }
 
 /// The binding of a model's data table (a measured BRDF's bins, read-only storage buffer) in
-/// every kernel of a model that has one ([`Model::data`]): a measured BRDF's bins, the
+/// every kernel of a model that has one ([`crate::model::Model::data`]): a measured BRDF's bins, the
 /// microfacet model's Kulla–Conty table. The pipelines of models without one do not have this
 /// binding.
 pub const MODEL_DATA_BINDING: u32 = 7;
@@ -178,24 +178,19 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    /// Builds the pipeline of `kernel` for `model_kind` from the model's SPIR-V, specialised for
+    /// Builds the pipeline of `kernel` from a model's `source`, specialised for
     /// `white_furnace` and `fast_pow`, and times the build.
     pub fn new(
         dev: &Arc<Device>,
         kernel: Kernel,
-        model_kind: Model,
+        source: &KernelSource,
         white_furnace: bool,
         fast_pow: bool,
         texel_directions: bool,
     ) -> Result<Pipeline> {
         let start = Instant::now();
-        let model = model_kind.name();
-        let bytes = model_kind
-            .spirv(kernel.name())
-            .ok_or_else(|| GpuError::MissingKernel {
-                kernel: kernel.name().into(),
-                model: model.into(),
-            })?;
+        let model = source.model;
+        let bytes = source.spirv;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
             GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
         })?;
@@ -203,7 +198,7 @@ impl Pipeline {
         let label = format!(
             "{}/{}{}",
             kernel.name(),
-            model_kind.label(),
+            source.label,
             if white_furnace {
                 " (white furnace)"
             } else {
@@ -223,10 +218,10 @@ impl Pipeline {
             build_time: Duration::ZERO,
             label,
             gpu_ns: AtomicU64::new(0),
-            model_timeout: model_kind.chunk_timeout(),
+            model_timeout: source.timeout,
             data: None,
         };
-        if let Some(bytes) = model_kind.data() {
+        if let Some(bytes) = source.data {
             p.data = Some(ModelData::new(dev, model, bytes)?);
         }
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
@@ -281,7 +276,7 @@ impl Pipeline {
                 ids.push(LANE_PARTIALS_ID);
                 spec_data.push(albedo_lane_partials(dev.cpu_kernels()) as u32);
             }
-            for (k, v) in model_kind.spec_constants().into_iter().enumerate() {
+            for (k, &v) in source.spec_constants.iter().enumerate() {
                 ids.push(3 + k as u32);
                 spec_data.push(v);
             }

@@ -156,6 +156,20 @@ impl Model {
         }
     }
 
+    /// What the Vulkan runner builds `kernel` of this model from; None where the model has no
+    /// such kernel.
+    pub fn kernel_source(self, kernel: &str) -> Option<kernels::KernelSource> {
+        Some(kernels::KernelSource {
+            label: self.label(),
+            model: self.name(),
+            spirv: self.spirv(kernel)?,
+            spec_constants: self.spec_constants(),
+            data: self.data(),
+            timeout: self.chunk_timeout(),
+            mirror_offsets: self.sums_from_mirror_offsets(),
+        })
+    }
+
     /// The data table this model's kernels read at
     /// [`crate::gpu::pipeline::MODEL_DATA_BINDING`], if it has one: a measured BRDF's bins, or
     /// for `microfacet` the Kulla–Conty table of its distribution and masking
