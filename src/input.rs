@@ -31,8 +31,10 @@ impl BadInput {
 
 /// The tag of the first [`BadInput`] anywhere in an error's chain.
 pub fn option_of(e: &anyhow::Error) -> Option<&'static str> {
-    e.chain()
-        .find_map(|c| c.downcast_ref::<BadInput>())
+    // A BadInput added as context is found by downcasting the error itself; one that is a
+    // cause, in the chain.
+    e.downcast_ref::<BadInput>()
+        .or_else(|| e.chain().find_map(|c| c.downcast_ref::<BadInput>()))
         .map(|b| b.option)
 }
 

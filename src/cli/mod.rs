@@ -21,7 +21,6 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::gpu::GpuError;
 use lobe::integrate::{Method, DEFAULT_MUS};
-use lobe::model::ParamError;
 use lobe::{BackendKind, CancelToken, ParamSet, Session, SessionOptions};
 
 /// Where to evaluate.
@@ -80,182 +79,55 @@ impl ModelArgs {
     }
 }
 
-/// One model spec, `NAME` or `NAME{KEY=VALUE,...}` (rgb values as r,g,b inside the braces).
+/// One model spec, `NAME` or `NAME{KEY=VALUE,...}` (rgb values as r,g,b inside the braces), a
+/// `.brdf` file or a MERL file ([`lobe::resolve::resolve_spec`]), with the command line's notes
+/// and options.
 pub fn resolve(model: &str, material: Option<&str>, sets: &[String]) -> Result<ParamSet> {
     let mut all = resolve_all(&[model.to_string()], material, sets)?;
     Ok(all.remove(0).1)
 }
 
-/// A model spec split into its name and its own assignments: `phong{shininess=50,diffuse=0.1}`
-/// gives ("phong", ["shininess=50", "diffuse=0.1"]); a comma not followed by KEY= belongs to
-/// the value before it (an rgb triple).
-pub fn split_spec(spec: &str) -> Result<(&str, Vec<String>)> {
-    let spec = spec.trim();
-    let Some(open) = spec.find('{') else {
-        if spec.contains('}') {
-            bail!("model '{spec}': a '}}' without its '{{'; write NAME{{KEY=VALUE,...}}");
-        }
-        return Ok((spec, Vec::new()));
-    };
-    let Some(inner) = spec[open + 1..].strip_suffix('}') else {
-        bail!("model '{spec}': the parameters must end with '}}', as in phong{{shininess=50}}");
-    };
-    let mut sets: Vec<String> = Vec::new();
-    for piece in inner.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        match sets.last_mut() {
-            Some(last) if !piece.contains('=') => {
-                last.push(',');
-                last.push_str(piece);
-            }
-            _ => sets.push(piece.to_string()),
-        }
-    }
-    // One spec names a value once: which of two would win is not for lobe to guess.
-    let key = |set: &str| set.split('=').next().unwrap_or_default().trim().to_string();
-    for (k, set) in sets.iter().enumerate() {
-        if let Some(again) = sets[k + 1..].iter().find(|s| key(s) == key(set)) {
-            bail!(
-                "model '{spec}': '{}' is given twice ({set} and {again}); give each parameter once",
-                key(set)
-            );
-        }
-    }
-    Ok((spec[..open].trim(), sets))
-}
+pub use lobe::resolve::{split_spec, split_specs};
 
-/// Splits comma-separated model specs at the commas outside braces:
-/// `phong{diffuse=0.1,0.2,0.3},lambert` gives two specs.
-pub fn split_specs(list: &[String]) -> Vec<String> {
-    let mut out = Vec::new();
-    for text in list {
-        let (mut depth, mut cur) = (0i32, String::new());
-        for c in text.chars() {
-            match c {
-                '{' => depth += 1,
-                '}' => depth -= 1,
-                ',' if depth == 0 => {
-                    out.push(std::mem::take(&mut cur));
-                    continue;
-                }
-                _ => {}
-            }
-            cur.push(c);
-        }
-        out.push(cur);
-    }
-    out.into_iter().filter(|s| !s.trim().is_empty()).collect()
-}
-
-/// The parameter sets of several model specs (`NAME` or `NAME{KEY=VALUE,...}`), each with its
-/// label (the spec as given, trimmed): the model's defaults, then the material preset, then
-/// each `--set`, then the spec's own assignments. A `--set MODEL.KEY=VALUE` applies to that
-/// model only; a plain `--set KEY=VALUE` applies to every listed model that has KEY, and is an
-/// error only when none has it.
+/// The parameter sets of several model specs, each with its label ([`lobe::resolve::resolve_specs`]),
+/// with notes on stderr and refusals naming `--set`.
 pub fn resolve_all(
     specs: &[String],
     material: Option<&str>,
     sets: &[String],
 ) -> Result<Vec<(String, ParamSet)>> {
-    let parsed: Vec<(&str, Vec<String>)> = specs
-        .iter()
-        .map(|s| {
-            let (name, own) = split_spec(s)?;
-            Ok((model_file(name)?, own))
-        })
-        .collect::<Result<_>>()?;
-    let mut out = Vec::new();
-    for (spec, (name, own)) in specs.iter().zip(&parsed) {
-        let mut params = lobe::resolve_params(name, material, &[]).map_err(set_error)?;
-        for set in sets {
-            let (key, _) = set
-                .split_once('=')
-                .ok_or_else(|| set_error(ParamError::NotKeyValue { text: set.clone() }))?;
-            let assignment = match key.trim().split_once('.') {
-                Some((model, rest)) if model == *name => {
-                    format!("{rest}={}", &set[key.len() + 1..])
-                }
-                Some(_) => continue,
-                // With one model, an unknown key is refused with that model's parameter list.
-                None if specs.len() == 1 || has_key(&params, key.trim()) => set.clone(),
-                None => continue,
-            };
-            params
-                .set_text(&assignment)
-                .map_err(set_error)
-                .with_context(|| format!("--set {set} for model {name}"))?;
+    lobe::resolve::resolve_specs(specs, material, sets, &spec_options()?, &mut note).map_err(|e| {
+        match lobe::input::option_of(&e) {
+            // An assignment's refusal names it: "--set KEY=VALUE for model M: why".
+            Some("set") => anyhow::anyhow!("--set {e:#}"),
+            _ => e,
         }
-        for set in own {
-            params
-                .set_text(set)
-                .map_err(set_error)
-                .with_context(|| format!("model {spec}"))?;
-        }
-        out.push((spec.trim().to_string(), params));
-    }
-    // Every --set must reach some model.
-    let names: Vec<&str> = parsed.iter().map(|(n, _)| *n).collect();
-    for set in sets {
-        let key = set
-            .split_once('=')
-            .map(|(k, _)| k.trim())
-            .unwrap_or_default();
-        let reached = match key.split_once('.') {
-            Some((model, rest)) => {
-                if !names.contains(&model) {
-                    bail!(
-                        "--set {set}: '{model}' is not one of the models listed ({})",
-                        names.join(", ")
-                    );
-                }
-                out.iter()
-                    .any(|(_, p)| p.model().name() == model && has_key(p, rest))
-            }
-            None => out.iter().any(|(_, p)| has_key(p, key)),
-        };
-        if !reached {
-            let lists: Vec<String> = out
-                .iter()
-                .map(|(_, p)| {
-                    let keys: Vec<&str> = p.model().params().iter().map(|s| s.key).collect();
-                    format!("{}: {}", p.model().name(), keys.join(", "))
-                })
-                .collect();
-            bail!(
-                "--set {set}: no listed model has the parameter '{}'; their parameters are: {}",
-                key.rsplit('.').next().unwrap_or(key),
-                lists.join("; ")
-            );
-        }
-    }
-    Ok(out)
+    })
 }
 
-/// A model spec's name as a model name: a `.brdf` file is loaded (once per process: compiled
-/// and registered under a name from its stem, see [`lobe::brdf::load`]) and its model's name
-/// returned, with a note on stderr for each section it skips; a MERL file (`PATH.binary`) is
-/// loaded as well ([`merl_file`]); any other name is returned as it is. `LOBE_BRDF_TIMEOUT=SECONDS` sets how long one chunk of a `.brdf` model's GPU work may
-/// take before it is stopped (default [`lobe::brdf::DEFAULT_CHUNK_TIMEOUT`]).
-pub fn model_file(name: &str) -> Result<&str> {
-    if lobe::merl::model::is_merl_path(name) {
-        return merl_file(name);
-    }
-    if !lobe::brdf::is_brdf_path(name) {
-        return Ok(name);
-    }
-    let mut options = lobe::brdf::LoadOptions::default();
+/// How the command line loads model files: a `.brdf` model's time limit per chunk of GPU work
+/// from `LOBE_BRDF_TIMEOUT=SECONDS` (default [`lobe::brdf::DEFAULT_CHUNK_TIMEOUT`]).
+fn spec_options() -> Result<lobe::resolve::SpecOptions> {
+    let mut options = lobe::resolve::SpecOptions::default();
     if let Ok(text) = std::env::var("LOBE_BRDF_TIMEOUT") {
         match text.trim().parse::<f64>() {
             Ok(s) if s > 0.0 && s <= 86400.0 => {
-                options.chunk_timeout = std::time::Duration::from_secs_f64(s)
+                options.brdf.chunk_timeout = std::time::Duration::from_secs_f64(s)
             }
             _ => bail!("LOBE_BRDF_TIMEOUT={text}: expected seconds, more than 0 and at most 86400"),
         }
     }
-    let loaded = lobe::brdf::load(std::path::Path::new(name.trim()), &options)?;
-    for note in &loaded.notes {
-        eprintln!("lobe: note: {note}");
-    }
-    Ok(loaded.model.name())
+    Ok(options)
+}
+
+/// A note from loading a model file, on stderr.
+fn note(text: &str) {
+    eprintln!("lobe: {text}");
+}
+
+/// A model spec's name as a model name, a model file loaded ([`lobe::resolve::load_model`]).
+pub fn model_file(name: &str) -> Result<&'static str> {
+    Ok(lobe::resolve::load_model(name, &spec_options()?, &mut note)?.name())
 }
 
 /// The names of a `--models` list with each model file (`.brdf`, MERL) loaded ([`model_file`]) and replaced
@@ -265,33 +137,6 @@ pub fn model_files(names: &[String]) -> Result<Vec<String>> {
         .iter()
         .map(|n| model_file(n).map(str::to_string))
         .collect()
-}
-
-/// A MERL file (`PATH.binary`) loaded as a model ([`lobe::merl::model::load`]): the model's
-/// name, with a note on stderr the first time.
-fn merl_file(spec: &str) -> Result<&'static str> {
-    let loaded = lobe::merl::model::load(std::path::Path::new(spec))?;
-    if loaded.first {
-        eprintln!(
-            "lobe: loaded {spec} as model '{}' ({} of {} values missing, read as 0)",
-            loaded.model.name(),
-            loaded.missing,
-            3 * lobe::merl::BINS
-        );
-    }
-    Ok(loaded.model.name())
-}
-
-fn has_key(p: &ParamSet, key: &str) -> bool {
-    p.model().params().iter().any(|s| s.key == key)
-}
-
-/// A parameter error as anyhow; one that is not KEY=VALUE is named as a `--set`.
-fn set_error(e: ParamError) -> anyhow::Error {
-    match e {
-        ParamError::NotKeyValue { .. } => anyhow::Error::new(e).context("--set"),
-        e => e.into(),
-    }
 }
 
 /// Output format of the commands that print a table for people, CSV or JSON.

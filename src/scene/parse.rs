@@ -316,24 +316,12 @@ fn materials(loc: &Locator, raw: &[Spanned<MaterialFile>]) -> Result<Vec<Materia
 /// `.brdf` file ([`crate::brdf::load`], with its default time limit) or a MERL file
 /// (`PATH.binary`, [`crate::merl::model::load`]).
 fn model_named(loc: &Locator, name: &Spanned<String>) -> Result<Model, SceneError> {
-    let text = name.get_ref();
-    if crate::brdf::is_brdf_path(text) {
-        let dir = std::path::Path::new(loc.file)
-            .parent()
-            .unwrap_or(std::path::Path::new(""));
-        return crate::brdf::load(&dir.join(text.trim()), &Default::default())
-            .map(|l| l.model)
-            .map_err(|e| loc.at(name.span(), e.to_string()));
-    }
-    if crate::merl::model::is_merl_path(text) {
-        let dir = std::path::Path::new(loc.file)
-            .parent()
-            .unwrap_or(std::path::Path::new(""));
-        return crate::merl::model::load(&dir.join(text.trim()))
-            .map(|l| l.model)
-            .map_err(|e| loc.at(name.span(), format!("{e:#}")));
-    }
-    Model::from_name(text).map_err(|e| loc.at(name.span(), e.to_string()))
+    let options = crate::resolve::SpecOptions {
+        base: std::path::Path::new(loc.file).parent().map(Into::into),
+        ..Default::default()
+    };
+    crate::resolve::load_model(name.get_ref(), &options, &mut |_| {})
+        .map_err(|e| loc.at(name.span(), format!("{e:#}")))
 }
 
 /// One entry of a material's `params`: a number, [r, g, b], or a name (a choice such as a
