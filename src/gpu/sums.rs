@@ -9,12 +9,180 @@ use crate::model::Model;
 use crate::quadrature::Node;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::ops::Range;
+use std::sync::Arc;
 
 /// Nodes of ωo-dependent rules in one batch on the GPU: 1M nodes, a node buffer of 16 MiB as
 /// f32x4. Small enough that first touching its pages stays a small part of a directional
 /// albedo's time (each page of a fresh mapping faults once), large enough for dispatches of
 /// ~1000 workgroups.
 const GPU_BUFFER_NODES: usize = 1 << 20;
+
+/// Where a job's node lists go in the node buffer and which view directions share a batch.
+struct Plan {
+    /// Each rule's one list for every direction, or None where it makes one per direction.
+    shared: Vec<Option<Arc<Vec<Node>>>>,
+    /// Where each shared list starts in the node buffer.
+    shared_at: Vec<usize>,
+    /// Nodes of the shared lists, at the front of the buffer.
+    front: usize,
+    /// Nodes of each rule at each direction.
+    counts: Vec<Vec<usize>>,
+    /// Consecutive directions sent in the same dispatches.
+    batches: Vec<Range<usize>>,
+}
+
+impl Plan {
+    /// Lists of `rules` at `wo` for `rows` parameter blocks, in batches within the node buffer's
+    /// budget and one dispatch's spans of `span` nodes each.
+    fn new(rules: &[&dyn NodeRule], wo: &[DVec3], rows: usize, span: usize) -> Plan {
+        let shared: Vec<Option<Arc<Vec<Node>>>> = rules.iter().map(|r| r.shared()).collect();
+        let mut front = 0;
+        let shared_at: Vec<usize> = shared
+            .iter()
+            .map(|l| {
+                let at = front;
+                front += l.as_ref().map_or(0, |l| l.len());
+                at
+            })
+            .collect();
+        // Counted in parallel unless every list is shared: then there is nothing worth waking
+        // the thread pool for.
+        let count = |&o: &DVec3| -> Vec<usize> {
+            rules
+                .iter()
+                .zip(&shared)
+                .map(|(r, l)| l.as_ref().map_or_else(|| r.count(o), |l| l.len()))
+                .collect()
+        };
+        let counts: Vec<Vec<usize>> = if shared.iter().all(Option::is_some) {
+            wo.iter().map(count).collect()
+        } else {
+            wo.par_iter().map(count).collect()
+        };
+        let mut plan = Plan {
+            shared,
+            shared_at,
+            front,
+            counts,
+            batches: Vec::new(),
+        };
+        plan.batches = plan.batches(rows, span);
+        plan
+    }
+
+    /// Nodes direction `o` adds to the buffer: its lists that are not shared.
+    fn own(&self, o: usize) -> usize {
+        self.counts[o]
+            .iter()
+            .zip(&self.shared)
+            .filter(|(_, l)| l.is_none())
+            .map(|(c, _)| c)
+            .sum()
+    }
+
+    /// Batches of consecutive directions, each within both budgets (at least one direction).
+    /// Workgroup spans in one batch: about one dispatch's worth, which bounds the host's span
+    /// list and partial sums however many rows and directions a job has, and lets Ctrl-C act
+    /// between dispatches.
+    fn batches(&self, rows: usize, span: usize) -> Vec<Range<usize>> {
+        let batch_spans = DISPATCH_NODES / span;
+        let spans = |o: usize| -> usize {
+            rows * self.counts[o]
+                .iter()
+                .map(|c| c.div_ceil(span))
+                .sum::<usize>()
+        };
+        let mut batches = Vec::new();
+        let (mut start, mut nodes_in, mut spans_in) = (0, 0, 0);
+        for o in 0..self.counts.len() {
+            let (n, k) = (self.own(o), spans(o));
+            if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > batch_spans) {
+                batches.push(start..o);
+                (start, nodes_in, spans_in) = (o, 0, 0);
+            }
+            nodes_in += n;
+            spans_in += k;
+        }
+        if start < self.counts.len() {
+            batches.push(start..self.counts.len());
+        }
+        batches
+    }
+
+    /// The node buffer's length: the shared lists and the largest batch's own lists.
+    fn capacity(&self) -> usize {
+        self.front
+            + self
+                .batches
+                .iter()
+                .map(|b| b.clone().map(|o| self.own(o)).sum::<usize>())
+                .max()
+                .unwrap_or(0)
+    }
+
+    /// Where each (direction, rule) list of `batch` starts: shared lists at the front, the rest
+    /// of the batch's lists after them, direction by direction; and where the batch's own lists end.
+    fn starts(&self, batch: Range<usize>) -> (Vec<Vec<usize>>, usize) {
+        let mut at = self.front;
+        let starts = batch
+            .map(|o| {
+                self.shared_at
+                    .iter()
+                    .zip(&self.shared)
+                    .zip(&self.counts[o])
+                    .map(|((&s, l), &c)| match l {
+                        Some(_) => s,
+                        None => {
+                            at += c;
+                            at - c
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        (starts, at)
+    }
+
+    /// Writes the shared lists into the front of `d`.
+    fn fill_shared(&self, d: &mut [[f32; 4]]) {
+        for (l, &at) in self.shared.iter().zip(&self.shared_at) {
+            if let Some(l) = l {
+                for (d, x) in d[at..at + l.len()].iter_mut().zip(l.iter()) {
+                    *d = f4(x.wi, x.weight);
+                }
+            }
+        }
+    }
+
+    /// Writes the own lists of `batch` after the front of `d`: one slot per direction, filled in
+    /// parallel.
+    fn fill_batch(
+        &self,
+        d: &mut [[f32; 4]],
+        batch: Range<usize>,
+        rules: &[&dyn NodeRule],
+        wo: &[DVec3],
+        mirror: bool,
+    ) {
+        let mut slots = Vec::with_capacity(batch.len());
+        let mut rest = &mut d[self.front..];
+        for o in batch {
+            let (slot, tail) = std::mem::take(&mut rest).split_at_mut(self.own(o));
+            slots.push((o, slot));
+            rest = tail;
+        }
+        slots.into_par_iter().for_each(|(o, slot)| {
+            let mut k = 0;
+            for ((r, l), &c) in rules.iter().zip(&self.shared).zip(&self.counts[o]) {
+                if l.is_none() {
+                    fill_nodes(*r, wo[o], mirror, &mut slot[k..k + c]);
+                    k += c;
+                }
+            }
+        });
+    }
+}
 
 /// Σ w f(ωi, ωo) of each rule of `rules`, for each parameter block of `blocks` (one model) and
 /// each ωo, on the GPU: results indexed `[rule][row][ωo]`. Every rule, row and direction of a
@@ -30,128 +198,27 @@ pub(super) fn sum_rules(
     wo: &[DVec3],
     cancel: Option<&CancelToken>,
 ) -> anyhow::Result<Vec<RowSums>> {
-    let span = span_nodes(gpu.device().cpu_kernels());
+    let plan = Plan::new(
+        rules,
+        wo,
+        blocks.len(),
+        span_nodes(gpu.device().cpu_kernels()),
+    );
     // Lists made per direction go as offsets from its mirror direction where the model's kernel
     // takes ωi + ωo from them (`Model::sums_from_mirror_offsets`).
     let mirror = model.sums_from_mirror_offsets();
-    // Workgroup spans in one batch: about one dispatch's worth, which bounds the host's span
-    // list and partial sums however many rows and directions a job has, and lets Ctrl-C act
-    // between dispatches.
-    let batch_spans = DISPATCH_NODES / span;
-    let shared: Vec<Option<std::sync::Arc<Vec<Node>>>> = rules.iter().map(|r| r.shared()).collect();
-    // Where each shared list starts in the node buffer.
-    let mut front = 0;
-    let shared_at: Vec<usize> = shared
-        .iter()
-        .map(|l| {
-            let at = front;
-            front += l.as_ref().map_or(0, |l| l.len());
-            at
-        })
-        .collect();
-    // Nodes of each rule at each direction (counted in parallel unless every list is shared:
-    // then there is nothing worth waking the thread pool for), and what one direction costs:
-    // the nodes it adds to the buffer and the spans of all its sums.
-    let all_shared = shared.iter().all(Option::is_some);
-    let count = |&o: &DVec3| -> Vec<usize> {
-        rules
-            .iter()
-            .zip(&shared)
-            .map(|(r, l)| l.as_ref().map_or_else(|| r.count(o), |l| l.len()))
-            .collect()
-    };
-    let counts: Vec<Vec<usize>> = if all_shared {
-        wo.iter().map(count).collect()
-    } else {
-        wo.par_iter().map(count).collect()
-    };
-    let own = |o: usize| -> usize {
-        counts[o]
-            .iter()
-            .zip(&shared)
-            .filter(|(_, l)| l.is_none())
-            .map(|(c, _)| c)
-            .sum()
-    };
-    let spans = |o: usize| -> usize {
-        blocks.len() * counts[o].iter().map(|c| c.div_ceil(span)).sum::<usize>()
-    };
-    // Batches of consecutive directions, each within both budgets (at least one direction).
-    let mut batches: Vec<std::ops::Range<usize>> = Vec::new();
-    let (mut start, mut nodes_in, mut spans_in) = (0, 0, 0);
-    for o in 0..wo.len() {
-        let (n, k) = (own(o), spans(o));
-        if o > start && (nodes_in + n > GPU_BUFFER_NODES || spans_in + k > batch_spans) {
-            batches.push(start..o);
-            (start, nodes_in, spans_in) = (o, 0, 0);
-        }
-        nodes_in += n;
-        spans_in += k;
-    }
-    if start < wo.len() {
-        batches.push(start..wo.len());
-    }
-    let capacity = front
-        + batches
-            .iter()
-            .map(|b| b.clone().map(own).sum::<usize>())
-            .max()
-            .unwrap_or(0);
-    let mut nodes = gpu.albedo_nodes(capacity)?;
-    nodes.fill(front, |d| {
-        for (l, &at) in shared.iter().zip(&shared_at) {
-            if let Some(l) = l {
-                for (d, x) in d[at..at + l.len()].iter_mut().zip(l.iter()) {
-                    *d = f4(x.wi, x.weight);
-                }
-            }
-        }
-    })?;
+    let mut nodes = gpu.albedo_nodes(plan.capacity())?;
+    nodes.fill(plan.front, |d| plan.fill_shared(d))?;
     let mut out = vec![vec![Vec::with_capacity(wo.len()); blocks.len()]; rules.len()];
-    for batch in batches {
+    for batch in &plan.batches {
         if let Some(c) = cancel {
             c.check()?;
         }
-        // Where each (direction, rule) list starts: shared lists at the front, the rest of the
-        // batch's lists after them, direction by direction.
-        let mut at = front;
-        let mut starts: Vec<Vec<usize>> = Vec::with_capacity(batch.len());
-        for o in batch.clone() {
-            starts.push(
-                shared_at
-                    .iter()
-                    .zip(&shared)
-                    .zip(&counts[o])
-                    .map(|((&s, l), &c)| match l {
-                        Some(_) => s,
-                        None => {
-                            at += c;
-                            at - c
-                        }
-                    })
-                    .collect(),
-            );
-        }
+        let (starts, end) = plan.starts(batch.clone());
         // The batch's own lists (none where every list is shared: the buffer holds those).
-        if at > front {
-            nodes.fill(at, |d| {
-                // One slot per direction, then filled in parallel.
-                let mut slots = Vec::with_capacity(batch.len());
-                let mut rest = &mut d[front..];
-                for o in batch.clone() {
-                    let (slot, tail) = std::mem::take(&mut rest).split_at_mut(own(o));
-                    slots.push((o, slot));
-                    rest = tail;
-                }
-                slots.into_par_iter().for_each(|(o, slot)| {
-                    let mut k = 0;
-                    for ((r, l), &c) in rules.iter().zip(&shared).zip(&counts[o]) {
-                        if l.is_none() {
-                            fill_nodes(*r, wo[o], mirror, &mut slot[k..k + c]);
-                            k += c;
-                        }
-                    }
-                });
+        if end > plan.front {
+            nodes.fill(end, |d| {
+                plan.fill_batch(d, batch.clone(), rules, wo, mirror)
             })?;
         }
         let mut sums = Vec::with_capacity(rules.len() * blocks.len() * batch.len());
@@ -162,19 +229,20 @@ pub(super) fn sum_rules(
                         wo: f32_wo(wo[o]),
                         param,
                         begin: s[r],
-                        len: counts[o][r],
-                        mirror: mirror && shared[r].is_none(),
+                        len: plan.counts[o][r],
+                        mirror: mirror && plan.shared[r].is_none(),
                     });
                 }
             }
         }
-        let e = gpu.albedo_sums(model, blocks, white_furnace, &nodes, &sums)?;
-        let mut e = e.into_iter();
+        let mut e = gpu
+            .albedo_sums(model, blocks, white_furnace, &nodes, &sums)?
+            .into_iter();
         for (r, rule_out) in out.iter_mut().enumerate() {
             for row in rule_out.iter_mut() {
                 for o in batch.clone() {
                     let v = e.next().unwrap_or_default();
-                    row.push((DVec3::from_array(v), counts[o][r] as u64));
+                    row.push((DVec3::from_array(v), plan.counts[o][r] as u64));
                 }
             }
         }
