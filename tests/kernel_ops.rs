@@ -11,6 +11,7 @@
 //! `cargo test --release --test kernel_ops -- --nocapture` prints the table.
 
 use lobe::model::components::MicrofacetConfig;
+use lobe::model::eon::EonConfig;
 use lobe::model::Model;
 use rspirv::dr::{Function, Instruction, Module, Operand};
 use rspirv::spirv::{Decoration, Op, Word};
@@ -48,6 +49,8 @@ struct Counter<'m> {
     lanes: HashMap<Word, u32>,
     /// Result type of each id defined anywhere.
     result_types: HashMap<Word, Word>,
+    /// Float scalar and vector types.
+    float_types: HashSet<Word>,
 }
 
 fn id(op: &Operand) -> Word {
@@ -73,6 +76,7 @@ impl<'m> Counter<'m> {
             constants: HashMap::new(),
             lanes: HashMap::new(),
             result_types: HashMap::new(),
+            float_types: HashSet::new(),
         };
         for f in &module.functions {
             let def = f.def.as_ref().expect("function definition");
@@ -102,9 +106,13 @@ impl<'m> Counter<'m> {
                     .map_or(default, |v| u64::from(*v))
             };
             match i.class.opcode {
+                Op::TypeFloat => drop(c.float_types.insert(r)),
                 Op::TypeVector => {
                     if let Some(Operand::LiteralBit32(n)) = i.operands.get(1) {
                         c.lanes.insert(r, *n);
+                    }
+                    if c.float_types.contains(&id(&i.operands[0])) {
+                        c.float_types.insert(r);
                     }
                 }
                 Op::Constant => {
@@ -254,10 +262,8 @@ impl<'m> Counter<'m> {
         }
     }
 
-    /// Counts one call of `function`, following its calls and the blocks reachable under the
-    /// fixed constants.
-    fn function(&self, function: Word, ops: &mut Ops) {
-        let f = self.functions[&function];
+    /// The blocks of `f` reachable from its entry under the fixed constants.
+    fn reachable(&self, f: &Function) -> Vec<usize> {
         let blocks: HashMap<Word, usize> = f
             .blocks
             .iter()
@@ -270,33 +276,48 @@ impl<'m> Counter<'m> {
             })
             .collect();
         let mut seen = HashSet::new();
+        let mut order = Vec::new();
         let mut todo = vec![0usize];
         while let Some(k) = todo.pop() {
             if !seen.insert(k) {
                 continue;
             }
+            order.push(k);
+            let last = f.blocks[k].instructions.last().expect("terminator");
+            let mut go = |w: &Operand| todo.push(blocks[&id(w)]);
+            match last.class.opcode {
+                Op::Branch => go(&last.operands[0]),
+                Op::BranchConditional => match self.constants.get(&id(&last.operands[0])) {
+                    Some(&v) => go(&last.operands[if v != 0 { 1 } else { 2 }]),
+                    None => {
+                        go(&last.operands[1]);
+                        go(&last.operands[2]);
+                    }
+                },
+                Op::Switch => {
+                    for o in last.operands[1..]
+                        .iter()
+                        .filter(|o| matches!(o, Operand::IdRef(_)))
+                    {
+                        go(o);
+                    }
+                }
+                _ => {}
+            }
+        }
+        order.sort_unstable();
+        order
+    }
+
+    /// Counts one call of `function`, following its calls and the blocks reachable under the
+    /// fixed constants.
+    fn function(&self, function: Word, ops: &mut Ops) {
+        let f = self.functions[&function];
+        for k in self.reachable(f) {
             for i in &f.blocks[k].instructions {
                 self.count(i, ops);
-                let go = |w: &Operand, todo: &mut Vec<usize>| todo.push(blocks[&id(w)]);
-                match i.class.opcode {
-                    Op::FunctionCall => self.function(id(&i.operands[0]), ops),
-                    Op::Branch => go(&i.operands[0], &mut todo),
-                    Op::BranchConditional => match self.constants.get(&id(&i.operands[0])) {
-                        Some(&v) => go(&i.operands[if v != 0 { 1 } else { 2 }], &mut todo),
-                        None => {
-                            go(&i.operands[1], &mut todo);
-                            go(&i.operands[2], &mut todo);
-                        }
-                    },
-                    Op::Switch => {
-                        for o in i.operands[1..]
-                            .iter()
-                            .filter(|o| matches!(o, Operand::IdRef(_)))
-                        {
-                            go(o, &mut todo);
-                        }
-                    }
-                    _ => {}
+                if i.class.opcode == Op::FunctionCall {
+                    self.function(id(&i.operands[0]), ops);
                 }
             }
         }
@@ -320,26 +341,227 @@ impl<'m> Counter<'m> {
     }
 }
 
+/// What a value depends on: constants alone, the parameter block (and constants), or the cell
+/// (its directions, or data the kernel reads).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Dep {
+    Const,
+    Param,
+    Cell,
+}
+
+/// Floating-point arithmetic: what a kernel should not spend on the parameters alone.
+fn is_float_arithmetic(op: Op) -> bool {
+    matches!(
+        op,
+        Op::FAdd
+            | Op::FSub
+            | Op::FMul
+            | Op::FDiv
+            | Op::FNegate
+            | Op::FMod
+            | Op::FRem
+            | Op::VectorTimesScalar
+            | Op::Dot
+            | Op::ExtInst
+    )
+}
+
+impl Counter<'_> {
+    /// The name glslang gave an id, up to its parameter list.
+    fn name_of(&self, target: Word) -> String {
+        self.module
+            .debug_names
+            .iter()
+            .find_map(|n| match n.operands.as_slice() {
+                [Operand::IdRef(t), Operand::LiteralString(s)] if *t == target => {
+                    Some(s.split('(').next().unwrap_or(s).to_string())
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| format!("%{target}"))
+    }
+
+    /// The indices of `f`'s parameters that it stores into (its `out` and `inout` parameters).
+    fn written_parameters(&self, f: &Function) -> HashSet<usize> {
+        let params: Vec<Word> = f.parameters.iter().filter_map(|p| p.result_id).collect();
+        let mut root: HashMap<Word, Word> = params.iter().map(|&p| (p, p)).collect();
+        let mut out = HashSet::new();
+        for i in f.blocks.iter().flat_map(|b| &b.instructions) {
+            match i.class.opcode {
+                Op::AccessChain | Op::InBoundsAccessChain => {
+                    if let (Some(r), Some(&base)) = (i.result_id, root.get(&id(&i.operands[0]))) {
+                        root.insert(r, base);
+                    }
+                }
+                Op::Store => {
+                    if let Some(base) = root.get(&id(&i.operands[0])) {
+                        out.insert(params.iter().position(|p| p == base).expect("a parameter"));
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// Float arithmetic in `function` (and the functions it calls) whose operands depend on the
+    /// parameter block and constants alone, given what each of its pointer parameters points at;
+    /// each as "function: opcode".
+    fn parameter_only_ops(&self, function: Word, params: &[Dep], out: &mut Vec<String>) {
+        let f = self.functions[&function];
+        let blocks = self.reachable(f);
+        let instructions = || blocks.iter().flat_map(|&k| &f.blocks[k].instructions);
+        // Pointers: each parameter and local variable is its own root; access chains alias it.
+        let mut root: HashMap<Word, Word> = HashMap::new();
+        let mut memory: HashMap<Word, Dep> = HashMap::new();
+        for (k, p) in f.parameters.iter().enumerate() {
+            let r = p.result_id.expect("parameter id");
+            root.insert(r, r);
+            memory.insert(r, params[k]);
+        }
+        let fixed: HashSet<Word> = memory.keys().copied().collect();
+        let mut values: HashMap<Word, Dep> = HashMap::new();
+        let dep_of = |values: &HashMap<Word, Dep>, w: Word| -> Dep {
+            values.get(&w).copied().unwrap_or(Dep::Const)
+        };
+        // Flow-insensitive: a variable depends on the join of every value stored into it; iterate
+        // until nothing changes (the lattice is finite and every step only raises).
+        loop {
+            let before = (memory.clone(), values.clone());
+            for i in instructions() {
+                match i.class.opcode {
+                    Op::Variable => {
+                        let r = i.result_id.expect("variable id");
+                        root.insert(r, r);
+                        memory.entry(r).or_insert(Dep::Const);
+                    }
+                    Op::AccessChain | Op::InBoundsAccessChain => {
+                        let base = id(&i.operands[0]);
+                        let r = i.result_id.expect("access chain id");
+                        // A chain into memory outside the function (a buffer) reads data.
+                        let b = root.get(&base).copied().unwrap_or(base);
+                        root.insert(r, b);
+                        memory.entry(b).or_insert(Dep::Cell);
+                    }
+                    Op::Load => {
+                        let ptr = id(&i.operands[0]);
+                        let d = root
+                            .get(&ptr)
+                            .and_then(|b| memory.get(b))
+                            .copied()
+                            .unwrap_or(Dep::Cell);
+                        values.insert(i.result_id.expect("load id"), d);
+                    }
+                    Op::Store => {
+                        let b = root.get(&id(&i.operands[0])).copied();
+                        let d = dep_of(&values, id(&i.operands[1]));
+                        if let Some(b) = b.filter(|b| !fixed.contains(b)) {
+                            let m = memory.entry(b).or_insert(Dep::Const);
+                            *m = (*m).max(d);
+                        }
+                    }
+                    Op::FunctionCall => {
+                        let callee = self.functions[&id(&i.operands[0])];
+                        let args: Vec<Word> = i.operands[1..].iter().map(id).collect();
+                        let deps: Vec<Dep> = args
+                            .iter()
+                            .map(|a| {
+                                root.get(a)
+                                    .and_then(|b| memory.get(b))
+                                    .copied()
+                                    .unwrap_or(Dep::Cell)
+                            })
+                            .collect();
+                        let all = deps.iter().copied().max().unwrap_or(Dep::Const);
+                        for k in self.written_parameters(callee) {
+                            if let Some(b) =
+                                root.get(&args[k]).copied().filter(|b| !fixed.contains(b))
+                            {
+                                let m = memory.entry(b).or_insert(Dep::Const);
+                                *m = (*m).max(all);
+                            }
+                        }
+                        if let Some(r) = i.result_id {
+                            values.insert(r, all);
+                        }
+                    }
+                    _ => {
+                        if let Some(r) = i.result_id {
+                            let d = i
+                                .operands
+                                .iter()
+                                .filter_map(|o| match o {
+                                    Operand::IdRef(w) => Some(dep_of(&values, *w)),
+                                    _ => None,
+                                })
+                                .max()
+                                .unwrap_or(Dep::Const);
+                            values.insert(r, d);
+                        }
+                    }
+                }
+            }
+            if (memory.clone(), values.clone()) == before {
+                break;
+            }
+        }
+        let name = self.name_of(function);
+        for i in instructions() {
+            if i.class.opcode == Op::FunctionCall {
+                let callee = id(&i.operands[0]);
+                let deps: Vec<Dep> = i.operands[1..]
+                    .iter()
+                    .map(|a| {
+                        root.get(&id(a))
+                            .and_then(|b| memory.get(b))
+                            .copied()
+                            .unwrap_or(Dep::Cell)
+                    })
+                    .collect();
+                self.parameter_only_ops(callee, &deps, out);
+                continue;
+            }
+            let float = i.result_type.is_some_and(|t| self.float_types.contains(&t));
+            let param = i
+                .result_id
+                .is_some_and(|r| dep_of(&values, r) == Dep::Param);
+            if float && param && is_float_arithmetic(i.class.opcode) {
+                out.push(format!("{name}: {:?}", i.class.opcode));
+            }
+        }
+    }
+}
+
 /// The operations of one evaluation of `model` in its table kernel, with its pipeline's
 /// specialization constants (the defaults of constants 0 to 2 and 10: no white furnace, the
 /// careful pow).
 fn ops_per_evaluation(model: Model) -> Ops {
+    let module = table_kernel(model);
+    let spec = spec_constants(model);
+    let counter = Counter::new(&module, &spec);
+    let mut ops = Ops::default();
+    counter.function(counter.named(model.name()), &mut ops);
+    ops
+}
+
+fn table_kernel(model: Model) -> Module {
     let bytes = model.spirv("table").expect("table kernel");
     let words: Vec<u32> = bytes
         .chunks_exact(4)
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    let module = rspirv::dr::load_words(words).expect("readable SPIR-V");
-    let spec: HashMap<u32, u32> = model
+    rspirv::dr::load_words(words).expect("readable SPIR-V")
+}
+
+/// Specialization constants 3.. of the model's pipeline (its component choices).
+fn spec_constants(model: Model) -> HashMap<u32, u32> {
+    model
         .spec_constants()
         .into_iter()
         .enumerate()
         .map(|(k, v)| (3 + k as u32, v))
-        .collect();
-    let counter = Counter::new(&module, &spec);
-    let mut ops = Ops::default();
-    counter.function(counter.named(model.name()), &mut ops);
-    ops
+        .collect()
 }
 
 /// The table job measured against the peer (docs/design.md §11): Beckmann, separable Smith with
@@ -380,4 +602,43 @@ fn operations_per_evaluation() {
             o.div, o.sqrt, o.rsqrt, o.transcendental, o.total
         );
     }
+}
+
+/// Every configuration of every built-in model: the microfacet model with each combination of
+/// components, EON with each multiple-scattering choice.
+fn every_configuration() -> Vec<Model> {
+    let mut out: Vec<Model> = Model::ALL
+        .into_iter()
+        .filter(|m| !matches!(m, Model::Microfacet(_) | Model::Eon(_)))
+        .collect();
+    out.extend(MicrofacetConfig::all().into_iter().map(Model::Microfacet));
+    out.extend((0..3).map(|multiscatter| Model::Eon(EonConfig { multiscatter })));
+    out
+}
+
+/// docs/design.md §6.2: what depends on the parameters alone (reciprocals, squares, Fresnel's
+/// η/κ terms, normalisations) is computed once per parameter set on the host into the block; a
+/// kernel spends no float arithmetic on the block's values and constants alone, in any pipeline.
+#[test]
+fn no_arithmetic_on_the_parameters_alone() {
+    let mut failures = Vec::new();
+    for model in every_configuration() {
+        let module = table_kernel(model);
+        let counter = Counter::new(&module, &spec_constants(model));
+        let mut found = Vec::new();
+        // The model's function takes (p, wi, wo): the block, then the cell's two directions.
+        counter.parameter_only_ops(
+            counter.named(model.name()),
+            &[Dep::Param, Dep::Cell, Dep::Cell],
+            &mut found,
+        );
+        if !found.is_empty() {
+            failures.push(format!("{model:?}: {}", found.join(", ")));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "float arithmetic on the parameters alone, per cell:\n{}",
+        failures.join("\n")
+    );
 }

@@ -25,7 +25,7 @@ struct MicrofacetParams {
     float inv_alpha2_y;      // 1 / alpha_y^2
     vec3 conductor_e2m1k2;   // (eta - 1)(eta + 1) - k^2
     float d_norm;            // 1 / (pi alpha_x alpha_y)
-    vec3 conductor_q;        // 2 eta^2 k^2
+    vec3 conductor_q4;       // 4 eta^2 k^2
     float dielectric_e2m1;   // (ior - 1)(ior + 1)
     vec3 kc_scale;           // F_ms / (pi L_avg) of the Kulla-Conty lobe
     float kc_scale_white;    // the same with F_avg = 1 (white furnace)
@@ -62,25 +62,25 @@ vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
     return vec2(1.0, 1.0 + lambda_i + lambda_o);
 }
 
+// The Fresnel factor at c_d, for fresnel = schlick, dielectric or conductor.
+vec3 microfacet_fresnel(MicrofacetParams p, float c_d) {
+    if (MF_FRESNEL == 1u) return F_schlick(c_d, p.f0, p.one_minus_f0);
+    if (MF_FRESNEL == 2u) return vec3(F_dielectric(c_d, p.dielectric_e2m1));
+    return F_conductor(c_d, p.conductor_e2m1k2, p.conductor_q4);
+}
+
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
 vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
     float c_d;
     vec3 h = half_vector_from_sum(s, c_d);
     float c_i = wi.z, c_o = wo.z;
-    vec3 f;
-    if (WHITE_FURNACE || MF_FRESNEL == 0u) {
-        f = vec3(1.0);
-    } else if (MF_FRESNEL == 1u) {
-        f = F_schlick(c_d, p.f0, p.one_minus_f0);
-    } else if (MF_FRESNEL == 2u) {
-        f = vec3(F_dielectric(c_d, p.dielectric_e2m1));
-    } else {
-        f = F_conductor(c_d, p.conductor_e2m1k2, p.conductor_q);
-    }
+    // specular F, multiplied only where there is a Fresnel factor.
+    vec3 weight = p.specular;
+    if (!WHITE_FURNACE && MF_FRESNEL != 0u) weight *= microfacet_fresnel(p, c_d);
     float spec = specular_ratio(microfacet_d(p, h), microfacet_g(p, h, c_d, wi, wo), c_i, c_o);
     // Summed in cook_torrance's order (specular * F first), so that cook_torrance equals its
     // microfacet configuration to the last bit; the f64 twin sums the same way.
-    vec3 f_total = p.diffuse_over_pi + p.specular * f * spec;
+    vec3 f_total = p.diffuse_over_pi + weight * spec;
     if (MF_MULTISCATTER == 1u) {
         vec3 scale = WHITE_FURNACE ? vec3(p.kc_scale_white) : p.kc_scale;
         f_total += p.specular * kulla_conty(int(p.kc_row), p.kc_weights, scale, c_i, c_o);

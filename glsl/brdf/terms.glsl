@@ -192,7 +192,7 @@ float F_dielectric(float c, float e2m1) {
 // Exact unpolarized Fresnel reflectance of a conductor with complex IOR eta + i k, per channel
 // (Born & Wolf, Principles of Optics, section 14.2; the a, b form as in Lagarde 2013, "Memo on
 // Fresnel equations"). With k = 0 it reduces to F_dielectric.
-vec3 F_conductor(float c, vec3 e2m1k2, vec3 q) {
+vec3 F_conductor(float c, vec3 e2m1k2, vec3 q4) {
     // With n + i k = eta + i k and s^2 = sin^2 theta, (a + i b)^2 = (eta + i k)^2 - s^2, so
     // a^2 - b^2 = t0 = eta^2 - 1 - k^2 + c^2 and a b = eta k; then
     // Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),
@@ -200,17 +200,18 @@ vec3 F_conductor(float c, vec3 e2m1k2, vec3 q) {
     // Written as sums of squares (never negative) and without the differences that cancel near
     // an index-matched interface (eta -> 1, k -> 0, where F -> 0):
     // - t0 from e2m1k2 + c^2, e2m1k2 = (eta - 1)(eta + 1) - k^2 from the host, not eta^2 - (1 - c^2);
-    // - the smaller of a^2, b^2 from r = q / (|a^2 + b^2| + |t0|), q = 2 eta^2 k^2 from the host,
-    //   not from (a^2 + b^2 - |t0|)/2;
+    // - |a^2 + b^2| = sqrt(t0^2 + 4 a^2 b^2) = sqrt(t0^2 + q4), q4 = 4 eta^2 k^2 from the host;
+    // - the smaller of a^2, b^2 from r = 2 eta^2 k^2 / (|a^2 + b^2| + |t0|), not from
+    //   (a^2 + b^2 - |t0|)/2;
     // - a - c as m / (a + c) with m = a^2 - c^2 = e2m1k2 + r when t0 >= 0.
     // (Rs + Rp)/2 = Rs (Y + X) / (2 Y) with X, Y Rp's numerator and denominator, and
     // Rs = (m^2 + b^2 (a + c)^2) / ((a + c)^2 ((a + c)^2 + b^2)): one division for F.
     // At eta = 1, k = 0 this gives m = 0, b = 0 and F = 0 exactly.
     float c2 = c * c, s2 = 1.0 - c2;
     vec3 t0 = e2m1k2 + c2;
-    vec3 a2b2 = sqrt(t0 * t0 + 2.0 * q);
-    // a2b2 + |t0| = 0 only when q = 0 too: the floor makes r = 0 there.
-    vec3 r = q / max(a2b2 + abs(t0), vec3(1e-30));
+    vec3 a2b2 = sqrt(t0 * t0 + q4);
+    // a2b2 + |t0| = 0 only when q4 = 0 too: the floor makes r = 0 there.
+    vec3 r = q4 / (2.0 * max(a2b2 + abs(t0), vec3(1e-30)));
     bvec3 t0_pos = greaterThanEqual(t0, vec3(0.0));
     vec3 a2 = max(t0, 0.0) + r;
     vec3 b2 = max(-t0, 0.0) + r;

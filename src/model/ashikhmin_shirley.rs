@@ -65,6 +65,10 @@ pub struct AshikhminShirleyParams {
     pub one_minus_specular: [f32; 3],
     /// √((nu + 1)(nv + 1))/(8π).
     pub spec_norm: f32,
+    /// (nu + nv)/2, the exponent at h = n.
+    pub mean_exponent: f32,
+    /// Padding to the std430 size of 64 bytes; always 0.
+    pub _pad: [f32; 3],
 }
 
 /// Byte offset of every field of [`AshikhminShirleyParams`], checked against the compiled kernels.
@@ -81,6 +85,10 @@ pub const GPU_LAYOUT: Layout = &[
         offset_of!(AshikhminShirleyParams, one_minus_specular),
     ),
     ("spec_norm", offset_of!(AshikhminShirleyParams, spec_norm)),
+    (
+        "mean_exponent",
+        offset_of!(AshikhminShirleyParams, mean_exponent),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -152,6 +160,8 @@ impl AshikhminShirley {
             nv: self.nv as f32,
             one_minus_specular: f32x3(DVec3::ONE - self.specular),
             spec_norm: (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() / (8.0 * PI)) as f32,
+            mean_exponent: (0.5 * (self.nu + self.nv)) as f32,
+            _pad: [0.0; 3],
         }
     }
 }

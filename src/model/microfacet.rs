@@ -148,8 +148,8 @@ pub struct MicrofacetParams {
     pub conductor_e2m1k2: [f32; 3],
     /// D's normalisation 1 / (π αx αy).
     pub d_norm: f32,
-    /// The conductor's 2 η² κ², per channel.
-    pub conductor_q: [f32; 3],
+    /// The conductor's 4 η² κ², per channel.
+    pub conductor_q4: [f32; 3],
     /// The dielectric's (ior − 1)(ior + 1).
     pub dielectric_e2m1: f32,
     /// F_ms / (π L_avg) of the Kulla–Conty lobe per channel ([`kulla_conty::fresnel_ms`]); 0
@@ -183,7 +183,7 @@ pub const GPU_LAYOUT: Layout = &[
         offset_of!(MicrofacetParams, conductor_e2m1k2),
     ),
     ("d_norm", offset_of!(MicrofacetParams, d_norm)),
-    ("conductor_q", offset_of!(MicrofacetParams, conductor_q)),
+    ("conductor_q4", offset_of!(MicrofacetParams, conductor_q4)),
     (
         "dielectric_e2m1",
         offset_of!(MicrofacetParams, dielectric_e2m1),
@@ -311,7 +311,7 @@ impl Microfacet {
             inv_alpha2_y: (1.0 / (ay * ay)) as f32,
             conductor_e2m1k2: f32x3(self.eta.map(e2m1) - self.k * self.k),
             d_norm: (FRAC_1_PI / (ax * ay)) as f32,
-            conductor_q: f32x3(2.0 * self.eta * self.eta * self.k * self.k),
+            conductor_q4: f32x3(4.0 * self.eta * self.eta * self.k * self.k),
             dielectric_e2m1: e2m1(self.ior) as f32,
             kc_scale: f32x3(scale),
             kc_scale_white: scale_white as f32,
