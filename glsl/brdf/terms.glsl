@@ -103,8 +103,8 @@ vec3 F_specular(float c, vec3 r0, vec3 one_minus_r0) {
 // The roughness enters through constants the host computes once per parameter set:
 // inv_alpha2_x = 1/ax^2, inv_alpha2_y = 1/ay^2 and d_norm = 1/(pi ax ay). One reciprocal of h_z^2
 // serves the exponent and the 1/h_z^4. Where exp(-e) underflows D is 0 (1/h_z^2 may be +inf
-// there, at a grazing h). Where exp(-e) > 0, e < 104 bounds 1/h_z^2 by 104 ax^2 / (1 - h_z^2) for
-// any roughness up to 1, so the product stays finite.
+// there, at a grazing h). Where exp(-e) > 0: e >= (1/h_z^2 - 1) / max(ax, ay)^2 and e < 104 bound
+// 1/h_z^2 by 1 + 104 max(ax, ay)^2 <= 105, so the product stays finite.
 float D_beckmann(vec3 h, float inv_alpha2_x, float inv_alpha2_y, float d_norm) {
     float inv_ch2 = 1.0 / (h.z * h.z);
     float e = (h.x * h.x * inv_alpha2_x + h.y * h.y * inv_alpha2_y) * inv_ch2;
