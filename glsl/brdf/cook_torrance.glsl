@@ -1,12 +1,17 @@
 // Cook & Torrance 1982, "A reflectance model for computer graphics": Beckmann D, V-cavity G and
-// Schlick's Fresnel in place of the exact one. Twin of src/model/cook_torrance.rs.
+// Schlick's Fresnel in place of the exact one. Twin of src/model/cook_torrance.rs. What depends on
+// the parameters alone arrives computed in the block (CookTorrance::gpu_params in the twin), as
+// for the microfacet model, whose configuration beckmann/v_cavity/schlick this equals to the last
+// bit.
 #include "brdf/terms.glsl"
 
 struct CookTorranceParams {
-    vec3 diffuse;
-    float ior;
+    vec3 diffuse_over_pi;  // diffuse / pi
+    float inv_alpha2;      // 1 / m^2
     vec3 specular;
-    float roughness;
+    float d_norm;          // 1 / (pi m^2)
+    float r0;              // Schlick's R0 from ior
+    float one_minus_r0;    // 1 - R0
 };
 
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
@@ -14,10 +19,10 @@ vec3 cook_torrance_from_sum(CookTorranceParams p, vec3 wi, vec3 wo, vec3 s) {
     float c_d;
     vec3 h = half_vector_from_sum(s, c_d);
     float c_i = wi.z, c_o = wo.z;
-    float d = D_beckmann(h, p.roughness, p.roughness);
-    float g = G_v_cavity(h.z, c_d, c_i, c_o);
-    vec3 f = F_specular(c_d, vec3(r0_from_ior(p.ior)));
-    return p.diffuse * INV_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
+    vec3 f = F_specular(c_d, vec3(p.r0), vec3(p.one_minus_r0));
+    vec2 d = vec2(D_beckmann(h, p.inv_alpha2, p.inv_alpha2, p.d_norm), 1.0);
+    float spec = specular_ratio(d, G_v_cavity(h.z, c_d, c_i, c_o), c_i, c_o);
+    return p.diffuse_over_pi + p.specular * f * spec;
 }
 
 vec3 cook_torrance(CookTorranceParams p, vec3 wi, vec3 wo) {

@@ -5,12 +5,9 @@
 #include "brdf/terms.glsl"
 
 struct CoupledParams {
-    vec3 matte;
-    float ior;
+    vec3 matte_scale;  // matte 21/(20 pi) (1 - R0), from the host
 };
 
 vec3 coupled(CoupledParams p, vec3 wi, vec3 wo) {
-    float r0 = r0_from_ior(p.ior);
-    float k = 21.0 / (20.0 * PI) * (1.0 - r0);
-    return p.matte * (k * pow5_complement(wi.z) * pow5_complement(wo.z));
+    return p.matte_scale * (pow5_complement(wi.z) * pow5_complement(wo.z));
 }

@@ -14,9 +14,15 @@ layout(constant_id = 3) const uint EON_MULTISCATTER = 0u;  // 0 exact, 1 approx,
 const float EON_C1 = 0.2877934092108062190;
 const float EON_C2 = 0.0724882124569240798;
 
+// What depends on the parameters alone comes from the host (Eon::gpu_params in the twin):
+// A = 1/(1 + c1 r), B = r A, and rho_ms/pi B/(c1 - c2) with rho_ms = rho^2 E_avg/(1 - rho (1 - E_avg)),
+// E_avg = A (1 + c2 r).
 struct EonParams {
-    vec3 albedo;
-    float roughness;
+    vec3 albedo_over_pi;  // rho / pi
+    float a;
+    vec3 ms_scale;        // rho_ms/pi B/(c1 - c2)
+    float b;
+    float a_one_minus_r;  // A (1 - r)
 };
 
 // theta = atan2(s, mu) for s, mu >= 0 on the unit circle, in plain arithmetic: the Vulkan spec
@@ -76,20 +82,14 @@ float eon_albedo_avg(float r) {
 
 vec3 eon(EonParams p, vec3 wi, vec3 wo) {
     float mu_i = wi.z, mu_o = wo.z;
-    float r = p.roughness;
-    float a = 1.0 / (1.0 + EON_C1 * r);
-    float b = r * a;
     vec2 ui = wi.xy, uo = wo.xy;
     float s = dot(ui, uo);  // wi.wo - mu_i mu_o
     // Where s <= 0: A + B s = A (1 - r) + B (1 + s) with 1 + s = (|ui + uo|^2 + mu_i^2 + mu_o^2)/2
     // for unit vectors, a sum of squares: no cancellation as 1 + s -> 0, never negative.
     vec2 u = ui + uo;
-    float lobe = s > 0.0 ? a + b * s / max(mu_i, mu_o)
-                         : a * (1.0 - r) + b * (0.5 * (dot(u, u) + (mu_i * mu_i + mu_o * mu_o)));
-    vec3 f_ss = p.albedo * INV_PI * lobe;
+    float lobe = s > 0.0 ? p.a + p.b * s / max(mu_i, mu_o)
+                         : p.a_one_minus_r + p.b * (0.5 * (dot(u, u) + (mu_i * mu_i + mu_o * mu_o)));
+    vec3 f_ss = p.albedo_over_pi * lobe;
     if (EON_MULTISCATTER == 2u) return f_ss;
-    float e_avg = a * (1.0 + EON_C2 * r);
-    vec3 rho_ms = p.albedo * p.albedo * e_avg / (vec3(1.0) - p.albedo * (1.0 - e_avg));
-    float losses = eon_loss(mu_o) * eon_loss(mu_i);
-    return f_ss + rho_ms * INV_PI * (b * losses / (EON_C1 - EON_C2));
+    return f_ss + p.ms_scale * (eon_loss(mu_o) * eon_loss(mu_i));
 }

@@ -31,14 +31,9 @@ float kc_loss(float mu, int k0, vec4 wk) {
     return max(sum, 0.0);
 }
 
-// specular F_ms f_ms: f_ms = L(mu_o) L(mu_i) / (pi L_avg), F_ms = F_avg^2 E_avg / (1 - F_avg L_avg),
-// at alpha = sqrt(alpha_x alpha_y); 0 where L_avg is 0.
-vec3 kulla_conty(float alpha_x, float alpha_y, vec3 f_avg, float c_i, float c_o) {
-    vec4 wk;
-    int k0 = kc_lagrange(sqrt(sqrt(alpha_x * alpha_y)) * float(KC_KNOTS - 1), wk);
-    int avg = KC_KNOTS * KC_KNOTS + k0;
-    float l_avg = dot(wk, vec4(kc_table[avg], kc_table[avg + 1], kc_table[avg + 2], kc_table[avg + 3]));
-    if (l_avg <= 0.0) return vec3(0.0);
-    float f_ms = kc_loss(c_o, k0, wk) * kc_loss(c_i, k0, wk) / (PI * l_avg);
-    return f_avg * f_avg * (1.0 - l_avg) / (1.0 - f_avg * l_avg) * f_ms;
+// specular F_ms f_ms with f_ms = L(mu_o) L(mu_i) / (pi L_avg), F_ms = F_avg^2 E_avg / (1 - F_avg L_avg),
+// at alpha = sqrt(alpha_x alpha_y). What depends on alpha and F_avg alone comes from the host: the
+// stencil in r (first knot k0, weights wk) and scale = F_ms / (pi L_avg), 0 where L_avg is 0.
+vec3 kulla_conty(int k0, vec4 wk, vec3 scale, float c_i, float c_o) {
+    return scale * (kc_loss(c_o, k0, wk) * kc_loss(c_i, k0, wk));
 }

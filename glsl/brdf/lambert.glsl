@@ -2,9 +2,9 @@
 #include "brdf/terms.glsl"
 
 struct LambertParams {
-    vec3 albedo;
+    vec3 albedo_over_pi;  // albedo / pi, from the host
 };
 
 vec3 lambert(LambertParams p, vec3 wi, vec3 wo) {
-    return p.albedo * INV_PI;
+    return p.albedo_over_pi;
 }

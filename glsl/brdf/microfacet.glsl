@@ -2,6 +2,9 @@
 // plus, with multiscatter = kulla_conty, specular F_ms f_ms (Kulla & Conty 2017).
 // Each component choice is a specialization constant, so the driver compiles only the branch a
 // pipeline uses. Twin of src/model/microfacet.rs (formulas and citations there and in terms).
+// What depends on the parameters alone arrives computed in the block (Microfacet::gpu_params in
+// the twin); D and G come as (numerator, denominator) pairs, so that one division serves the
+// specular lobe.
 #include "brdf/terms.glsl"
 #include "brdf/kulla_conty.glsl"
 
@@ -13,21 +16,57 @@ layout(constant_id = 7) const uint MF_MULTISCATTER = 0u;  // 0 none, 1 kulla_con
 
 struct MicrofacetParams {
     vec3 specular;
-    float alpha_x;
-    vec3 diffuse;
-    float alpha_y;
-    vec3 f0;
-    float ior;
-    vec3 eta;
-    vec3 k;
-    vec3 f_avg;  // 2 * integral of F(mu) mu dmu, from the host
+    float alpha2_x;          // alpha_x^2
+    vec3 diffuse_over_pi;    // diffuse / pi
+    float alpha2_y;          // alpha_y^2
+    vec3 f0;                 // Schlick's R0
+    float inv_alpha2_x;      // 1 / alpha_x^2
+    vec3 one_minus_f0;       // 1 - R0
+    float inv_alpha2_y;      // 1 / alpha_y^2
+    vec3 conductor_e2m1k2;   // (eta - 1)(eta + 1) - k^2
+    float d_norm;            // 1 / (pi alpha_x alpha_y)
+    vec3 conductor_q4;       // 4 eta^2 k^2
+    float dielectric_e2m1;   // (ior - 1)(ior + 1)
+    vec3 kc_scale;           // F_ms / (pi L_avg) of the Kulla-Conty lobe
+    float kc_scale_white;    // the same with F_avg = 1 (white furnace)
+    vec4 kc_weights;         // Lagrange weights in sqrt(alpha) (kulla_conty.glsl)
+    uint kc_row;             // the first of their four knots
 };
 
+// Smith Lambda of direction w (c = w.z > 0) for GGX or Beckmann's exact G1.
 float microfacet_lambda(MicrofacetParams p, vec3 w) {
-    float t2 = alpha_tan2(w, p.alpha_x, p.alpha_y);
-    if (MF_DISTRIBUTION == 1u) return lambda_ggx(t2);
-    if (MF_BECKMANN_G1 == 0u) return lambda_beckmann(t2);
-    return 1.0 / G1_beckmann_rational(t2) - 1.0;
+    float q = alpha_sin2(w, p.alpha2_x, p.alpha2_y);
+    return MF_DISTRIBUTION == 1u ? lambda_ggx(q, w.z) : lambda_beckmann(q, w.z);
+}
+
+// D as (numerator, denominator).
+vec2 microfacet_d(MicrofacetParams p, vec3 h) {
+    if (MF_DISTRIBUTION == 0u) return vec2(D_beckmann(h, p.inv_alpha2_x, p.inv_alpha2_y, p.d_norm), 1.0);
+    float q = ggx_q(h, p.inv_alpha2_x, p.inv_alpha2_y);
+    return vec2(p.d_norm, q * q);
+}
+
+// G as (numerator, denominator). With Walter's rational G1 = n/d, Lambda = d/n - 1, so
+// G_separable = n_i n_o / (d_i d_o) and G_correlated = 1/(1 + Lambda_i + Lambda_o)
+// = n_i n_o / (d_i n_o + d_o n_i - n_i n_o).
+vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
+    if (MF_MASKING == 0u) return G_v_cavity(h.z, c_d, wi.z, wo.z);
+    if (MF_DISTRIBUTION == 0u && MF_BECKMANN_G1 == 1u) {
+        vec2 gi = G1_beckmann_rational(alpha_sin2(wi, p.alpha2_x, p.alpha2_y), wi.z);
+        vec2 go = G1_beckmann_rational(alpha_sin2(wo, p.alpha2_x, p.alpha2_y), wo.z);
+        float n = gi.x * go.x;
+        return vec2(n, MF_MASKING == 1u ? gi.y * go.y : gi.y * go.x + go.y * gi.x - n);
+    }
+    float lambda_i = microfacet_lambda(p, wi), lambda_o = microfacet_lambda(p, wo);
+    if (MF_MASKING == 1u) return vec2(1.0, (1.0 + lambda_i) * (1.0 + lambda_o));
+    return vec2(1.0, 1.0 + lambda_i + lambda_o);
+}
+
+// The Fresnel factor at c_d, for fresnel = schlick, dielectric or conductor.
+vec3 microfacet_fresnel(MicrofacetParams p, float c_d) {
+    if (MF_FRESNEL == 1u) return F_schlick(c_d, p.f0, p.one_minus_f0);
+    if (MF_FRESNEL == 2u) return vec3(F_dielectric(c_d, p.dielectric_e2m1));
+    return F_conductor(c_d, p.conductor_e2m1k2, p.conductor_q4);
 }
 
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
@@ -35,31 +74,16 @@ vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
     float c_d;
     vec3 h = half_vector_from_sum(s, c_d);
     float c_i = wi.z, c_o = wo.z;
-    float d = MF_DISTRIBUTION == 0u ? D_beckmann(h, p.alpha_x, p.alpha_y) : D_ggx(h, p.alpha_x, p.alpha_y);
-    float g;
-    if (MF_MASKING == 0u) {
-        g = G_v_cavity(h.z, c_d, c_i, c_o);
-    } else if (MF_MASKING == 1u) {
-        g = 1.0 / ((1.0 + microfacet_lambda(p, wi)) * (1.0 + microfacet_lambda(p, wo)));
-    } else {
-        g = 1.0 / (1.0 + microfacet_lambda(p, wi) + microfacet_lambda(p, wo));
-    }
-    vec3 f;
-    if (WHITE_FURNACE || MF_FRESNEL == 0u) {
-        f = vec3(1.0);
-    } else if (MF_FRESNEL == 1u) {
-        f = F_schlick(c_d, p.f0);
-    } else if (MF_FRESNEL == 2u) {
-        f = vec3(F_dielectric(c_d, p.ior));
-    } else {
-        f = F_conductor(c_d, p.eta, p.k);
-    }
+    // specular F, multiplied only where there is a Fresnel factor.
+    vec3 weight = p.specular;
+    if (!WHITE_FURNACE && MF_FRESNEL != 0u) weight *= microfacet_fresnel(p, c_d);
+    float spec = specular_ratio(microfacet_d(p, h), microfacet_g(p, h, c_d, wi, wo), c_i, c_o);
     // Summed in cook_torrance's order (specular * F first), so that cook_torrance equals its
     // microfacet configuration to the last bit; the f64 twin sums the same way.
-    vec3 f_total = p.diffuse * INV_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
+    vec3 f_total = p.diffuse_over_pi + weight * spec;
     if (MF_MULTISCATTER == 1u) {
-        vec3 f_avg = WHITE_FURNACE ? vec3(1.0) : p.f_avg;
-        f_total += p.specular * kulla_conty(p.alpha_x, p.alpha_y, f_avg, c_i, c_o);
+        vec3 scale = WHITE_FURNACE ? vec3(p.kc_scale_white) : p.kc_scale;
+        f_total += p.specular * kulla_conty(int(p.kc_row), p.kc_weights, scale, c_i, c_o);
     }
     return f_total;
 }

@@ -4,9 +4,9 @@
 #include "brdf/terms.glsl"
 
 struct PhongParams {
-    vec3 diffuse;
+    vec3 diffuse_over_pi;  // diffuse / pi, from the host
     float shininess;
-    vec3 specular;
+    vec3 specular_norm;    // specular (n + 2)/(2 pi), from the host
 };
 
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
@@ -16,8 +16,7 @@ vec3 phong_from_sum(PhongParams p, vec3 wi, vec3 wo, vec3 s) {
     // cancellation near the mirror direction.
     vec3 d = vec3(-s.x, -s.y, wi.z - wo.z);
     float one_minus_r_wo = 0.5 * dot(d, d);
-    float lobe = (p.shininess + 2.0) / (2.0 * PI) * pow1m(one_minus_r_wo, p.shininess);
-    return p.diffuse * INV_PI + p.specular * lobe;
+    return p.diffuse_over_pi + p.specular_norm * pow1m(one_minus_r_wo, p.shininess);
 }
 
 vec3 phong(PhongParams p, vec3 wi, vec3 wo) {

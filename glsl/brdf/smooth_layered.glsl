@@ -4,10 +4,9 @@
 #include "brdf/terms.glsl"
 
 struct SmoothLayeredParams {
-    vec3 diffuse;
-    float ior;
+    vec3 diffuse_over_pi;  // diffuse / pi, from the host
 };
 
 vec3 smooth_layered(SmoothLayeredParams p, vec3 wi, vec3 wo) {
-    return p.diffuse * INV_PI;
+    return p.diffuse_over_pi;
 }

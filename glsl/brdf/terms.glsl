@@ -46,10 +46,12 @@ float one_minus_cos_theta(vec3 h) {
 // length shrinks to 2 c_o, so h's direction is off by about eps / (2 c_o), which a lobe of width
 // alpha ~ 1e-3 at grazing view resolves. The albedo kernel knows s exactly (its nodes are offsets
 // from the mirror direction, glsl/kernels/albedo.comp) and passes it here instead.
+// One inverse square root normalises s; |s| = |s|^2 / |s| follows without a square root.
 vec3 half_vector_from_sum(vec3 s, out float c_d) {
-    float len = length(s);
-    c_d = 0.5 * len;
-    return s / len;
+    float s2 = dot(s, s);
+    float inv_len = inversesqrt(s2);
+    c_d = 0.5 * (s2 * inv_len);
+    return s * inv_len;
 }
 
 // Half vector h = normalize(wi + wo) and c_d = wi.h. For unit wi and wo,
@@ -57,6 +59,11 @@ vec3 half_vector_from_sum(vec3 s, out float c_d) {
 // cancellation that dot(wi, h) suffers when wi and wo are nearly opposite (grazing, h -> n).
 vec3 half_vector(vec3 wi, vec3 wo, out float c_d) {
     return half_vector_from_sum(wi + wo, c_d);
+}
+
+// D G / (4 c_i c_o) for D = d.x / d.y and G = g.x / g.y: one division for the specular lobe.
+float specular_ratio(vec2 d, vec2 g, float c_i, float c_o) {
+    return d.x * g.x / (4.0 * c_i * c_o * d.y * g.y);
 }
 
 // Normal-incidence reflectance of a dielectric with relative IOR eta.
@@ -69,8 +76,9 @@ float r0_from_ior(float eta) {
 // c is clamped to 1: c_d = |wi + wo|/2 of unit-length f32 inputs (|w| = 1 +- a few ulp) can round
 // above 1, and (1 - c)^5 < 0 would then push F below R0 (below 0 for R0 = 0, an index-matched
 // interface).
-vec3 F_schlick(float c, vec3 r0) {
-    return r0 + (1.0 - r0) * pow5(1.0 - min(c, 1.0));
+// one_minus_r0 = 1 - r0 comes from the host with r0.
+vec3 F_schlick(float c, vec3 r0, vec3 one_minus_r0) {
+    return r0 + one_minus_r0 * pow5(1.0 - min(c, 1.0));
 }
 
 // 1 - (1 - x)^5 for x in [0, 1], the diffuse factor of Shirley's coupled and Ashikhmin-Shirley's
@@ -83,8 +91,8 @@ float pow5_complement(float x) {
 }
 
 // The Fresnel factor of a specular lobe, or 1 under the white furnace (docs/design.md §3).
-vec3 F_specular(float c, vec3 r0) {
-    return WHITE_FURNACE ? vec3(1.0) : F_schlick(c, r0);
+vec3 F_specular(float c, vec3 r0, vec3 one_minus_r0) {
+    return WHITE_FURNACE ? vec3(1.0) : F_schlick(c, r0, one_minus_r0);
 }
 
 // Beckmann distribution (Beckmann & Spizzichino 1963; Cook & Torrance 1982, eq. 4), anisotropic
@@ -92,34 +100,39 @@ vec3 F_specular(float c, vec3 r0) {
 // D = exp(-(h_x^2/ax^2 + h_y^2/ay^2) / h_z^2) / (pi ax ay h_z^4).
 // The exponent is tan^2(theta_h) weighted by azimuth, taken from h_x^2 and h_y^2 over h_z^2
 // rather than (1 - c_h^2) / c_h^2, which cancels catastrophically in f32 when h is close to n.
-// Where exp(-e) underflows D is 0: there the denominator can underflow too (ax ay h_z^4 at a
-// grazing h with a small roughness, 1e-14 * 1e-28), and 0/0 would be NaN. Where exp(-e) > 0,
-// e < 104 bounds h_z away from 0, so the denominator stays in f32's normal range for every
-// roughness at or above the parameters' floor of 1e-7.
-float D_beckmann(vec3 h, float ax, float ay) {
-    float ch2 = h.z * h.z;
-    float e = (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / ch2;
+// The roughness enters through constants the host computes once per parameter set:
+// inv_alpha2_x = 1/ax^2, inv_alpha2_y = 1/ay^2 and d_norm = 1/(pi ax ay). One reciprocal of h_z^2
+// serves the exponent and the 1/h_z^4. Where exp(-e) underflows D is 0 (1/h_z^2 may be +inf
+// there, at a grazing h). Where exp(-e) > 0: e >= (1/h_z^2 - 1) / max(ax, ay)^2 and e < 104 bound
+// 1/h_z^2 by 1 + 104 max(ax, ay)^2 <= 105, so the product stays finite.
+float D_beckmann(vec3 h, float inv_alpha2_x, float inv_alpha2_y, float d_norm) {
+    float inv_ch2 = 1.0 / (h.z * h.z);
+    float e = (h.x * h.x * inv_alpha2_x + h.y * h.y * inv_alpha2_y) * inv_ch2;
     float peak = exp(-e);
-    return peak == 0.0 ? 0.0 : peak / (PI * ax * ay * ch2 * ch2);
+    return peak == 0.0 ? 0.0 : peak * d_norm * (inv_ch2 * inv_ch2);
 }
 
 // GGX / Trowbridge-Reitz (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):
-// D = 1 / (pi ax ay (h_x^2/ax^2 + h_y^2/ay^2 + h_z^2)^2).
-float D_ggx(vec3 h, float ax, float ay) {
-    float q = h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay) + h.z * h.z;
-    return 1.0 / (PI * ax * ay * q * q);
+// D = 1 / (pi ax ay (h_x^2/ax^2 + h_y^2/ay^2 + h_z^2)^2) = d_norm / ggx_q(h)^2, with the host's
+// inv_alpha2_x, inv_alpha2_y and d_norm as for D_beckmann. The caller divides, so that D's
+// denominator joins the common one of the specular lobe.
+float ggx_q(vec3 h, float inv_alpha2_x, float inv_alpha2_y) {
+    return h.x * h.x * inv_alpha2_x + h.y * h.y * inv_alpha2_y + h.z * h.z;
 }
 
-// (alpha tan theta)^2 of a direction for anisotropic roughness: (ax^2 w_x^2 + ay^2 w_y^2) / w_z^2
-// (Heitz 2014, eq. 80 with the projected roughness of eq. 81).
-float alpha_tan2(vec3 w, float ax, float ay) {
-    return (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
+// (alpha sin theta)^2 = ax^2 w_x^2 + ay^2 w_y^2 of a direction for anisotropic roughness, with
+// the host's alpha2_x = ax^2 and alpha2_y = ay^2: (alpha tan theta)^2 (Heitz 2014, eq. 80 with the
+// projected roughness of eq. 81; alpha_tan2 in terms.rs) times w_z^2. The Smith terms below take it
+// with c = w_z > 0 and fold the 1/w_z^2 into their own formulas.
+float alpha_sin2(vec3 w, float alpha2_x, float alpha2_y) {
+    return alpha2_x * w.x * w.x + alpha2_y * w.y * w.y;
 }
 
-// Smith Lambda for GGX (Heitz 2014, eq. 86): (sqrt(1 + t2) - 1) / 2, written as
-// t2 / (2 (sqrt(1 + t2) + 1)) so that it does not cancel when t2 is small.
-float lambda_ggx(float t2) {
-    return t2 / (2.0 * (sqrt(1.0 + t2) + 1.0));
+// Smith Lambda for GGX (Heitz 2014, eq. 86): (sqrt(1 + t2) - 1) / 2 with t2 = q / c^2, written as
+// t2 / (2 (sqrt(1 + t2) + 1)) = q / (2 c (sqrt(c^2 + q) + c)) so that it does not cancel when t2
+// is small: one division.
+float lambda_ggx(float q, float c) {
+    return q / (2.0 * c * (sqrt(c * c + q) + c));
 }
 
 // erfc(x) for x >= 0 (Press et al., Numerical Recipes, 2nd ed., section 6.2, erfcc): a Chebyshev
@@ -132,35 +145,38 @@ float erfc_approx(float x) {
 }
 
 // Smith Lambda for Beckmann, exact (Walter et al. 2007, eq. 25 integrated; Heitz 2014, eq. 83):
-// a = 1 / sqrt(t2); Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)).
+// a = 1 / sqrt(t2) = c / sqrt(q); Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)).
 // Written with erfc so that erf(a) - 1 does not cancel for large a. Lambda = 0 at w = n.
-float lambda_beckmann(float t2) {
-    if (t2 <= 0.0) return 0.0;
-    float a = inversesqrt(t2);
+float lambda_beckmann(float q, float c) {
+    if (q <= 0.0) return 0.0;
+    float a = c * inversesqrt(q);
     return 0.5 * (exp(-a * a) / (a * 1.7724538509055160) - erfc_approx(a));
 }
 
-// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1.
-float G1_beckmann_rational(float t2) {
-    if (t2 <= 0.0) return 1.0;
-    float a = inversesqrt(t2);
-    if (a >= 1.6) return 1.0;
-    return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1, a = c / sqrt(q),
+// as (numerator, denominator), so that the caller folds the denominator into its own; (1, 1) where
+// G1 = 1.
+vec2 G1_beckmann_rational(float q, float c) {
+    if (q <= 0.0) return vec2(1.0);
+    float a = c * inversesqrt(q);
+    if (a >= 1.6) return vec2(1.0);
+    return vec2(3.535 * a + 2.181 * a * a, 1.0 + 2.276 * a + 2.577 * a * a);
 }
 
-// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d).
-float G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
-    return min(1.0, 2.0 * c_h * min(c_i, c_o) / c_d);
+// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d), as
+// (numerator, denominator) = (min(c_d, 2 c_h min(c_i, c_o)), c_d), so that the caller folds c_d
+// into its own denominator.
+vec2 G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
+    return vec2(min(c_d, 2.0 * c_h * min(c_i, c_o)), c_d);
 }
 
 // Exact unpolarized Fresnel reflectance of a dielectric with relative IOR eta (Walter et al.
 // 2007, eq. 22): g^2 = eta^2 - 1 + c^2; F = 1/2 ((g-c)/(g+c))^2 (1 + ((c(g+c)-1)/(c(g-c)+1))^2).
 // g^2 < 0 is total internal reflection (only possible for eta < 1).
-float F_dielectric(float c, float eta) {
-    // eta^2 - 1 as (eta - 1)(eta + 1), and g - c as (eta^2 - 1) / (g + c) (g^2 - c^2 = eta^2 - 1):
-    // as eta -> 1 both differences would otherwise cancel and F, which is O((eta - 1)^2), would
-    // lose every digit in f32.
-    float e2m1 = (eta - 1.0) * (eta + 1.0);
+float F_dielectric(float c, float e2m1) {
+    // e2m1 = eta^2 - 1, from the host as (eta - 1)(eta + 1), and g - c as (eta^2 - 1) / (g + c)
+    // (g^2 - c^2 = eta^2 - 1): as eta -> 1 both differences would otherwise cancel and F, which
+    // is O((eta - 1)^2), would lose every digit in f32.
     float g2 = e2m1 + c * c;
     if (g2 < 0.0) return 1.0;
     float g = sqrt(g2);
@@ -176,36 +192,40 @@ float F_dielectric(float c, float eta) {
 // Exact unpolarized Fresnel reflectance of a conductor with complex IOR eta + i k, per channel
 // (Born & Wolf, Principles of Optics, section 14.2; the a, b form as in Lagarde 2013, "Memo on
 // Fresnel equations"). With k = 0 it reduces to F_dielectric.
-vec3 F_conductor(float c, vec3 eta, vec3 k) {
+vec3 F_conductor(float c, vec3 e2m1k2, vec3 q4) {
     // With n + i k = eta + i k and s^2 = sin^2 theta, (a + i b)^2 = (eta + i k)^2 - s^2, so
     // a^2 - b^2 = t0 = eta^2 - 1 - k^2 + c^2 and a b = eta k; then
     // Rs = ((a - c)^2 + b^2) / ((a + c)^2 + b^2),
     // Rp = Rs ((a c - s^2)^2 + b^2 c^2) / ((a c + s^2)^2 + b^2 c^2).
     // Written as sums of squares (never negative) and without the differences that cancel near
     // an index-matched interface (eta -> 1, k -> 0, where F -> 0):
-    // - t0 from (eta - 1)(eta + 1) + c^2, not eta^2 - (1 - c^2);
+    // - t0 from e2m1k2 + c^2, e2m1k2 = (eta - 1)(eta + 1) - k^2 from the host, not eta^2 - (1 - c^2);
+    // - |a^2 + b^2| = sqrt(t0^2 + 4 a^2 b^2) = sqrt(t0^2 + q4), q4 = 4 eta^2 k^2 from the host;
     // - the smaller of a^2, b^2 from r = 2 eta^2 k^2 / (|a^2 + b^2| + |t0|), not from
     //   (a^2 + b^2 - |t0|)/2;
-    // - a - c as (a^2 - c^2)/(a + c) with a^2 - c^2 = eta^2 - 1 - k^2 + r when t0 >= 0.
-    // At eta = 1, k = 0 this gives a = c, b = 0 and F = 0 exactly.
+    // - a - c as m / (a + c) with m = a^2 - c^2 = e2m1k2 + r when t0 >= 0.
+    // (Rs + Rp)/2 = Rs (Y + X) / (2 Y) with X, Y Rp's numerator and denominator, and
+    // Rs = (m^2 + b^2 (a + c)^2) / ((a + c)^2 ((a + c)^2 + b^2)): one division for F.
+    // At eta = 1, k = 0 this gives m = 0, b = 0 and F = 0 exactly.
     float c2 = c * c, s2 = 1.0 - c2;
-    vec3 e2m1k2 = (eta - 1.0) * (eta + 1.0) - k * k;
     vec3 t0 = e2m1k2 + c2;
-    vec3 q = 2.0 * eta * eta * k * k;
-    vec3 a2b2 = sqrt(t0 * t0 + 2.0 * q);
-    // a2b2 + |t0| = 0 only when q = 0 too: the floor makes r = 0 there.
-    vec3 r = q / max(a2b2 + abs(t0), vec3(1e-30));
+    vec3 a2b2 = sqrt(t0 * t0 + q4);
+    // a2b2 + |t0| = 0 only when q4 = 0 too: the floor makes r = 0 there.
+    vec3 r = q4 / (2.0 * max(a2b2 + abs(t0), vec3(1e-30)));
     bvec3 t0_pos = greaterThanEqual(t0, vec3(0.0));
     vec3 a2 = max(t0, 0.0) + r;
     vec3 b2 = max(-t0, 0.0) + r;
     vec3 a = sqrt(a2);
-    vec3 amc = mix(r - c2, e2m1k2 + r, t0_pos) / max(a + c, vec3(1e-30));
+    vec3 m = mix(r - c2, e2m1k2 + r, t0_pos);
     vec3 apc = a + c;
-    vec3 rs = (amc * amc + b2) / max(apc * apc + b2, vec3(1e-30));
+    vec3 apc2 = apc * apc;
     vec3 ac = a * c;
     vec3 bc2 = b2 * c2;
-    vec3 rp = rs * ((ac - s2) * (ac - s2) + bc2) / max((ac + s2) * (ac + s2) + bc2, vec3(1e-30));
-    return 0.5 * (rp + rs);
+    vec3 x = (ac - s2) * (ac - s2) + bc2;
+    vec3 y = (ac + s2) * (ac + s2) + bc2;
+    // The denominator is 0 only where a + c = 0, i.e. at c = 0, which the one-sided rule excludes;
+    // the floor keeps F finite (and 0, as m = 0) at an index-matched interface at grazing c.
+    return 0.5 * (m * m + b2 * apc2) * (x + y) / max(apc2 * (apc2 + b2) * y, vec3(1e-37));
 }
 
 #endif

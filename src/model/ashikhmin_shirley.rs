@@ -48,27 +48,47 @@ pub struct AshikhminShirley {
     pub nv: f64,
 }
 
-/// std430 twin of the GLSL `AshikhminShirleyParams`.
+/// std430 twin of the GLSL `AshikhminShirleyParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`AshikhminShirley::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct AshikhminShirleyParams {
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `nu` rounded to f32.
+    /// 28/(23π) `diffuse` (1 − `specular`).
+    pub diffuse_scale: [f32; 3],
+    /// `nu`.
     pub nu: f32,
-    /// `specular` rounded to f32.
+    /// `specular` (the coat's R0).
     pub specular: [f32; 3],
-    /// `nv` rounded to f32.
+    /// `nv`.
     pub nv: f32,
+    /// 1 − `specular`.
+    pub one_minus_specular: [f32; 3],
+    /// √((nu + 1)(nv + 1))/(8π).
+    pub spec_norm: f32,
+    /// (nu + nv)/2, the exponent at h = n.
+    pub mean_exponent: f32,
+    /// Padding to the std430 size of 64 bytes; always 0.
+    pub _pad: [f32; 3],
 }
 
-/// Byte offset of every field of [`AshikhminShirleyParams`], checked against the compiled
-/// kernels.
+/// Byte offset of every field of [`AshikhminShirleyParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("diffuse", offset_of!(AshikhminShirleyParams, diffuse)),
+    (
+        "diffuse_scale",
+        offset_of!(AshikhminShirleyParams, diffuse_scale),
+    ),
     ("nu", offset_of!(AshikhminShirleyParams, nu)),
     ("specular", offset_of!(AshikhminShirleyParams, specular)),
     ("nv", offset_of!(AshikhminShirleyParams, nv)),
+    (
+        "one_minus_specular",
+        offset_of!(AshikhminShirleyParams, one_minus_specular),
+    ),
+    ("spec_norm", offset_of!(AshikhminShirleyParams, spec_norm)),
+    (
+        "mean_exponent",
+        offset_of!(AshikhminShirleyParams, mean_exponent),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -134,10 +154,14 @@ impl AshikhminShirley {
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> AshikhminShirleyParams {
         AshikhminShirleyParams {
-            diffuse: f32x3(self.diffuse),
+            diffuse_scale: f32x3(28.0 / (23.0 * PI) * self.diffuse * (DVec3::ONE - self.specular)),
             nu: self.nu as f32,
             specular: f32x3(self.specular),
             nv: self.nv as f32,
+            one_minus_specular: f32x3(DVec3::ONE - self.specular),
+            spec_norm: (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() / (8.0 * PI)) as f32,
+            mean_exponent: (0.5 * (self.nu + self.nv)) as f32,
+            _pad: [0.0; 3],
         }
     }
 }

@@ -36,25 +36,29 @@ pub struct BlinnPhong {
     pub smoothness: f64,
 }
 
-/// std430 twin of the GLSL `BlinnPhongParams`.
+/// std430 twin of the GLSL `BlinnPhongParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`BlinnPhong::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct BlinnPhongParams {
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `smoothness` rounded to f32 (the kernel maps it to N itself).
-    pub smoothness: f32,
-    /// `specular` rounded to f32.
-    pub specular: [f32; 3],
+    /// `diffuse` / π.
+    pub diffuse_over_pi: [f32; 3],
+    /// N = 8192^(1−s) ([`blinn_phong_exponent`]).
+    pub exponent: f32,
+    /// `specular` (N + 8)/(8π).
+    pub specular_norm: [f32; 3],
     /// Padding to the std430 size of 32 bytes; always 0.
     pub _pad: f32,
 }
 
 /// Byte offset of every field of [`BlinnPhongParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("diffuse", offset_of!(BlinnPhongParams, diffuse)),
-    ("smoothness", offset_of!(BlinnPhongParams, smoothness)),
-    ("specular", offset_of!(BlinnPhongParams, specular)),
+    (
+        "diffuse_over_pi",
+        offset_of!(BlinnPhongParams, diffuse_over_pi),
+    ),
+    ("exponent", offset_of!(BlinnPhongParams, exponent)),
+    ("specular_norm", offset_of!(BlinnPhongParams, specular_norm)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -110,10 +114,11 @@ impl BlinnPhong {
 
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> BlinnPhongParams {
+        let n = blinn_phong_exponent(self.smoothness);
         BlinnPhongParams {
-            diffuse: f32x3(self.diffuse),
-            smoothness: self.smoothness as f32,
-            specular: f32x3(self.specular),
+            diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
+            exponent: n as f32,
+            specular_norm: f32x3(self.specular * ((n + 8.0) / (8.0 * PI))),
             _pad: 0.0,
         }
     }

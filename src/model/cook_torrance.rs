@@ -44,26 +44,38 @@ pub struct CookTorrance {
     pub roughness: f64,
 }
 
-/// std430 twin of the GLSL `CookTorranceParams`.
+/// std430 twin of the GLSL `CookTorranceParams`: what the kernel reads, computed once per
+/// parameter set in f64 ([`CookTorrance::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct CookTorranceParams {
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `ior` rounded to f32.
-    pub ior: f32,
-    /// `specular` rounded to f32.
+    /// `diffuse` / π.
+    pub diffuse_over_pi: [f32; 3],
+    /// 1 / m².
+    pub inv_alpha2: f32,
+    /// `specular`.
     pub specular: [f32; 3],
-    /// `roughness` rounded to f32.
-    pub roughness: f32,
+    /// D's normalisation 1 / (π m²).
+    pub d_norm: f32,
+    /// Schlick's R0 from `ior`.
+    pub r0: f32,
+    /// 1 − R0.
+    pub one_minus_r0: f32,
+    /// Padding to the std430 size of 48 bytes; always 0.
+    pub _pad: [f32; 2],
 }
 
 /// Byte offset of every field of [`CookTorranceParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("diffuse", offset_of!(CookTorranceParams, diffuse)),
-    ("ior", offset_of!(CookTorranceParams, ior)),
+    (
+        "diffuse_over_pi",
+        offset_of!(CookTorranceParams, diffuse_over_pi),
+    ),
+    ("inv_alpha2", offset_of!(CookTorranceParams, inv_alpha2)),
     ("specular", offset_of!(CookTorranceParams, specular)),
-    ("roughness", offset_of!(CookTorranceParams, roughness)),
+    ("d_norm", offset_of!(CookTorranceParams, d_norm)),
+    ("r0", offset_of!(CookTorranceParams, r0)),
+    ("one_minus_r0", offset_of!(CookTorranceParams, one_minus_r0)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -124,11 +136,16 @@ impl CookTorrance {
 
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> CookTorranceParams {
+        let m2 = self.roughness * self.roughness;
+        let r0 = r0_from_ior(self.ior);
         CookTorranceParams {
-            diffuse: f32x3(self.diffuse),
-            ior: self.ior as f32,
+            diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
+            inv_alpha2: (1.0 / m2) as f32,
             specular: f32x3(self.specular),
-            roughness: self.roughness as f32,
+            d_norm: (FRAC_1_PI / m2) as f32,
+            r0: r0 as f32,
+            one_minus_r0: (1.0 - r0) as f32,
+            _pad: [0.0; 2],
         }
     }
 }

@@ -33,21 +33,19 @@ pub struct Coupled {
     pub ior: f64,
 }
 
-/// std430 twin of the GLSL `CoupledParams`.
+/// std430 twin of the GLSL `CoupledParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`Coupled::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct CoupledParams {
-    /// `matte` rounded to f32.
-    pub matte: [f32; 3],
-    /// `ior` rounded to f32.
-    pub ior: f32,
+    /// `matte` 21/(20π) (1 − R0).
+    pub matte_scale: [f32; 3],
+    /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
+    pub _pad: f32,
 }
 
 /// Byte offset of every field of [`CoupledParams`], checked against the compiled kernels.
-pub const GPU_LAYOUT: Layout = &[
-    ("matte", offset_of!(CoupledParams, matte)),
-    ("ior", offset_of!(CoupledParams, ior)),
-];
+pub const GPU_LAYOUT: Layout = &[("matte_scale", offset_of!(CoupledParams, matte_scale))];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
@@ -101,8 +99,8 @@ impl Coupled {
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> CoupledParams {
         CoupledParams {
-            matte: f32x3(self.matte),
-            ior: self.ior as f32,
+            matte_scale: f32x3(self.matte * (21.0 / (20.0 * PI) * (1.0 - r0_from_ior(self.ior)))),
+            _pad: 0.0,
         }
     }
 }

@@ -120,20 +120,32 @@ pub struct Eon {
     pub roughness: f64,
 }
 
-/// std430 twin of the GLSL `EonParams`.
+/// std430 twin of the GLSL `EonParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`Eon::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct EonParams {
-    /// `albedo` rounded to f32.
-    pub albedo: [f32; 3],
-    /// `roughness` rounded to f32.
-    pub roughness: f32,
+    /// `albedo` / π.
+    pub albedo_over_pi: [f32; 3],
+    /// A = 1/(1 + c1 r).
+    pub a: f32,
+    /// ρ_ms/π · B/(c1 − c2), the multiple-scattering lobe's factor.
+    pub ms_scale: [f32; 3],
+    /// B = r A.
+    pub b: f32,
+    /// A (1 − r).
+    pub a_one_minus_r: f32,
+    /// Padding to the std430 size of 48 bytes; always 0.
+    pub _pad: [f32; 3],
 }
 
 /// Byte offset of every field of [`EonParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("albedo", offset_of!(EonParams, albedo)),
-    ("roughness", offset_of!(EonParams, roughness)),
+    ("albedo_over_pi", offset_of!(EonParams, albedo_over_pi)),
+    ("a", offset_of!(EonParams, a)),
+    ("ms_scale", offset_of!(EonParams, ms_scale)),
+    ("b", offset_of!(EonParams, b)),
+    ("a_one_minus_r", offset_of!(EonParams, a_one_minus_r)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -186,9 +198,18 @@ impl Eon {
 
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> EonParams {
+        let r = self.roughness;
+        let a = 1.0 / (1.0 + C1 * r);
+        let b = r * a;
+        let e_avg = a * (1.0 + C2 * r);
+        let rho_ms = self.albedo * self.albedo * e_avg / (DVec3::ONE - self.albedo * (1.0 - e_avg));
         EonParams {
-            albedo: f32x3(self.albedo),
-            roughness: self.roughness as f32,
+            albedo_over_pi: f32x3(self.albedo * FRAC_1_PI),
+            a: a as f32,
+            ms_scale: f32x3(rho_ms * FRAC_1_PI * (b / (C1 - C2))),
+            b: b as f32,
+            a_one_minus_r: (a * (1.0 - r)) as f32,
+            _pad: [0.0; 3],
         }
     }
 }

@@ -24,18 +24,19 @@ pub struct Lambert {
     pub albedo: DVec3,
 }
 
-/// std430 twin of the GLSL `LambertParams` (a vec3 rounds the struct up to 16 bytes).
+/// std430 twin of the GLSL `LambertParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`Lambert::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct LambertParams {
-    /// `albedo` rounded to f32.
-    pub albedo: [f32; 3],
+    /// `albedo` / π.
+    pub albedo_over_pi: [f32; 3],
     /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
     pub _pad: f32,
 }
 
 /// Byte offset of every field of [`LambertParams`], checked against the compiled kernels.
-pub const GPU_LAYOUT: Layout = &[("albedo", offset_of!(LambertParams, albedo))];
+pub const GPU_LAYOUT: Layout = &[("albedo_over_pi", offset_of!(LambertParams, albedo_over_pi))];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
@@ -77,7 +78,7 @@ impl Lambert {
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> LambertParams {
         LambertParams {
-            albedo: f32x3(self.albedo),
+            albedo_over_pi: f32x3(self.albedo * FRAC_1_PI),
             _pad: 0.0,
         }
     }

@@ -22,7 +22,7 @@ use super::{f32x3, Layout, Model, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
-use std::f64::consts::FRAC_1_PI;
+use std::f64::consts::{FRAC_1_PI, PI};
 use std::mem::offset_of;
 
 /// Keys whose absence means something: alpha_x and alpha_y fall back to alpha, f0 to the IOR.
@@ -122,47 +122,79 @@ pub struct Microfacet {
     pub f_avg: DVec3,
 }
 
-/// std430 twin of the GLSL `MicrofacetParams`.
+/// std430 twin of the GLSL `MicrofacetParams`: the parameters rounded to f32, with everything
+/// that depends on them alone computed once here in f64 ([`Microfacet::gpu_params`]), so that the
+/// kernel spends its arithmetic per cell only on what depends on the directions.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MicrofacetParams {
-    /// `specular` rounded to f32.
+    /// `specular`.
     pub specular: [f32; 3],
-    /// `alpha_x` rounded to f32.
-    pub alpha_x: f32,
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `alpha_y` rounded to f32.
-    pub alpha_y: f32,
-    /// `f0` (Schlick's R0, from `ior` when unset) rounded to f32.
+    /// αx².
+    pub alpha2_x: f32,
+    /// `diffuse` / π.
+    pub diffuse_over_pi: [f32; 3],
+    /// αy².
+    pub alpha2_y: f32,
+    /// Schlick's R0 (`f0`, or from `ior` when unset).
     pub f0: [f32; 3],
-    /// `ior` rounded to f32.
-    pub ior: f32,
-    /// `eta` rounded to f32.
-    pub eta: [f32; 3],
-    /// Padding after a vec3 in std430; always 0.
-    pub _pad0: f32,
-    /// `k` rounded to f32.
-    pub k: [f32; 3],
-    /// Padding after a vec3 in std430; always 0.
-    pub _pad1: f32,
-    /// `f_avg` (the Fresnel factor's hemispherical average, from the host) rounded to f32.
-    pub f_avg: [f32; 3],
-    /// Padding to the std430 size of 96 bytes; always 0.
-    pub _pad2: f32,
+    /// 1 / αx².
+    pub inv_alpha2_x: f32,
+    /// 1 − R0.
+    pub one_minus_f0: [f32; 3],
+    /// 1 / αy².
+    pub inv_alpha2_y: f32,
+    /// The conductor's (η − 1)(η + 1) − κ², per channel.
+    pub conductor_e2m1k2: [f32; 3],
+    /// D's normalisation 1 / (π αx αy).
+    pub d_norm: f32,
+    /// The conductor's 4 η² κ², per channel.
+    pub conductor_q4: [f32; 3],
+    /// The dielectric's (ior − 1)(ior + 1).
+    pub dielectric_e2m1: f32,
+    /// F_ms / (π L_avg) of the Kulla–Conty lobe per channel ([`kulla_conty::fresnel_ms`]); 0
+    /// where L_avg is 0 or the lobe is off.
+    pub kc_scale: [f32; 3],
+    /// `kc_scale` with F_avg = 1, for the white furnace.
+    pub kc_scale_white: f32,
+    /// The Lagrange weights in r = √α of [`kulla_conty::lagrange`] at α = √(αx αy).
+    pub kc_weights: [f32; 4],
+    /// The first knot of those weights.
+    pub kc_row: u32,
+    /// Padding to the std430 size of 144 bytes; always 0.
+    pub _pad: [u32; 3],
 }
 
 /// Byte offset of every field of [`MicrofacetParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
     ("specular", offset_of!(MicrofacetParams, specular)),
-    ("alpha_x", offset_of!(MicrofacetParams, alpha_x)),
-    ("diffuse", offset_of!(MicrofacetParams, diffuse)),
-    ("alpha_y", offset_of!(MicrofacetParams, alpha_y)),
+    ("alpha2_x", offset_of!(MicrofacetParams, alpha2_x)),
+    (
+        "diffuse_over_pi",
+        offset_of!(MicrofacetParams, diffuse_over_pi),
+    ),
+    ("alpha2_y", offset_of!(MicrofacetParams, alpha2_y)),
     ("f0", offset_of!(MicrofacetParams, f0)),
-    ("ior", offset_of!(MicrofacetParams, ior)),
-    ("eta", offset_of!(MicrofacetParams, eta)),
-    ("k", offset_of!(MicrofacetParams, k)),
-    ("f_avg", offset_of!(MicrofacetParams, f_avg)),
+    ("inv_alpha2_x", offset_of!(MicrofacetParams, inv_alpha2_x)),
+    ("one_minus_f0", offset_of!(MicrofacetParams, one_minus_f0)),
+    ("inv_alpha2_y", offset_of!(MicrofacetParams, inv_alpha2_y)),
+    (
+        "conductor_e2m1k2",
+        offset_of!(MicrofacetParams, conductor_e2m1k2),
+    ),
+    ("d_norm", offset_of!(MicrofacetParams, d_norm)),
+    ("conductor_q4", offset_of!(MicrofacetParams, conductor_q4)),
+    (
+        "dielectric_e2m1",
+        offset_of!(MicrofacetParams, dielectric_e2m1),
+    ),
+    ("kc_scale", offset_of!(MicrofacetParams, kc_scale)),
+    (
+        "kc_scale_white",
+        offset_of!(MicrofacetParams, kc_scale_white),
+    ),
+    ("kc_weights", offset_of!(MicrofacetParams, kc_weights)),
+    ("kc_row", offset_of!(MicrofacetParams, kc_row)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -262,22 +294,49 @@ impl Microfacet {
         self.alpha_x == self.alpha_y
     }
 
-    /// The block the GPU kernels read, rounded to f32.
+    /// The block the GPU kernels read: the parameters and what depends on them alone, computed
+    /// in f64 and rounded to f32.
     pub fn gpu_params(&self) -> MicrofacetParams {
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let e2m1 = |eta: f64| (eta - 1.0) * (eta + 1.0);
+        let (row, weights, scale, scale_white) = self.kulla_conty_constants();
         MicrofacetParams {
             specular: f32x3(self.specular),
-            alpha_x: self.alpha_x as f32,
-            diffuse: f32x3(self.diffuse),
-            alpha_y: self.alpha_y as f32,
+            alpha2_x: (ax * ax) as f32,
+            diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
+            alpha2_y: (ay * ay) as f32,
             f0: f32x3(self.f0),
-            ior: self.ior as f32,
-            eta: f32x3(self.eta),
-            _pad0: 0.0,
-            k: f32x3(self.k),
-            _pad1: 0.0,
-            f_avg: f32x3(self.f_avg),
-            _pad2: 0.0,
+            inv_alpha2_x: (1.0 / (ax * ax)) as f32,
+            one_minus_f0: f32x3(DVec3::ONE - self.f0),
+            inv_alpha2_y: (1.0 / (ay * ay)) as f32,
+            conductor_e2m1k2: f32x3(self.eta.map(e2m1) - self.k * self.k),
+            d_norm: (FRAC_1_PI / (ax * ay)) as f32,
+            conductor_q4: f32x3(4.0 * self.eta * self.eta * self.k * self.k),
+            dielectric_e2m1: e2m1(self.ior) as f32,
+            kc_scale: f32x3(scale),
+            kc_scale_white: scale_white as f32,
+            kc_weights: weights.map(|w| w as f32),
+            kc_row: row as u32,
+            _pad: [0; 3],
         }
+    }
+
+    /// The Kulla–Conty lobe's constants at α = √(αx αy): the first knot and the weights of the
+    /// stencil in r = √α, and F_ms / (π L_avg) for F_avg and for F_avg = 1 (as
+    /// [`kulla_conty::lobe`] and [`kulla_conty::fresnel_ms`]); zeros when the lobe is off.
+    fn kulla_conty_constants(&self) -> (usize, [f64; 4], DVec3, f64) {
+        if !self.config.kulla_conty() {
+            return (0, [0.0; 4], DVec3::ZERO, 0.0);
+        }
+        let table = &kulla_conty::tables()[kulla_conty::table_index(self.config)];
+        let alpha = (self.alpha_x * self.alpha_y).sqrt();
+        let (row, weights) = kulla_conty::lagrange(alpha.sqrt() * (kulla_conty::KNOTS - 1) as f64);
+        let avg_loss = table.avg_at(alpha);
+        if avg_loss <= 0.0 {
+            return (row, weights, DVec3::ZERO, 0.0);
+        }
+        let scale = |f_avg: f64| kulla_conty::fresnel_ms(f_avg, avg_loss) / (PI * avg_loss);
+        (row, weights, self.f_avg.map(scale), scale(1.0))
     }
 
     /// Smith Λ of direction w for the chosen distribution (and G1 variant for Beckmann).

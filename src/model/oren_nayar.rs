@@ -32,20 +32,29 @@ pub struct OrenNayar {
     pub sigma: f64,
 }
 
-/// std430 twin of the GLSL `OrenNayarParams`.
+/// std430 twin of the GLSL `OrenNayarParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`OrenNayar::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct OrenNayarParams {
-    /// `albedo` rounded to f32.
-    pub albedo: [f32; 3],
-    /// `sigma` rounded to f32.
-    pub sigma: f32,
+    /// `albedo` / π.
+    pub albedo_over_pi: [f32; 3],
+    /// The coefficient A ([`OrenNayar::a_b`]).
+    pub a: f32,
+    /// The coefficient B.
+    pub b: f32,
+    /// Padding to the std430 size of 32 bytes; always 0.
+    pub _pad: [f32; 3],
 }
 
 /// Byte offset of every field of [`OrenNayarParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("albedo", offset_of!(OrenNayarParams, albedo)),
-    ("sigma", offset_of!(OrenNayarParams, sigma)),
+    (
+        "albedo_over_pi",
+        offset_of!(OrenNayarParams, albedo_over_pi),
+    ),
+    ("a", offset_of!(OrenNayarParams, a)),
+    ("b", offset_of!(OrenNayarParams, b)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -92,9 +101,12 @@ impl OrenNayar {
 
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> OrenNayarParams {
+        let (a, b) = self.a_b();
         OrenNayarParams {
-            albedo: f32x3(self.albedo),
-            sigma: self.sigma as f32,
+            albedo_over_pi: f32x3(self.albedo * FRAC_1_PI),
+            a: a as f32,
+            b: b as f32,
+            _pad: [0.0; 3],
         }
     }
 

@@ -36,25 +36,26 @@ pub struct Phong {
     pub shininess: f64,
 }
 
-/// std430 twin of the GLSL `PhongParams`.
+/// std430 twin of the GLSL `PhongParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`Phong::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct PhongParams {
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `shininess` rounded to f32.
+    /// `diffuse` / π.
+    pub diffuse_over_pi: [f32; 3],
+    /// The exponent n.
     pub shininess: f32,
-    /// `specular` rounded to f32.
-    pub specular: [f32; 3],
+    /// `specular` (n + 2)/(2π).
+    pub specular_norm: [f32; 3],
     /// Padding to the std430 size of 32 bytes; always 0.
     pub _pad: f32,
 }
 
 /// Byte offset of every field of [`PhongParams`], checked against the compiled kernels.
 pub const GPU_LAYOUT: Layout = &[
-    ("diffuse", offset_of!(PhongParams, diffuse)),
+    ("diffuse_over_pi", offset_of!(PhongParams, diffuse_over_pi)),
     ("shininess", offset_of!(PhongParams, shininess)),
-    ("specular", offset_of!(PhongParams, specular)),
+    ("specular_norm", offset_of!(PhongParams, specular_norm)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -117,9 +118,9 @@ impl Phong {
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> PhongParams {
         PhongParams {
-            diffuse: f32x3(self.diffuse),
+            diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
             shininess: self.shininess as f32,
-            specular: f32x3(self.specular),
+            specular_norm: f32x3(self.specular * ((self.shininess + 2.0) / (2.0 * PI))),
             _pad: 0.0,
         }
     }

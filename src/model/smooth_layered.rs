@@ -34,21 +34,22 @@ pub struct SmoothLayered {
     pub ior: f64,
 }
 
-/// std430 twin of the GLSL `SmoothLayeredParams`.
+/// std430 twin of the GLSL `SmoothLayeredParams`: what the kernel reads, computed once per parameter set in
+/// f64 ([`SmoothLayered::gpu_params`]) and rounded to f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct SmoothLayeredParams {
-    /// `diffuse` rounded to f32.
-    pub diffuse: [f32; 3],
-    /// `ior` rounded to f32.
-    pub ior: f32,
+    /// `diffuse` / π (the mirror spike is the integrators', not the kernels').
+    pub diffuse_over_pi: [f32; 3],
+    /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
+    pub _pad: f32,
 }
 
 /// Byte offset of every field of [`SmoothLayeredParams`], checked against the compiled kernels.
-pub const GPU_LAYOUT: Layout = &[
-    ("diffuse", offset_of!(SmoothLayeredParams, diffuse)),
-    ("ior", offset_of!(SmoothLayeredParams, ior)),
-];
+pub const GPU_LAYOUT: Layout = &[(
+    "diffuse_over_pi",
+    offset_of!(SmoothLayeredParams, diffuse_over_pi),
+)];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
@@ -100,8 +101,8 @@ impl SmoothLayered {
     /// The block the GPU kernels read, rounded to f32.
     pub fn gpu_params(&self) -> SmoothLayeredParams {
         SmoothLayeredParams {
-            diffuse: f32x3(self.diffuse),
-            ior: self.ior as f32,
+            diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
+            _pad: 0.0,
         }
     }
 }
