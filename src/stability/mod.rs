@@ -18,13 +18,11 @@
 
 use crate::backend::Precision;
 use crate::eval::Evaluator;
-use crate::grid::direction;
 use crate::model::{Model, ParamSet, Reference};
 use anyhow::{Context, Result};
 use glam::DVec3;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::f64::consts::{FRAC_PI_2, PI};
 
 pub use crate::tolerance::{conditioning, parity_tolerance, EPS32};
 
@@ -112,140 +110,9 @@ pub fn range_ends(model: Model) -> Result<Vec<Case>> {
     Ok(out)
 }
 
-/// One region of direction pairs.
-#[derive(Clone, Debug)]
-pub struct Region {
-    /// The region's name, as the report's rows show it.
-    pub name: &'static str,
-    /// (ωi, ωo) pairs, both above the horizon, already rounded to f32 and widened back.
-    pub pairs: Vec<(DVec3, DVec3)>,
-}
+mod regions;
 
-/// Cosines of θ toward the horizon: θ → 90°.
-pub const GRAZING_COS: [f64; 5] = [1e-7, 1e-6, 1e-5, 1e-4, 1e-3];
-/// Angular offsets from the mirror direction, radians.
-pub const MIRROR_OFFSETS: [f64; 5] = [1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
-
-/// Rounds to what the GPU receives, widened back to f64.
-fn as_f32(v: DVec3) -> DVec3 {
-    DVec3::new(v.x as f32 as f64, v.y as f32 as f64, v.z as f32 as f64)
-}
-
-/// The direction with cos θ = c exactly (sin θ from c without going through θ).
-fn dir_cos(c: f64, phi: f64) -> DVec3 {
-    let s = (1.0 - c * c).sqrt();
-    DVec3::new(s * phi.cos(), s * phi.sin(), c)
-}
-
-/// The direction regions, already rounded to f32 (see the module's notes).
-pub fn regions() -> Vec<Region> {
-    let deg = |d: f64| d.to_radians();
-    let phi0 = deg(20.0);
-    let mut interior = Vec::new();
-    for ti in [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0] {
-        for (to, dphi) in [
-            (0.0, 0.0),
-            (30.0, 90.0),
-            (60.0, 180.0),
-            (45.0, 135.0),
-            (80.0, 30.0),
-        ] {
-            interior.push((
-                direction(deg(ti), phi0),
-                direction(deg(to), phi0 + deg(dphi)),
-            ));
-        }
-    }
-    let mut grazing = Vec::new();
-    for c in GRAZING_COS {
-        for (to, dphi) in [
-            (0.0, 0.0),
-            (45.0, 180.0),
-            (45.0, 90.0),
-            (80.0, 180.0),
-            (80.0, 0.0),
-        ] {
-            let other = direction(deg(to), phi0 + deg(dphi));
-            grazing.push((dir_cos(c, phi0), other));
-            grazing.push((other, dir_cos(c, phi0)));
-        }
-        for c2 in GRAZING_COS {
-            for dphi in [90.0, 150.0] {
-                grazing.push((dir_cos(c, phi0), dir_cos(c2, phi0 + deg(dphi))));
-            }
-        }
-    }
-    let thetas = [0.0, 1e-4, deg(10.0), deg(45.0), deg(80.0), deg(89.9)];
-    let mut same = Vec::new();
-    for t in thetas {
-        for phi in [0.0, phi0, deg(200.0)] {
-            let w = direction(t, phi);
-            same.push((w, w));
-        }
-    }
-    for c in GRAZING_COS {
-        for phi in [0.0, phi0, deg(200.0)] {
-            let w = dir_cos(c, phi);
-            same.push((w, w));
-        }
-    }
-    let mut mirror = Vec::new();
-    let mut near_mirror = Vec::new();
-    for t in thetas {
-        for phi in [0.0, phi0] {
-            mirror.push((direction(t, phi), direction(t, phi + PI)));
-            for d in MIRROR_OFFSETS {
-                let to = (t + d).min(FRAC_PI_2 - 1e-7);
-                near_mirror.push((direction(t, phi), direction(to, phi + PI)));
-                near_mirror.push((direction(t, phi), direction(t, phi + PI + d)));
-            }
-        }
-    }
-    let mut opposite = Vec::new();
-    for c in GRAZING_COS {
-        for phi in [0.0, phi0] {
-            // Exactly opposite in azimuth: ωi + ωo = (0, 0, 2c), h = n, c_d = c.
-            opposite.push((dir_cos(c, phi), dir_cos(c, phi + PI)));
-            for c2 in GRAZING_COS {
-                if c2 != c {
-                    opposite.push((dir_cos(c, phi), dir_cos(c2, phi + PI)));
-                }
-            }
-            for d in MIRROR_OFFSETS {
-                opposite.push((dir_cos(c, phi), dir_cos(c, phi + PI + d)));
-            }
-        }
-    }
-    let round = |v: Vec<(DVec3, DVec3)>| -> Vec<(DVec3, DVec3)> {
-        v.into_iter().map(|(a, b)| (as_f32(a), as_f32(b))).collect()
-    };
-    vec![
-        Region {
-            name: "interior",
-            pairs: round(interior),
-        },
-        Region {
-            name: "grazing",
-            pairs: round(grazing),
-        },
-        Region {
-            name: "wi=wo",
-            pairs: round(same),
-        },
-        Region {
-            name: "mirror",
-            pairs: round(mirror),
-        },
-        Region {
-            name: "near-mirror",
-            pairs: round(near_mirror),
-        },
-        Region {
-            name: "opposite-grazing",
-            pairs: round(opposite),
-        },
-    ]
-}
+pub use regions::{regions, Region, GRAZING_COS, MIRROR_OFFSETS};
 
 /// The models the sweep covers: every model with each of its component choices.
 pub fn sweep_models() -> Vec<Model> {
@@ -503,55 +370,15 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
                 let c = r.eval(wi, wo);
                 let g = gpu_values.as_ref().map(|v| v[k][n % pairs.len()]);
                 let tol = g.map(|_| parity_tolerance(p32, r, wi, wo, c));
-                let mut s = Stats::default();
-                for ch in 0..3 {
-                    s.values += 1;
-                    let cv = c[ch];
-                    let gv = g.map(|g| g[ch]);
-                    let sample = |tolerance: Option<f64>| Sample {
-                        model: label.clone(),
-                        case: cases[k].label.clone(),
-                        region: regions[ri].name.to_string(),
-                        white_furnace,
-                        wi: wi.to_array(),
-                        wo: wo.to_array(),
-                        channel: ch,
-                        gpu: gv,
-                        cpu: cv,
-                        tolerance,
-                    };
-                    let (nan, inf, neg) = classify(cv);
-                    s.cpu_nan += nan as usize;
-                    s.cpu_inf += inf as usize;
-                    s.cpu_negative += neg as usize;
-                    let mut bad = nan || inf || neg;
-                    if let Some(gv) = gv {
-                        let (nan, inf, neg) = classify(gv);
-                        s.gpu_nan += nan as usize;
-                        s.gpu_inf += inf as usize;
-                        s.gpu_negative += neg as usize;
-                        bad |= nan || inf || neg;
-                    }
-                    if bad {
-                        if s.first_bad.is_none() {
-                            s.first_bad = Some(sample(None));
-                        }
-                        continue;
-                    }
-                    if let (Some(gv), Some(tol)) = (gv, tol) {
-                        let diff = (gv - cv).abs();
-                        let rel = diff / cv.abs().max(REL_FLOOR);
-                        let ratio = diff / tol[ch];
-                        s.max_rel_error = s.max_rel_error.max(rel);
-                        if ratio > 1.0 {
-                            s.over_tolerance += 1;
-                        }
-                        if ratio > s.max_tolerance_ratio || s.worst.is_none() {
-                            s.max_tolerance_ratio = ratio;
-                            s.worst = Some(sample(Some(tol[ch])));
-                        }
-                    }
-                }
+                let at = At {
+                    model: &label,
+                    case: &cases[k].label,
+                    region: regions[ri].name,
+                    white_furnace,
+                    wi,
+                    wo,
+                };
+                let s = pair_stats(&at, c, g, tol);
                 by_key
                     .entry((mi, "params", cases[k].label.clone()))
                     .or_default()
@@ -563,10 +390,95 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
             }
         }
     }
+    let (rows, total) = report_rows(&opts.models, &regions, &model_order, by_key)?;
+    Ok(Report {
+        backend: match compared {
+            true => format!("{} vs cpu (f64 reference)", opts.backend.name()),
+            false => "cpu (f64 reference) only".to_string(),
+        },
+        gpu: compared,
+        rel_floor: REL_FLOOR,
+        rows,
+        total,
+    })
+}
+
+/// Where a pair's samples come from.
+struct At<'a> {
+    model: &'a str,
+    case: &'a str,
+    region: &'static str,
+    white_furnace: bool,
+    wi: DVec3,
+    wo: DVec3,
+}
+
+/// One pair's three channels: invalid values on either side, and the f32 backend's error `g`
+/// against the reference `c` within the parity tolerance `tol`.
+fn pair_stats(at: &At, c: DVec3, g: Option<[f64; 3]>, tol: Option<DVec3>) -> Stats {
+    let mut s = Stats::default();
+    for ch in 0..3 {
+        s.values += 1;
+        let cv = c[ch];
+        let gv = g.map(|g| g[ch]);
+        let sample = |tolerance: Option<f64>| Sample {
+            model: at.model.to_string(),
+            case: at.case.to_string(),
+            region: at.region.to_string(),
+            white_furnace: at.white_furnace,
+            wi: at.wi.to_array(),
+            wo: at.wo.to_array(),
+            channel: ch,
+            gpu: gv,
+            cpu: cv,
+            tolerance,
+        };
+        let (nan, inf, neg) = classify(cv);
+        s.cpu_nan += nan as usize;
+        s.cpu_inf += inf as usize;
+        s.cpu_negative += neg as usize;
+        let mut bad = nan || inf || neg;
+        if let Some(gv) = gv {
+            let (nan, inf, neg) = classify(gv);
+            s.gpu_nan += nan as usize;
+            s.gpu_inf += inf as usize;
+            s.gpu_negative += neg as usize;
+            bad |= nan || inf || neg;
+        }
+        if bad {
+            if s.first_bad.is_none() {
+                s.first_bad = Some(sample(None));
+            }
+            continue;
+        }
+        if let (Some(gv), Some(tol)) = (gv, tol) {
+            let diff = (gv - cv).abs();
+            let rel = diff / cv.abs().max(REL_FLOOR);
+            let ratio = diff / tol[ch];
+            s.max_rel_error = s.max_rel_error.max(rel);
+            if ratio > 1.0 {
+                s.over_tolerance += 1;
+            }
+            if ratio > s.max_tolerance_ratio || s.worst.is_none() {
+                s.max_tolerance_ratio = ratio;
+                s.worst = Some(sample(Some(tol[ch])));
+            }
+        }
+    }
+    s
+}
+
+/// The report's rows and the total over the parameter rows: per model, parameter rows in the
+/// order the cases were made, then direction rows in region order.
+fn report_rows(
+    models: &[Model],
+    regions: &[Region],
+    model_order: &[String],
+    mut by_key: BTreeMap<(usize, &'static str, String), Stats>,
+) -> Result<(Vec<Row>, Stats)> {
     let mut rows: Vec<Row> = Vec::new();
     let mut total = Stats::default();
-    // Parameter rows in the order the cases were made, then direction rows in region order.
-    for (mi, &model) in opts.models.iter().enumerate() {
+    for (mi, &model) in models.iter().enumerate() {
         let case_labels: Vec<String> = cases(model)?.into_iter().map(|c| c.label).collect();
         for (group, names) in [
             ("params", case_labels),
@@ -590,16 +502,7 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
             }
         }
     }
-    Ok(Report {
-        backend: match compared {
-            true => format!("{} vs cpu (f64 reference)", opts.backend.name()),
-            false => "cpu (f64 reference) only".to_string(),
-        },
-        gpu: compared,
-        rel_floor: REL_FLOOR,
-        rows,
-        total,
-    })
+    Ok((rows, total))
 }
 
 /// The report as a text table: one line per (model, parameter edge) and per (model, direction
@@ -680,37 +583,4 @@ pub fn format_table(r: &Report, all_rows: bool) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_case_is_valid() {
-        for m in sweep_models() {
-            let cs = cases(m).unwrap_or_else(|e| panic!("{}: {e:#}", model_label(m)));
-            assert!(cs.len() >= 2, "{}", model_label(m));
-            for c in cs {
-                assert_eq!(c.params.model(), m, "{}", c.label);
-            }
-        }
-    }
-
-    #[test]
-    fn regions_are_above_the_horizon() {
-        for r in regions() {
-            assert!(!r.pairs.is_empty());
-            for (wi, wo) in r.pairs {
-                assert!(wi.z > 0.0 && wo.z > 0.0, "{}: {wi:?} {wo:?}", r.name);
-                assert!((wi.length() - 1.0).abs() < 1e-6 && (wo.length() - 1.0).abs() < 1e-6);
-            }
-        }
-    }
-
-    #[test]
-    fn opposite_grazing_has_h_at_n() {
-        let r = regions();
-        let opp = r.iter().find(|r| r.name == "opposite-grazing").unwrap();
-        let (wi, wo) = opp.pairs[0];
-        let s = wi + wo;
-        assert!(s.x.abs() < 1e-7 && s.y.abs() < 1e-7 && s.z > 0.0, "{s:?}");
-    }
-}
+mod tests;
