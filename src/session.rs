@@ -372,6 +372,81 @@ impl Session {
     ) -> Result<crate::bench::Throughput> {
         crate::bench::measure_lut(&self.evaluator(), params, white_furnace, repeats).lobe()
     }
+
+    /// [`Session::directional_albedo`] at `points` (and, with `phi`, [`Session::hemispherical_albedo`])
+    /// for each parameter set of `rows`, the same values as one set at a time; rows of one model
+    /// share each direction's quadrature nodes and the GPU sums them in the same dispatches
+    /// ([`integrate::albedo_rows`]).
+    pub fn albedo_rows(
+        &self,
+        rows: &[ParamSet],
+        settings: &AlbedoSettings,
+        points: &[(f64, f64)],
+        phi: Option<f64>,
+    ) -> Result<Vec<(Vec<PointAlbedo>, Option<HemiAlbedo>)>> {
+        integrate::albedo_rows(&self.evaluator(), rows, settings, points, phi).lobe()
+    }
+
+    /// f of each parameter set of `sets` at each (ωi, ωo) pair (`out[k][j]`: set k at pair j),
+    /// the values [`Session::eval_pairs`] gives one set at a time. On the GPU, sets of one model
+    /// go to the device together, each pair naming its set's parameter block, so a sweep of many
+    /// sets costs one batch of dispatches instead of one per set. Refuses NaN, ±Inf and negative
+    /// values ([`Error::InvalidValues`]).
+    pub fn eval_pairs_sets(
+        &self,
+        sets: &[ParamSet],
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<Vec<[f64; 3]>>> {
+        let one_model = sets.windows(2).all(|w| w[0].model() == w[1].model());
+        let (Some(gpu), Some(first), true, false) =
+            (&self.gpu, sets.first(), one_model, pairs.is_empty())
+        else {
+            return sets
+                .iter()
+                .map(|p| {
+                    self.cancel.check()?;
+                    self.eval_pairs(p, white_furnace, pairs)
+                })
+                .collect();
+        };
+        self.cancel.check()?;
+        let blocks: Vec<Vec<u8>> = sets
+            .iter()
+            .map(|p| crate::model::Brdf::new(p).gpu_block())
+            .collect();
+        let gpu_pairs: Vec<crate::gpu::GpuPair> = (0..sets.len() as u32)
+            .flat_map(|k| {
+                pairs.iter().map(move |(wi, wo)| crate::gpu::GpuPair {
+                    wi: wi.as_vec3().to_array(),
+                    param_index: k,
+                    wo: wo.as_vec3().to_array(),
+                    pad: 0,
+                })
+            })
+            .collect();
+        let out = gpu.eval_pairs(first.model(), &blocks, &gpu_pairs, white_furnace)?;
+        sets.iter()
+            .zip(out.chunks(pairs.len()))
+            .map(|(p, values)| {
+                let f: Vec<[f64; 3]> = values.iter().map(|c| c.map(f64::from)).collect();
+                let mut count = InvalidCount::default();
+                count.add_pairs(0, &f, pairs);
+                count.refuse(p.model().name(), "evaluating f at direction pairs")?;
+                Ok(f)
+            })
+            .collect()
+    }
+
+    /// Computes a real-time engine's look-up table (DFG, Kulla–Conty, EON) in memory, as
+    /// `lobe albedo --engine` does before writing it; `progress` gets (rows done, rows).
+    pub fn engine_lut(
+        &self,
+        spec: &crate::lut::engine::EngineSpec,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<crate::lut::engine::EngineTable> {
+        crate::lut::engine::compute_engine(&self.evaluator(), spec, progress).lobe()
+    }
 }
 
 #[cfg(test)]

@@ -86,42 +86,7 @@ pub fn resolve(model: &str, material: Option<&str>, sets: &[String]) -> Result<P
     Ok(all.remove(0).1)
 }
 
-/// A model spec split into its name and its own assignments: `phong{shininess=50,diffuse=0.1}`
-/// gives ("phong", ["shininess=50", "diffuse=0.1"]); a comma not followed by KEY= belongs to
-/// the value before it (an rgb triple).
-pub fn split_spec(spec: &str) -> Result<(&str, Vec<String>)> {
-    let spec = spec.trim();
-    let Some(open) = spec.find('{') else {
-        if spec.contains('}') {
-            bail!("model '{spec}': a '}}' without its '{{'; write NAME{{KEY=VALUE,...}}");
-        }
-        return Ok((spec, Vec::new()));
-    };
-    let Some(inner) = spec[open + 1..].strip_suffix('}') else {
-        bail!("model '{spec}': the parameters must end with '}}', as in phong{{shininess=50}}");
-    };
-    let mut sets: Vec<String> = Vec::new();
-    for piece in inner.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        match sets.last_mut() {
-            Some(last) if !piece.contains('=') => {
-                last.push(',');
-                last.push_str(piece);
-            }
-            _ => sets.push(piece.to_string()),
-        }
-    }
-    // One spec names a value once: which of two would win is not for lobe to guess.
-    let key = |set: &str| set.split('=').next().unwrap_or_default().trim().to_string();
-    for (k, set) in sets.iter().enumerate() {
-        if let Some(again) = sets[k + 1..].iter().find(|s| key(s) == key(set)) {
-            bail!(
-                "model '{spec}': '{}' is given twice ({set} and {again}); give each parameter once",
-                key(set)
-            );
-        }
-    }
-    Ok((spec[..open].trim(), sets))
-}
+pub use lobe::spec::split_spec;
 
 /// Splits comma-separated model specs at the commas outside braces:
 /// `phong{diffuse=0.1,0.2,0.3},lambert` gives two specs.
