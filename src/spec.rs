@@ -2,8 +2,8 @@
 //! preset, then `key=value` assignments.
 
 use crate::material;
-use anyhow::bail;
 use crate::model::{Model, ParamError, ParamSet};
+use anyhow::bail;
 
 /// Resolves a model's parameters as the CLI does: the model's defaults, then the material preset
 /// (if any), then each `key=value` assignment in order.

@@ -38,19 +38,18 @@ fn pairs(wi: &PyReadonlyArray2<'_, f64>, wo: &PyReadonlyArray2<'_, f64>) -> Vec<
     wi.rows()
         .into_iter()
         .zip(wo.rows())
-        .map(|(a, b)| {
-            (
-                DVec3::new(a[0], a[1], a[2]),
-                DVec3::new(b[0], b[1], b[2]),
-            )
-        })
+        .map(|(a, b)| (DVec3::new(a[0], a[1], a[2]), DVec3::new(b[0], b[1], b[2])))
         .collect()
 }
 
 /// The integrator `method` with `samples` nodes a direction (its default when None).
-pub(crate) fn settings(method: &str, samples: Option<usize>, white_furnace: bool) -> PyResult<AlbedoSettings> {
-    let method = lobe::integrate::Method::from_name(method)
-        .map_err(|e| errors::from_anyhow("method", e))?;
+pub(crate) fn settings(
+    method: &str,
+    samples: Option<usize>,
+    white_furnace: bool,
+) -> PyResult<AlbedoSettings> {
+    let method =
+        lobe::integrate::Method::from_name(method).map_err(|e| errors::from_anyhow("method", e))?;
     Ok(AlbedoSettings {
         method,
         samples: samples.unwrap_or(method.default_samples()),
@@ -110,9 +109,7 @@ impl PySession {
             device,
             ..SessionOptions::default()
         };
-        let inner = py
-            .detach(|| Session::open(opts))
-            .map_err(errors::to_py)?;
+        let inner = py.detach(|| Session::open(opts)).map_err(errors::to_py)?;
         Ok(PySession { inner })
     }
 
@@ -184,7 +181,14 @@ impl PySession {
         let grid = grid_of(grid, &res)?;
         let s = &self.inner;
         let count = job::run(py, s, || {
-            s.write_table(&params, white_furnace, grid, &path, allow_invalid, &mut |_, _| {})
+            s.write_table(
+                &params,
+                white_furnace,
+                grid,
+                &path,
+                allow_invalid,
+                &mut |_, _| {},
+            )
         })?;
         Ok(count.invalid)
     }

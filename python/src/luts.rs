@@ -63,12 +63,18 @@ pub fn albedo_lut<'py>(
     let d = PyDict::new(py);
     let flat = |v: &[lobe::glam::DVec3]| v.iter().flat_map(|c| c.to_array()).collect::<Vec<_>>();
     d.set_item("e", array(py, flat(&lut.e), vec![n_p, n_mu, 3])?)?;
-    d.set_item("e_avg", array(py, flat(&lut.e_avg), vec![lut.e_avg.len(), 3])?)?;
+    d.set_item(
+        "e_avg",
+        array(py, flat(&lut.e_avg), vec![lut.e_avg.len(), 3])?,
+    )?;
     d.set_item("mu", array(py, lut.mus.clone(), vec![n_mu])?)?;
     d.set_item("p", array(py, lut.ps.clone(), vec![n_p])?)?;
     d.set_item("e_error", array(py, lut.e_error.clone(), vec![n_p, n_mu])?)?;
     let n_avg = lut.e_avg_error.len();
-    d.set_item("e_avg_error", array(py, lut.e_avg_error.clone(), vec![n_avg])?)?;
+    d.set_item(
+        "e_avg_error",
+        array(py, lut.e_avg_error.clone(), vec![n_avg])?,
+    )?;
     d.set_item("max_error", lut.max_error)?;
     d.set_item("keys", spec.keys.clone())?;
     d.set_item("mapping", spec.mapping.name())?;
@@ -93,7 +99,10 @@ pub fn engine_lut<'py>(
         let names: Vec<&str> = EngineKind::ALL.iter().map(|k| k.name()).collect();
         return Err(invalid(
             "kind",
-            format!("'{kind}' is not an engine table; the tables are: {}", names.join(", ")),
+            format!(
+                "'{kind}' is not an engine table; the tables are: {}",
+                names.join(", ")
+            ),
         ));
     };
     let mut spec = EngineSpec::new(kind, &sets).map_err(|e| from_anyhow("params", e))?;
@@ -105,13 +114,19 @@ pub fn engine_lut<'py>(
     let t = job::run(py, session, || session.engine_lut(&spec, &mut |_, _| {}))?;
     let (n_p, n_mu) = (t.ps.len(), t.mus.len());
     let d = PyDict::new(py);
-    d.set_item("values", array(py, t.values.clone(), vec![n_p, n_mu, t.channels])?)?;
+    d.set_item(
+        "values",
+        array(py, t.values.clone(), vec![n_p, n_mu, t.channels])?,
+    )?;
     d.set_item("avg", array(py, t.avg.clone(), vec![t.avg.len()])?)?;
     d.set_item("mu", array(py, t.mus.clone(), vec![n_mu])?)?;
     d.set_item("p", array(py, t.ps.clone(), vec![n_p])?)?;
     d.set_item("axis", array(py, t.axis.clone(), vec![n_p])?)?;
     d.set_item("error", array(py, t.error.clone(), vec![n_p, n_mu])?)?;
-    d.set_item("avg_error", array(py, t.avg_error.clone(), vec![t.avg_error.len()])?)?;
+    d.set_item(
+        "avg_error",
+        array(py, t.avg_error.clone(), vec![t.avg_error.len()])?,
+    )?;
     d.set_item("max_error", t.max_error)?;
     d.set_item("channels", kind.meaning().to_vec())?;
     Ok(d)

@@ -36,8 +36,8 @@ fn model_name(name: &str) -> PyResult<String> {
 pub fn resolve(spec: &str, material: Option<&str>, sets: &[String]) -> PyResult<ParamSet> {
     let (name, own) = lobe::spec::split_spec(spec).map_err(|e| from_anyhow("model", e))?;
     let name = model_name(name)?;
-    let mut params = lobe::resolve_params(&name, material, &[])
-        .map_err(|e| to_py(lobe::Error::Param(e)))?;
+    let mut params =
+        lobe::resolve_params(&name, material, &[]).map_err(|e| to_py(lobe::Error::Param(e)))?;
     for set in sets.iter().chain(&own) {
         params
             .set_text(set)
