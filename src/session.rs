@@ -438,6 +438,18 @@ impl Session {
             .collect()
     }
 
+    /// Fits the free parameters of `space` to `target` ([`crate::fit::fit`]), as `lobe fit`
+    /// does; `progress` gets each iteration's best loss.
+    pub fn fit(
+        &self,
+        target: &crate::fit::Target,
+        space: &crate::fit::Space,
+        opts: &crate::fit::FitOptions,
+        progress: &(dyn Fn(crate::fit::FitProgress) + Sync),
+    ) -> Result<crate::fit::FitReport> {
+        crate::fit::fit(&self.evaluator(), target, space, opts, progress).lobe()
+    }
+
     /// Computes a real-time engine's look-up table (DFG, Kulla–Conty, EON) in memory, as
     /// `lobe albedo --engine` does before writing it; `progress` gets (rows done, rows).
     pub fn engine_lut(

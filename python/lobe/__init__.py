@@ -35,6 +35,7 @@ __all__ = [
     "HemisphericalAlbedo",
     "AlbedoLut",
     "EngineLut",
+    "FitResult",
 ]
 
 try:
@@ -230,6 +231,19 @@ class EngineLut:
     channels: List[str]
 
 
+@dataclass(frozen=True)
+class FitResult:
+    """A fit: the fitted ``params`` (every parameter of ``model``), the ``loss`` and its value per
+    channel (``channel_loss``, RGB), and the whole ``report`` ``lobe fit --format json`` prints."""
+
+    model: str
+    params: Dict[str, Any]
+    free: List[str]
+    loss: float
+    channel_loss: np.ndarray
+    report: Dict[str, Any]
+
+
 class Session:
     def __init__(self, backend: str = "gpu", device: Optional[str] = None) -> None:
         if device is not None and not isinstance(device, str):
@@ -306,6 +320,20 @@ class Session:
         d = _lobe.engine_lut(self._s, kind, _sets(params), tuple(_positive_ints("res", res, 2)),
                              method, _samples(samples))
         return EngineLut(**d)
+
+
+    def fit(self, target, model, free, params=None, target_params=None, loss="log",
+            max_bins=65536, starts=4, max_iters=400):
+        if isinstance(free, str):
+            free = [free]
+        report = json.loads(_lobe.fit(self._s, _model(target), _sets(target_params), _model(model),
+                                      _sets(params), [str(k) for k in free], loss,
+                                      _positive_ints("max_bins", max_bins, 1)[0],
+                                      _positive_ints("starts", starts, 1)[0],
+                                      _positive_ints("max_iters", max_iters, 1)[0]))
+        return FitResult(model=report["model"], params=report["parameters"], free=report["free"],
+                         loss=report["loss"]["total"], channel_loss=np.array(report["loss"]["channel"]),
+                         report=report)
 
 
 def _samples(samples: Any) -> Optional[int]:

@@ -117,6 +117,20 @@ class EngineLut:
     max_error: float
     channels: List[str]
 
+@dataclass(frozen=True)
+class FitResult:
+    """A fit: ``model``, the fitted ``params`` (every parameter, as ``lobe fit`` reports them),
+    the ``free`` keys, the ``loss`` and its value per channel (``channel_loss``, RGB), and the
+    whole ``report`` that ``lobe fit --format json`` prints (samples, albedo of target and fit,
+    every start)."""
+
+    model: str
+    params: Dict[str, Any]
+    free: List[str]
+    loss: float
+    channel_loss: np.ndarray
+    report: Dict[str, Any]
+
 class Session:
     """An open backend (a Vulkan device, or the f64 CPU reference) and the pipelines built on it.
 
@@ -250,3 +264,14 @@ class Session:
         "kulla-conty" (E(mu, alpha) with F = 1, and E_avg) or "eon" (EON's E_hat(mu, r) and its
         average). ``res``: (Nmu, Np); rows are the roughness axis (``p``: alpha or r; ``axis``:
         the perceptual value), columns are mu_j = (j + 0.5)/Nmu."""
+
+    def fit(self, target: ModelSpec, model: ModelSpec, free: Union[str, Sequence[str]],
+            params: Optional[Params] = None, target_params: Optional[Params] = None,
+            loss: str = "log", max_bins: int = 65536, starts: int = 4,
+            max_iters: int = 400) -> FitResult:
+        """Fits the ``free`` parameters of ``model`` (the others as ``params`` set them) to
+        ``target``, as ``lobe fit`` does: Nelder-Mead from ``starts`` spread starting points, at
+        most ``max_iters`` iterations each, over at most ``max_bins`` bins of the target.
+        ``target``: a model spec (with ``target_params``), a MERL ``.binary`` file, or a lobe
+        table's ``.npy``. ``loss``: "log" (cosine-weighted log error) or "l2" (relative L2).
+        A key both given a value and set free is refused (ValueError naming ``free``)."""

@@ -33,6 +33,11 @@ pub fn to_py(e: lobe::Error) -> PyErr {
             PyFileNotFoundError::new_err(message)
         }
         lobe::Error::Io { .. } => PyOSError::new_err(message),
+        // The tag names the request's input as the library spells it, which is the keyword
+        // argument's name here (grid, cells, free, starts, max_iters, target).
+        lobe::Error::Input { input, .. } => {
+            PyValueError::new_err(format!("{}: {message}", input.option))
+        }
         _ => PyValueError::new_err(message),
     }
 }

@@ -3,6 +3,7 @@
 //! `__init__.py` checks the arrays and keyword arguments and shapes the results.
 
 mod errors;
+mod fit;
 mod job;
 mod luts;
 mod model;
@@ -313,6 +314,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(parity_tolerance, m)?)?;
     m.add_function(wrap_pyfunction!(luts::albedo_lut, m)?)?;
     m.add_function(wrap_pyfunction!(luts::engine_lut, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;
     m.add("InvalidValuesError", py.get_type::<InvalidValuesError>())?;
     Ok(())

@@ -120,3 +120,17 @@ def test_models_are_the_catalogue_lobe_models_prints(lobe_bin):
     want = json.loads(run(lobe_bin, "models", "--json"))
     assert lobe.models() == want["models"]
     assert lobe.materials() == want["materials"]
+
+
+def test_fit_equals_lobe_fit(lobe_bin, gpu):
+    args = dict(free=["alpha", "specular"], max_iters=40, max_bins=2048, starts=2)
+    text = run(lobe_bin, "fit", "--target", "cook_torrance", "--target-set", "roughness=0.4",
+               "--model", "microfacet", "--free", "alpha,specular", "--max-iters", "40",
+               "--max-bins", "2048", "--starts", "2", "--format", "json")
+    want = json.loads(text)
+    got = gpu.fit("cook_torrance", "microfacet", target_params={"roughness": 0.4}, **args)
+    for report in (want, got.report):
+        report.pop("seconds")
+    assert got.report == want
+    assert got.params == want["parameters"] and got.loss == want["loss"]["total"]
+    assert got.channel_loss.tolist() == want["loss"]["channel"]

@@ -102,3 +102,14 @@ def test_bad_lut_requests(cpu):
         cpu.albedo_lut("microfacet", param="shininess", res=(4, 4))
     with pytest.raises(ValueError, match="mapping"):
         cpu.albedo_lut("microfacet", mapping="cubic", res=(4, 4))
+
+
+def test_bad_fit_requests(cpu):
+    with pytest.raises(ValueError, match="free.*also given a value"):
+        cpu.fit("microfacet", "microfacet", free=["alpha"], params={"alpha": 0.3})
+    with pytest.raises(ValueError, match="free.*shininess"):
+        cpu.fit("microfacet", "microfacet", free=["shininess"])
+    with pytest.raises(ValueError, match="loss.*'l1'"):
+        cpu.fit("microfacet", "microfacet", free=["alpha"], loss="l1")
+    with pytest.raises(FileNotFoundError, match="missing.binary"):
+        cpu.fit("missing.binary", "microfacet", free=["alpha"])
