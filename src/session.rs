@@ -450,6 +450,18 @@ impl Session {
         crate::fit::fit(&self.evaluator(), target, space, opts, progress).lobe()
     }
 
+    /// Compares model `b` against the reference `a` on the bins of `opts` ([`crate::compare`]),
+    /// as `lobe compare` does; `progress` gets (bins done, bins).
+    pub fn compare(
+        &self,
+        a: &crate::compare::Side,
+        b: &crate::compare::Side,
+        opts: &crate::compare::Options,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<crate::compare::Comparison> {
+        crate::compare::compare(&self.evaluator(), a, b, opts, progress).lobe()
+    }
+
     /// Computes a real-time engine's look-up table (DFG, Kulla–Conty, EON) in memory, as
     /// `lobe albedo --engine` does before writing it; `progress` gets (rows done, rows).
     pub fn engine_lut(

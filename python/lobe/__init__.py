@@ -336,6 +336,20 @@ class Session:
                          report=report)
 
 
+    def compare(self, a, b, params_a=None, params_b=None, grid=None, res=None, mu=(0.1, 0.5, 1.0),
+                method="peak", samples=None, albedo=True, white_furnace=False):
+        mus = [float(m) for m in np.asarray(mu, dtype=np.float64).reshape(-1)]
+        for k, m in enumerate(mus):
+            if not (0.0 < m <= 1.0):
+                raise ValueError(f"mu: {m} at index {k} is out of range; mu = cos(theta_o) must be in (0, 1]")
+        res_list = None if res is None else _positive_ints("res", res)
+        if res_list is not None and grid is None:
+            raise ValueError("res: give grid= with it (the grid the resolution is for)")
+        return json.loads(_lobe.compare(self._s, _model(a), _sets(params_a), _model(b), _sets(params_b),
+                                        grid, res_list, mus, method, _samples(samples), bool(albedo),
+                                        bool(white_furnace)))
+
+
 def _samples(samples: Any) -> Optional[int]:
     return None if samples is None else _positive_ints("samples", samples, 1)[0]
 

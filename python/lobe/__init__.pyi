@@ -275,3 +275,16 @@ class Session:
         ``target``: a model spec (with ``target_params``), a MERL ``.binary`` file, or a lobe
         table's ``.npy``. ``loss``: "log" (cosine-weighted log error) or "l2" (relative L2).
         A key both given a value and set free is refused (ValueError naming ``free``)."""
+
+    def compare(self, a: ModelSpec, b: ModelSpec, params_a: Optional[Params] = None,
+                params_b: Optional[Params] = None, grid: Optional[str] = None,
+                res: Optional[Sequence[int]] = None, mu: npt.ArrayLike = (0.1, 0.5, 1.0),
+                method: str = "peak", samples: Optional[int] = None, albedo: bool = True,
+                white_furnace: bool = False) -> Dict[str, Any]:
+        """Compares model ``b`` against the reference ``a`` on the same bins, as ``lobe compare``
+        does, and returns the metrics it prints (its JSON report): relative L2 |B - A| / |A| per
+        channel, the largest relative difference |B - A| / max(|A|, |B|, 1e-4) and where it
+        is, bins weighted by solid angle, and the directional albedo differences E_A - E_B at
+        each ``mu`` (left out with ``albedo=False``). Bins: MERL's own when a side is a MERL
+        file, else ``grid`` ("full", "isotropic" or "halfdiff", default isotropic, or full when
+        a side is anisotropic) at ``res`` (default 16,32,16,32 / 45,45,90 / 90,90,180)."""

@@ -2,6 +2,7 @@
 //! set the way the command line does and runs one [`lobe::Session`] job; the package's
 //! `__init__.py` checks the arrays and keyword arguments and shapes the results.
 
+mod compare;
 mod errors;
 mod fit;
 mod job;
@@ -85,7 +86,7 @@ fn axes<'py>(py: Python<'py>, grid: &Grid) -> PyResult<Vec<(String, Bound<'py, P
     Ok(out)
 }
 
-fn grid_of(grid: &str, res: &[usize]) -> PyResult<Grid> {
+pub(crate) fn grid_of(grid: &str, res: &[usize]) -> PyResult<Grid> {
     let text: Vec<String> = res.iter().map(usize::to_string).collect();
     Grid::parse(grid, &text.join(",")).map_err(|e| invalid("res", e))
 }
@@ -315,6 +316,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(luts::albedo_lut, m)?)?;
     m.add_function(wrap_pyfunction!(luts::engine_lut, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;
     m.add("InvalidValuesError", py.get_type::<InvalidValuesError>())?;
     Ok(())

@@ -134,3 +134,16 @@ def test_fit_equals_lobe_fit(lobe_bin, gpu):
     assert got.report == want
     assert got.params == want["parameters"] and got.loss == want["loss"]["total"]
     assert got.channel_loss.tolist() == want["loss"]["channel"]
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+def test_compare_equals_lobe_compare(lobe_bin, gpu, cpu, backend):
+    s = gpu if backend == "gpu" else cpu
+    text = run(lobe_bin, "compare", "phong", "blinn_phong", "--set-a", "shininess=200",
+               "--set-b", "smoothness=0.4", "--grid", "isotropic", "--res", "10,10,20",
+               "--format", "json", "--backend", backend)
+    want = json.loads(text)
+    got = s.compare("phong", "blinn_phong", params_a={"shininess": 200}, params_b={"smoothness": 0.4},
+                    grid="isotropic", res=(10, 10, 20))
+    assert got == {k: want[k] for k in got}
+    assert "relative_l2" in str(got)
