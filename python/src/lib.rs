@@ -8,6 +8,7 @@ mod fit;
 mod job;
 mod luts;
 mod model;
+mod plot;
 
 use errors::{invalid, GpuError, InvalidValuesError};
 use lobe::glam::DVec3;
@@ -317,6 +318,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(luts::engine_lut, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(plot::plot, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;
     m.add("InvalidValuesError", py.get_type::<InvalidValuesError>())?;
     Ok(())
