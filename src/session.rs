@@ -462,18 +462,6 @@ impl Session {
         crate::compare::compare(&self.evaluator(), a, b, opts, progress).lobe()
     }
 
-    /// Evaluates and draws `request` for `subjects` into `path` (.png, .svg or .pdf by its
-    /// extension; [`crate::plot::plot`]), as `lobe plot` does.
-    pub fn plot(
-        &self,
-        subjects: &[crate::plot::Subject],
-        common: &crate::plot::Common,
-        request: &crate::plot::Request,
-        path: &Path,
-    ) -> Result<crate::plot::Plotted> {
-        crate::plot::plot(&self.evaluator(), subjects, common, request, path).lobe()
-    }
-
     /// Computes a real-time engine's look-up table (DFG, Kulla–Conty, EON) in memory, as
     /// `lobe albedo --engine` does before writing it; `progress` gets (rows done, rows).
     pub fn engine_lut(

@@ -51,3 +51,26 @@ pub fn invalid(argument: &str, what: impl std::fmt::Display) -> PyErr {
 pub fn from_anyhow(argument: &str, e: anyhow::Error) -> PyErr {
     invalid(argument, format!("{e:#}"))
 }
+
+/// A job error from a function that returns `anyhow` (the pictures) sorted as lobe sorts its
+/// own: a cancelled job, the device, a refused input with its tag, or a refusal.
+pub fn from_job(e: anyhow::Error) -> lobe::Error {
+    if e.downcast_ref::<lobe::interrupt::Interrupted>().is_some() {
+        return lobe::Error::Cancelled(lobe::interrupt::Interrupted);
+    }
+    let e = match e.downcast::<lobe::gpu::GpuError>() {
+        Ok(g) => return lobe::Error::Gpu(g),
+        Err(e) => e,
+    };
+    let message = format!("{e:#}");
+    match e
+        .chain()
+        .find_map(|c| c.downcast_ref::<lobe::input::BadInput>())
+    {
+        Some(input) => lobe::Error::Input {
+            input: input.clone(),
+            message,
+        },
+        None => lobe::Error::Invalid(message),
+    }
+}

@@ -85,6 +85,11 @@ pub fn plot(
     };
     common.check().map_err(|e| from_anyhow("plot", e))?;
     let s = &session.get().inner;
-    let plotted = job::run(py, s, || s.plot(&subjects, &common, &request, &path))?;
+    // Pictures are a front of their own (layer 6, beside the CLI), so the job is the one
+    // `lobe plot` runs, on this session's evaluator.
+    let plotted = job::run(py, s, || {
+        lobe::plot::plot(&s.evaluator(), &subjects, &common, &request, &path)
+            .map_err(crate::errors::from_job)
+    })?;
     Ok(plotted.title().to_string())
 }
