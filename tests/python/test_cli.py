@@ -147,3 +147,12 @@ def test_compare_equals_lobe_compare(lobe_bin, gpu, cpu, backend):
                     grid="isotropic", res=(10, 10, 20))
     assert got == {k: want[k] for k in got}
     assert "relative_l2" in str(got)
+
+
+def test_the_package_version_is_lobes():
+    import pathlib
+    import re
+
+    cargo = pathlib.Path(__file__).resolve().parents[2] / "Cargo.toml"
+    version = re.search(r'^version = "([^"]+)"', cargo.read_text(), re.M).group(1)
+    assert lobe.__version__ == version
