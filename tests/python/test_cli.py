@@ -116,6 +116,18 @@ def test_albedo_lut_equals_lobe_albedo_lut(lobe_bin, tmp_path, gpu):
     assert lut.e_avg.astype(np.float32).tobytes() == avg.tobytes()
 
 
+
+@pytest.mark.parametrize("kind", ["dfg", "kulla-conty"])
+def test_engine_lut_equals_lobe_albedo_engine(lobe_bin, tmp_path, gpu, kind):
+    run(lobe_bin, "albedo", "--lut", str(tmp_path / "e.exr"), "--engine", kind, "--lut-res", "4,5")
+    written = np.load(tmp_path / "e.npy")
+    lut = gpu.engine_lut(kind, res=(4, 5))
+    # One texel per (p, mu); the file keeps a channel axis only where there are several.
+    assert lut.values.shape[:2] == written.shape[:2] == (5, 4)
+    assert lut.values.size == written.size
+    assert lut.values.astype(np.float32).tobytes() == written.tobytes()
+
+
 def test_models_are_the_catalogue_lobe_models_prints(lobe_bin):
     want = json.loads(run(lobe_bin, "models", "--json"))
     assert lobe.models() == want["models"]
