@@ -372,6 +372,77 @@ impl Session {
     ) -> Result<crate::bench::Throughput> {
         crate::bench::measure_lut(&self.evaluator(), params, white_furnace, repeats).lobe()
     }
+
+    /// [`Session::directional_albedo`] at `points` (and, with `phi`, [`Session::hemispherical_albedo`])
+    /// for each parameter set of `rows`, the same values as one set at a time; rows of one model
+    /// share each direction's quadrature nodes and the GPU sums them in the same dispatches
+    /// ([`integrate::albedo_rows`]).
+    pub fn albedo_rows(
+        &self,
+        rows: &[ParamSet],
+        settings: &AlbedoSettings,
+        points: &[(f64, f64)],
+        phi: Option<f64>,
+    ) -> Result<Vec<(Vec<PointAlbedo>, Option<HemiAlbedo>)>> {
+        integrate::albedo_rows(&self.evaluator(), rows, settings, points, phi).lobe()
+    }
+
+    /// f of each parameter set of `sets` at each (ωi, ωo) pair (`out[k][j]`: set k at pair j),
+    /// the values [`Session::eval_pairs`] gives one set at a time. On the GPU, sets of one model
+    /// go to the device together, each pair naming its set's parameter block, so a sweep of many
+    /// sets costs one batch of dispatches instead of one per set. Refuses NaN, ±Inf and negative
+    /// values ([`Error::InvalidValues`]).
+    pub fn eval_pairs_sets(
+        &self,
+        sets: &[ParamSet],
+        white_furnace: bool,
+        pairs: &[(DVec3, DVec3)],
+    ) -> Result<Vec<Vec<[f64; 3]>>> {
+        let values = self
+            .evaluator()
+            .eval_sets_unchecked(sets, white_furnace, pairs)
+            .lobe()?;
+        for (p, f) in sets.iter().zip(&values) {
+            let mut count = InvalidCount::default();
+            count.add_pairs(0, f, pairs);
+            count.refuse(p.model().name(), "evaluating f at direction pairs")?;
+        }
+        Ok(values)
+    }
+
+    /// Fits the free parameters of `space` to `target` ([`crate::fit::fit`]), as `lobe fit`
+    /// does; `progress` gets each iteration's best loss.
+    pub fn fit(
+        &self,
+        target: &crate::fit::Target,
+        space: &crate::fit::Space,
+        opts: &crate::fit::FitOptions,
+        progress: &(dyn Fn(crate::fit::FitProgress) + Sync),
+    ) -> Result<crate::fit::FitReport> {
+        crate::fit::fit(&self.evaluator(), target, space, opts, progress).lobe()
+    }
+
+    /// Compares model `b` against the reference `a` on the bins of `opts` ([`crate::compare`]),
+    /// as `lobe compare` does; `progress` gets (bins done, bins).
+    pub fn compare(
+        &self,
+        a: &crate::compare::Side,
+        b: &crate::compare::Side,
+        opts: &crate::compare::Options,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<crate::compare::Comparison> {
+        crate::compare::compare(&self.evaluator(), a, b, opts, progress).lobe()
+    }
+
+    /// Computes a real-time engine's look-up table (DFG, Kulla–Conty, EON) in memory, as
+    /// `lobe albedo --engine` does before writing it; `progress` gets (rows done, rows).
+    pub fn engine_lut(
+        &self,
+        spec: &crate::lut::engine::EngineSpec,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<crate::lut::engine::EngineTable> {
+        crate::lut::engine::compute_engine(&self.evaluator(), spec, progress).lobe()
+    }
 }
 
 #[cfg(test)]

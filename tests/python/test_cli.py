@@ -1,0 +1,170 @@
+"""The package gives the numbers the command line gives for the same requests."""
+
+import csv
+import io
+import json
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import lobe
+
+
+def run(lobe_bin, *args):
+    done = subprocess.run([lobe_bin, *args], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def sin_cos_deg(x):
+    """lobe's degree conversion (src/grid.rs sin_cos_deg): exact at multiples of 90 degrees."""
+    q = x / 90.0
+    quadrant = math.copysign(math.floor(abs(q) + 0.5), q)  # Rust's round: halves away from 0
+    r = math.radians(x - 90.0 * quadrant)
+    s, c = math.sin(r), math.cos(r)
+    return {0: (s, c), 1: (c, -s), 2: (-s, -c), 3: (-c, s)}[int(quadrant) % 4]
+
+
+def direction_deg(theta, phi):
+    st, ct = sin_cos_deg(theta)
+    sp, cp = sin_cos_deg(phi)
+    return [st * cp, st * sp, ct]
+
+
+TABLES = [
+    ("cook_torrance", "isotropic", (6, 5, 4), ["--material", "gold"], {"material": "gold"}),
+    ("phong{shininess=50}", "full", (3, 4, 5, 6), ["--set", "diffuse=0.1,0.2,0.3"],
+     {"params": {"diffuse": (0.1, 0.2, 0.3)}}),
+    ("microfacet", "halfdiff", (5, 4, 3), ["--set", "alpha=0.2"], {"params": {"alpha": 0.2}}),
+]
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+@pytest.mark.parametrize("model,grid,res,flags,kwargs", TABLES)
+def test_table_is_bit_identical_to_the_npy_lobe_writes(lobe_bin, tmp_path, gpu, cpu, backend,
+                                                       model, grid, res, flags, kwargs):
+    out = tmp_path / "t.exr"
+    run(lobe_bin, "table", "--model", model, "--grid", grid, "--res", ",".join(map(str, res)),
+        "-o", str(out), "--backend", backend, *flags)
+    written = np.load(tmp_path / "t.npy")
+    s = gpu if backend == "gpu" else cpu
+    t = s.table(model, grid=grid, res=res, **kwargs)
+    assert t.values.dtype == written.dtype == np.float32
+    assert t.values.shape == written.shape == tuple(res) + (3,)
+    assert t.values.tobytes() == written.tobytes()
+    # The axes: names and sizes as the sidecar lists them, angles at the cell centres.
+    sidecar = json.loads((tmp_path / "t.json").read_text())
+    axes = [a for a in sidecar["axes"] if a["name"] != "rgb"]
+    assert list(t.axes) == [a["name"] for a in axes]
+    for a in axes:
+        n, hi = a["size"], a["range_rad"][1]
+        np.testing.assert_allclose(t.axes[a["name"]], (np.arange(n) + 0.5) * hi / n, rtol=1e-15)
+
+
+def test_write_table_writes_the_files_lobe_table_writes(lobe_bin, tmp_path, gpu):
+    run(lobe_bin, "table", "--model", "oren_nayar", "--grid", "isotropic", "--res", "4,4,4",
+        "-o", str(tmp_path / "cli.exr"))
+    invalid = gpu.write_table(tmp_path / "py.exr", "oren_nayar", grid="isotropic", res=(4, 4, 4))
+    assert invalid == 0
+    assert (tmp_path / "py.npy").read_bytes() == (tmp_path / "cli.npy").read_bytes()
+    assert (tmp_path / "py.exr").is_file() and (tmp_path / "py.json").is_file()
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+def test_eval_equals_lobe_eval(lobe_bin, gpu, cpu, backend):
+    pairs = [(30, 0, 60, 90), (10, 45, 20, 225), (75, 300, 5, 10)]
+    s = gpu if backend == "gpu" else cpu
+    for model, flags, kwargs in [
+        ("cook_torrance", ["--material", "gold"], {"material": "gold"}),
+        ("ashikhmin_shirley{nu=10,nv=1000}", [], {}),
+    ]:
+        wi = [direction_deg(ti, pi) for ti, pi, _, _ in pairs]
+        wo = [direction_deg(to, po) for _, _, to, po in pairs]
+        got = s.eval(model, wi, wo, **kwargs)
+        for (ti, pi, to, po), row in zip(pairs, got):
+            text = run(lobe_bin, "eval", "--model", model, "--wi-deg", f"{ti},{pi}",
+                       "--wo-deg", f"{to},{po}", "--backend", backend, *flags)
+            want = [float(v) for v in list(csv.DictReader(io.StringIO(text)))[0].values()][4:]
+            assert row.tolist() == want, (model, ti, pi, to, po)
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+def test_albedo_equals_lobe_albedo(lobe_bin, gpu, cpu, backend):
+    s = gpu if backend == "gpu" else cpu
+    text = run(lobe_bin, "albedo", "--model", "microfacet", "--set", "alpha=0.3", "--mu", "0.1,0.5,1",
+               "--format", "json", "--backend", backend)
+    want = json.loads(text)
+    got = s.albedo("microfacet", mu=[0.1, 0.5, 1.0], params={"alpha": 0.3})
+    assert got.albedo.tolist() == [p["albedo"] for p in want["points"]]
+    assert got.error.tolist() == [p["error_estimate"] for p in want["points"]]
+    hemi = s.hemispherical_albedo("microfacet", params={"alpha": 0.3})
+    assert hemi.albedo.tolist() == want["hemispherical"]["albedo"]
+    assert hemi.e_avg.tolist() == want["hemispherical"]["e_avg"]
+    assert hemi.error.tolist() == want["hemispherical"]["error_estimate"]
+
+
+def test_albedo_lut_equals_lobe_albedo_lut(lobe_bin, tmp_path, gpu):
+    run(lobe_bin, "albedo", "--model", "microfacet", "--lut", str(tmp_path / "lut.exr"),
+        "--lut-res", "6,5")
+    lut = gpu.albedo_lut("microfacet", res=(6, 5))
+    written = np.load(tmp_path / "lut.npy")
+    assert written.shape == lut.e.shape == (5, 6, 3)
+    assert lut.e.astype(np.float32).tobytes() == written.tobytes()
+    avg = np.load(tmp_path / "lut_avg.npy")
+    assert lut.e_avg.astype(np.float32).tobytes() == avg.tobytes()
+
+
+
+@pytest.mark.parametrize("kind", ["dfg", "kulla-conty"])
+def test_engine_lut_equals_lobe_albedo_engine(lobe_bin, tmp_path, gpu, kind):
+    run(lobe_bin, "albedo", "--lut", str(tmp_path / "e.exr"), "--engine", kind, "--lut-res", "4,5")
+    written = np.load(tmp_path / "e.npy")
+    lut = gpu.engine_lut(kind, res=(4, 5))
+    # One texel per (p, mu); the file keeps a channel axis only where there are several.
+    assert lut.values.shape[:2] == written.shape[:2] == (5, 4)
+    assert lut.values.size == written.size
+    assert lut.values.astype(np.float32).tobytes() == written.tobytes()
+
+
+def test_models_are_the_catalogue_lobe_models_prints(lobe_bin):
+    want = json.loads(run(lobe_bin, "models", "--json"))
+    assert lobe.models() == want["models"]
+    assert lobe.materials() == want["materials"]
+
+
+def test_fit_equals_lobe_fit(lobe_bin, gpu):
+    args = dict(free=["alpha", "specular"], max_iters=40, max_bins=2048, starts=2)
+    text = run(lobe_bin, "fit", "--target", "cook_torrance", "--target-set", "roughness=0.4",
+               "--model", "microfacet", "--free", "alpha,specular", "--max-iters", "40",
+               "--max-bins", "2048", "--starts", "2", "--format", "json")
+    want = json.loads(text)
+    got = gpu.fit("cook_torrance", "microfacet", target_params={"roughness": 0.4}, **args)
+    for report in (want, got.report):
+        report.pop("seconds")
+    assert got.report == want
+    assert got.params == want["parameters"] and got.loss == want["loss"]["total"]
+    assert got.channel_loss.tolist() == want["loss"]["channel"]
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+def test_compare_equals_lobe_compare(lobe_bin, gpu, cpu, backend):
+    s = gpu if backend == "gpu" else cpu
+    text = run(lobe_bin, "compare", "phong", "blinn_phong", "--set-a", "shininess=200",
+               "--set-b", "smoothness=0.4", "--grid", "isotropic", "--res", "10,10,20",
+               "--format", "json", "--backend", backend)
+    want = json.loads(text)
+    got = s.compare("phong", "blinn_phong", params_a={"shininess": 200}, params_b={"smoothness": 0.4},
+                    grid="isotropic", res=(10, 10, 20))
+    assert got == {k: want[k] for k in got}
+    assert "relative_l2" in str(got)
+
+
+def test_the_package_version_is_lobes():
+    import pathlib
+    import re
+
+    cargo = pathlib.Path(__file__).resolve().parents[2] / "Cargo.toml"
+    version = re.search(r'^version = "([^"]+)"', cargo.read_text(), re.M).group(1)
+    assert lobe.__version__ == version
