@@ -1,0 +1,578 @@
+//! `lobe explore`: the real server on an ephemeral port, spoken to over real HTTP (a plain
+//! socket, so that the tests can send what a browser would not: no token, a foreign Host), and
+//! the page in headless Chromium over the DevTools protocol.
+
+#[path = "explore/cdp.rs"]
+mod cdp;
+
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The f32 values the server sends and `lobe eval` prints come from the same kernel on the same
+/// device; the directions differ in their last bits (the server builds them from radians as the
+/// polar plot does, `lobe eval` from degrees), which moves a Phong lobe of exponent ≤ 1000 by far
+/// less than this relative amount.
+const SAME_BACKEND_REL: f64 = 1e-4;
+
+/// The page shows 5 significant digits: half a unit in the 5th place, relative.
+const SHOWN_REL: f64 = 5e-5;
+
+/// How long a page may take to load and draw its first frame on a shared 2-core machine.
+const PAGE_TIMEOUT: Duration = Duration::from_secs(90);
+
+fn manifest() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A running `lobe explore --no-browser`, killed when dropped.
+struct Server {
+    child: Child,
+    addr: String,
+    token: String,
+    url: String,
+    tmp: tempfile::TempDir,
+}
+
+impl Server {
+    fn start(args: &[&str]) -> Server {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lobe"))
+            .args(["explore", "--no-browser"])
+            .args(args)
+            .current_dir(manifest())
+            // The server's own temporary folder goes here, so that a test can see it removed.
+            .env("TMPDIR", tmp.path())
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start lobe explore");
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        let mut line = String::new();
+        let url = loop {
+            line.clear();
+            if out.read_line(&mut line).unwrap() == 0 {
+                let mut err = String::new();
+                child
+                    .stderr
+                    .take()
+                    .unwrap()
+                    .read_to_string(&mut err)
+                    .unwrap();
+                panic!("lobe explore ended before printing its URL: {err}");
+            }
+            if let Some(at) = line.find("http://") {
+                break line[at..].trim().to_string();
+            }
+        };
+        std::thread::spawn(move || out.lines().for_each(drop));
+        let addr = url["http://".len()..]
+            .split('/')
+            .next()
+            .unwrap()
+            .to_string();
+        let token = url.split("token=").nth(1).unwrap().to_string();
+        Server {
+            child,
+            addr,
+            token,
+            url,
+            tmp,
+        }
+    }
+
+    /// A request with the token in its header and the right Host.
+    fn post(&self, path: &str, body: &Value) -> Reply {
+        http(
+            &self.addr,
+            "POST",
+            path,
+            &[("x-lobe-token", &self.token)],
+            body.to_string().as_bytes(),
+        )
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Reply {
+    status: u16,
+    head: String,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn text(&self) -> String {
+        String::from_utf8_lossy(&self.body).into_owned()
+    }
+}
+
+/// One HTTP/1.1 request on its own connection; `Host` is `addr` unless `headers` gives one.
+fn http(addr: &str, method: &str, target: &str, headers: &[(&str, &str)], body: &[u8]) -> Reply {
+    http_claiming(addr, method, target, headers, body.len(), body)
+}
+
+/// [`http`] with a `Content-Length` of `length` whatever the body sent: a server that refuses a
+/// body by its length answers before reading it.
+fn http_claiming(
+    addr: &str,
+    method: &str,
+    target: &str,
+    headers: &[(&str, &str)],
+    length: usize,
+    body: &[u8],
+) -> Reply {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(PAGE_TIMEOUT)).unwrap();
+    let mut req = format!("{method} {target} HTTP/1.1\r\nConnection: close\r\n");
+    if !headers.iter().any(|(k, _)| k.eq_ignore_ascii_case("host")) {
+        req += &format!("Host: {addr}\r\n");
+    }
+    for (k, v) in headers {
+        req += &format!("{k}: {v}\r\n");
+    }
+    req += &format!("Content-Length: {length}\r\n\r\n");
+    s.write_all(req.as_bytes()).unwrap();
+    s.write_all(body).unwrap();
+    let mut raw = Vec::new();
+    let _ = s.read_to_end(&mut raw);
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .unwrap_or_else(|| panic!("no HTTP answer: {}", String::from_utf8_lossy(&raw)));
+    let head = String::from_utf8_lossy(&raw[..split]).into_owned();
+    let status = head.split(' ').nth(1).unwrap().parse().unwrap();
+    Reply {
+        status,
+        head,
+        body: raw[split + 4..].to_vec(),
+    }
+}
+
+fn floats(body: &[u8]) -> Vec<f32> {
+    body.chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect()
+}
+
+/// `lobe eval` (same backend as the server: the default GPU) at `pairs` of degrees
+/// (θi, φi, θo, φo).
+fn lobe_eval(model: &str, pairs: &[[f64; 4]]) -> Vec<[f64; 3]> {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("pairs.csv");
+    let mut csv = String::from("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n");
+    for p in pairs {
+        csv += &format!("{},{},{},{}\n", p[0], p[1], p[2], p[3]);
+    }
+    std::fs::write(&file, csv).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["eval", "--model", model, "--pairs"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            [v[4], v[5], v[6]]
+        })
+        .collect()
+}
+
+/// The `lobe eval` angles of polar view angle `s` (degrees) for a light at (θi, 180°): the page's
+/// geometry (docs/architecture.md, the explorer).
+fn polar_pair(theta_i: f64, s: f64) -> [f64; 4] {
+    [theta_i, 180.0, s.abs(), if s >= 0.0 { 0.0 } else { 180.0 }]
+}
+
+fn assert_close(what: &str, got: f64, want: f64, rel: f64) {
+    let err = (got - want).abs();
+    assert!(
+        err <= rel * want.abs().max(1e-30),
+        "{what}: got {got}, lobe eval {want}, error {err:e}, allowed {:e}",
+        rel * want.abs()
+    );
+}
+
+#[test]
+fn refuses_requests_without_the_token() {
+    let server = Server::start(&["lambert"]);
+    let body = json!({"model": "lambert", "samples": 3}).to_string();
+    for (method, target) in [("GET", "/"), ("GET", "/app.js"), ("GET", "/api/models")] {
+        let r = http(&server.addr, method, target, &[], b"");
+        assert_eq!(r.status, 403, "{method} {target}: {}", r.text());
+        assert!(r.text().contains("token"), "{}", r.text());
+    }
+    let r = http(&server.addr, "POST", "/api/polar", &[], body.as_bytes());
+    assert_eq!(r.status, 403, "{}", r.text());
+    let wrong = "0".repeat(server.token.len());
+    let r = http(&server.addr, "GET", &format!("/?token={wrong}"), &[], b"");
+    assert_eq!(r.status, 403, "{}", r.text());
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/polar",
+        &[("x-lobe-token", &wrong)],
+        body.as_bytes(),
+    );
+    assert_eq!(r.status, 403, "{}", r.text());
+    // With the token the same requests are answered.
+    let r = http(
+        &server.addr,
+        "GET",
+        &format!("/?token={}", server.token),
+        &[],
+        b"",
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    assert!(r.text().contains(&format!("app.js?token={}", server.token)));
+    assert!(
+        !r.head.to_ascii_lowercase().contains("access-control-allow"),
+        "{}",
+        r.head
+    );
+}
+
+#[test]
+fn refuses_a_foreign_host_or_origin() {
+    let server = Server::start(&["lambert"]);
+    let target = format!("/?token={}", server.token);
+    let port = server.addr.rsplit(':').next().unwrap().to_string();
+    for host in [
+        format!("evil.example:{port}"),
+        "127.0.0.1:1".to_string(),
+        String::new(),
+    ] {
+        let r = http(&server.addr, "GET", &target, &[("Host", &host)], b"");
+        assert_eq!(r.status, 403, "Host {host}: {}", r.text());
+        assert!(r.text().contains("Host"), "{}", r.text());
+    }
+    let local = format!("localhost:{port}");
+    assert_eq!(
+        http(&server.addr, "GET", &target, &[("Host", &local)], b"").status,
+        200
+    );
+    let r = http(
+        &server.addr,
+        "GET",
+        &target,
+        &[("Origin", "http://evil.example")],
+        b"",
+    );
+    assert_eq!(r.status, 403, "{}", r.text());
+}
+
+#[test]
+fn refuses_oversized_requests_with_a_sentence() {
+    let server = Server::start(&["lambert"]);
+    let token = [("x-lobe-token", server.token.as_str())];
+    let big = lobe::explore::MAX_BODY_BYTES + 1;
+    let r = http_claiming(&server.addr, "POST", "/api/polar", &token, big, b"");
+    assert_eq!(r.status, 413, "{}", r.text());
+    assert!(
+        r.text()
+            .contains(&lobe::explore::MAX_BODY_BYTES.to_string()),
+        "{}",
+        r.text()
+    );
+    let long = format!(
+        "/api/models?token={}&x={}",
+        server.token,
+        "a".repeat(lobe::explore::MAX_URI_BYTES)
+    );
+    assert_eq!(http(&server.addr, "GET", &long, &[], b"").status, 414);
+    let brdf = lobe::explore::MAX_BRDF_BYTES + 1;
+    let r = http_claiming(
+        &server.addr,
+        "POST",
+        "/api/brdf?name=big.brdf",
+        &token,
+        brdf,
+        b"",
+    );
+    assert_eq!(r.status, 413, "{}", r.text());
+    let cases = [
+        (
+            "/api/polar",
+            json!({"model": "lambert", "samples": lobe::explore::MAX_POLAR_SAMPLES + 1}),
+            "view angles from 1 to",
+        ),
+        (
+            "/api/hemisphere",
+            json!({"model": "lambert", "samples": lobe::explore::MAX_HEMISPHERE_RES + 1}),
+            "cells across from 1 to",
+        ),
+        (
+            "/api/albedo",
+            json!({"model": "lambert", "samples": 0}),
+            "view directions from 1 to",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "lambert", "samples": 3, "theta_i_deg": 95}),
+            "theta_i_deg 95",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "phong", "samples": 3, "sets": ["shininess=-1"]}),
+            "shininess",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "nonesuch", "samples": 3}),
+            "nonesuch",
+        ),
+    ];
+    for (path, body, says) in cases {
+        let r = server.post(path, &body);
+        assert_eq!(r.status, 422, "{path} {body}: {}", r.text());
+        assert!(r.text().contains(says), "{path} {body}: {}", r.text());
+    }
+}
+
+#[test]
+fn polar_values_equal_lobe_eval() {
+    let server = Server::start(&["phong{shininess=50}"]);
+    let spec = "phong{shininess=50,specular=0.9,0.5,0.2}";
+    let n = 9;
+    let r = server.post(
+        "/api/polar",
+        &json!({"model": "phong", "sets": ["shininess=50", "specular=0.9,0.5,0.2"], "theta_i_deg": 30, "samples": n}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let got = floats(&r.body);
+    assert_eq!(got.len(), 3 * n);
+    let angles: Vec<f64> = (0..n)
+        .map(|k| -90.0 + (k as f64 + 0.5) * 180.0 / n as f64)
+        .collect();
+    let want = lobe_eval(
+        spec,
+        &angles
+            .iter()
+            .map(|&s| polar_pair(30.0, s))
+            .collect::<Vec<_>>(),
+    );
+    for (k, w) in want.iter().enumerate() {
+        for c in 0..3 {
+            assert_close(
+                &format!("{spec} at s = {}°, channel {c}", angles[k]),
+                got[3 * k + c] as f64,
+                w[c],
+                SAME_BACKEND_REL,
+            );
+        }
+    }
+    // The mirror direction (s = +30°) holds the peak, and colour reaches the values.
+    assert!(got[3 * 6] > got[3 * 6 + 2], "{got:?}");
+}
+
+#[test]
+fn exits_on_sigterm_leaving_nothing() {
+    let mut server = Server::start(&["lambert"]);
+    // An opened .brdf file is kept in the server's temporary folder until it ends.
+    let text = std::fs::read(manifest().join("testdata/brdf/ggx.brdf")).unwrap();
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/brdf?name=ggx.brdf",
+        &[("x-lobe-token", &server.token)],
+        &text,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    assert_eq!(std::fs::read_dir(server.tmp.path()).unwrap().count(), 1);
+    // SAFETY: kill only sends a signal to the child this test started.
+    assert_eq!(
+        unsafe { libc::kill(server.child.id() as i32, libc::SIGTERM) },
+        0
+    );
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = server.child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "lobe explore still running 30 s after SIGTERM"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    server
+        .child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(status.success(), "{status}: {err}");
+    assert!(err.contains("stopped"), "{err}");
+    let left: Vec<PathBuf> = std::fs::read_dir(server.tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    assert!(
+        TcpStream::connect(&server.addr).is_err(),
+        "{} still accepts connections",
+        server.addr
+    );
+}
+
+/// Moves the slider `key` of model card `card` to `value` (as a user's drag would: an input
+/// event) and waits until the page has drawn the state it set.
+fn move_slider(b: &mut cdp::Browser, card: usize, key: &str, t: u32) {
+    let frames = b.eval("window.lobeExplore.frames");
+    b.eval(&format!(
+        "(() => {{ const s = document.querySelectorAll('#models .card')[{card}].querySelector('input[type=range][data-key={key}]'); s.value = {t}; s.dispatchEvent(new Event('input')); }})()"
+    ));
+    b.wait_for(&format!("window.lobeExplore.frames > {frames} && window.lobeExplore.request[{card}].sets.some(s => s.startsWith('{key}='))"), PAGE_TIMEOUT);
+}
+
+#[test]
+fn page_in_chromium_shows_lobe_eval_values() {
+    let server = Server::start(&["phong{shininess=20}", "lambert"]);
+    let mut b = cdp::Browser::launch(1400, 1000);
+    b.navigate(&server.url);
+    b.wait_for("!!(window.lobeExplore && window.lobeExplore.ready && window.lobeExplore.albedo.length === 2)", PAGE_TIMEOUT);
+    assert!(
+        b.errors().is_empty(),
+        "console errors on load: {:?}",
+        b.errors()
+    );
+    let readout = "document.querySelector('#readout tbody tr td:nth-child(2)').textContent";
+    let before = b.eval(readout);
+    move_slider(&mut b, 0, "shininess", 700);
+    let after = b.eval(readout);
+    assert_ne!(before, after, "the polar plot's numbers did not change");
+    // What the page drew and shows, against `lobe eval` with the parameters the page sent.
+    let req = b.eval("window.lobeExplore.request[0]");
+    let sets: Vec<String> = req["sets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap().to_string())
+        .collect();
+    let spec = format!("phong{{{}}}", sets.join(","));
+    let ti = b
+        .eval("window.lobeExplore.request[0].theta_i_deg")
+        .as_f64()
+        .unwrap();
+    let drawn: Vec<f64> =
+        serde_json::from_value(b.eval("Array.from(window.lobeExplore.polar[0])")).unwrap();
+    let angles: Vec<f64> = serde_json::from_value(b.eval("window.lobeExplore.angles")).unwrap();
+    let mirror = b.eval("window.lobeExplore.mirrorIndex").as_u64().unwrap() as usize;
+    let picks: Vec<usize> = (0..angles.len()).step_by(40).chain([mirror]).collect();
+    let want = lobe_eval(
+        &spec,
+        &picks
+            .iter()
+            .map(|&k| polar_pair(ti, angles[k]))
+            .collect::<Vec<_>>(),
+    );
+    for (&k, w) in picks.iter().zip(&want) {
+        assert_close(
+            &format!("{spec} drawn at s = {}°", angles[k]),
+            drawn[3 * k],
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
+    let shown: Vec<f64> = after
+        .as_str()
+        .unwrap()
+        .split(", ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    for c in 0..3 {
+        assert_close(
+            &format!("{spec} shown at the mirror, channel {c}"),
+            shown[c],
+            want[want.len() - 1][c],
+            SHOWN_REL + SAME_BACKEND_REL,
+        );
+    }
+    // The URL carries the state: a reload restores the slider's value.
+    let shininess = sets
+        .iter()
+        .find(|s| s.starts_with("shininess="))
+        .unwrap()
+        .clone();
+    b.call("Page.reload", json!({}));
+    b.wait_for(
+        "!!(window.lobeExplore && window.lobeExplore.ready)",
+        PAGE_TIMEOUT,
+    );
+    let restored = b.eval("window.lobeExplore.request[0].sets");
+    assert!(
+        restored.as_array().unwrap().contains(&json!(shininess)),
+        "{restored} after reload, expected {shininess}"
+    );
+    // A .brdf file opened from the page appears as a model with its sliders and colour pickers.
+    b.set_file("#open-brdf", &manifest().join("testdata/brdf/ggx.brdf"));
+    b.wait_for("window.lobeExplore.request && window.lobeExplore.request.length === 3 && window.lobeExplore.polar.length === 3", PAGE_TIMEOUT);
+    let card = "document.querySelectorAll('#models .card')[2]";
+    let model = b.eval(&format!("{card}.querySelector('select.model').value"));
+    assert!(model.as_str().unwrap().contains("ggx"), "{model}");
+    assert_eq!(
+        b.eval(&format!(
+            "!!{card}.querySelector('input[type=range][data-key=alpha]')"
+        )),
+        json!(true)
+    );
+    assert_eq!(
+        b.eval(&format!(
+            "{card}.querySelectorAll('input[type=color]').length"
+        )),
+        json!(2)
+    );
+    move_slider(&mut b, 2, "alpha", 500);
+    assert!(b.errors().is_empty(), "console errors: {:?}", b.errors());
+}
+
+/// Latency of a slider drag, input event to the frame drawn with the new values, measured in the
+/// browser over 50 moves of a built-in model's slider. A benchmark, not a test: run it alone with
+/// `cargo test --release --test explore -- --ignored --nocapture explore_latency`.
+#[test]
+#[ignore]
+fn explore_latency() {
+    let server = Server::start(&["cook_torrance"]);
+    let mut b = cdp::Browser::launch(1400, 1000);
+    b.navigate(&server.url);
+    b.wait_for(
+        "!!(window.lobeExplore && window.lobeExplore.ready)",
+        PAGE_TIMEOUT,
+    );
+    let moves = 50;
+    let script = format!(
+        "(async () => {{ const p = window.lobeExplore; const s = document.querySelector('#models .card input[type=range]');
+           const out = [];
+           for (let k = 0; k < {moves}; k++) {{
+             const n = p.latencies.length;
+             s.value = 100 + 15 * k; s.dispatchEvent(new Event('input'));
+             while (p.latencies.length === n) await new Promise(r => setTimeout(r, 2));
+             out.push(p.latencies[p.latencies.length - 1]);
+           }}
+           return out; }})()"
+    );
+    let mut ms: Vec<f64> = serde_json::from_value(b.eval(&script)).unwrap();
+    ms.sort_by(f64::total_cmp);
+    let median = ms[ms.len() / 2];
+    let p95 = ms[(ms.len() * 95).div_ceil(100) - 1];
+    println!("explore latency over {moves} slider moves (cook_torrance): median {median:.1} ms, p95 {p95:.1} ms, max {:.1} ms", ms[ms.len() - 1]);
+}
