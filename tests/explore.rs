@@ -18,6 +18,11 @@ use std::time::{Duration, Instant};
 /// less than this relative amount.
 const SAME_BACKEND_REL: f64 = 1e-4;
 
+/// The page's albedo and `lobe albedo` run the same rule with the same nodes on the same device;
+/// only the order of the GPU's partial sums may differ between two runs (f32 sums of ~10⁶ terms
+/// round at ~1e-6 relative).
+const SAME_RULE_REL: f64 = 1e-5;
+
 /// The page shows 5 significant digits: half a unit in the 5th place, relative.
 const SHOWN_REL: f64 = 5e-5;
 
@@ -193,6 +198,21 @@ fn lobe_eval(model: &str, pairs: &[[f64; 4]]) -> Vec<[f64; 3]> {
             [v[4], v[5], v[6]]
         })
         .collect()
+}
+
+/// `lobe albedo --format json`'s hemispherical albedo of `model`.
+fn common_albedo(model: &str) -> Vec<f64> {
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["albedo", "--model", model, "--format", "json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_value(v["hemispherical"]["albedo"].clone()).unwrap()
 }
 
 /// The `lobe eval` angles of polar view angle `s` (degrees) for a light at (θi, 180°): the page's
@@ -505,6 +525,19 @@ fn page_in_chromium_shows_lobe_eval_values() {
             shown[c],
             want[want.len() - 1][c],
             SHOWN_REL + SAME_BACKEND_REL,
+        );
+    }
+    // The hemispherical albedo shown, against `lobe albedo` (same rule, same backend).
+    b.wait_for(&format!("!!(window.lobeExplore.albedoRequest && window.lobeExplore.albedoRequest[0].sets.includes('{}'))", sets.iter().find(|s| s.starts_with("shininess=")).unwrap()), PAGE_TIMEOUT);
+    let albedo: Vec<f64> =
+        serde_json::from_value(b.eval("window.lobeExplore.albedo[0].hemispherical")).unwrap();
+    let cli = common_albedo(&spec);
+    for c in 0..3 {
+        assert_close(
+            &format!("{spec} hemispherical albedo, channel {c}"),
+            albedo[c],
+            cli[c],
+            SAME_RULE_REL,
         );
     }
     // The URL carries the state: a reload restores the slider's value.

@@ -282,9 +282,11 @@ async function refreshAlbedo() {
   const abort = albedoAbort = new AbortController();
   $('albedo-readout').tBodies[0].replaceChildren();
   try {
-    const answers = await Promise.all(state.m.map((e) => call('/api/albedo', request(e, ALBEDO_POINTS), abort.signal).then((r) => r.json())));
+    const asked = state.m.map((e) => request(e, ALBEDO_POINTS));
+    const answers = await Promise.all(asked.map((r) => call('/api/albedo', r, abort.signal).then((a) => a.json())));
     if (abort.signal.aborted) return;
     probe.albedo = answers;
+    probe.albedoRequest = asked;
     drawAlbedo(answers);
   } catch (e) {
     if (e.name !== 'AbortError') showError(e.message);
