@@ -4,12 +4,15 @@
 
 #[path = "explore/cdp.rs"]
 mod cdp;
+#[path = "explore/server.rs"]
+mod server;
 
 use serde_json::{json, Value};
-use std::io::{BufRead, BufReader, Read, Write};
+use server::{floats, http, http_claiming, manifest, Server};
+use std::io::Read;
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::PathBuf;
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// The f32 values the server sends and `lobe eval` prints come from the same kernel on the same
@@ -28,146 +31,6 @@ const SHOWN_REL: f64 = 5e-5;
 
 /// How long a page may take to load and draw its first frame on a shared 2-core machine.
 const PAGE_TIMEOUT: Duration = Duration::from_secs(90);
-
-fn manifest() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A running `lobe explore --no-browser`, killed when dropped.
-struct Server {
-    child: Child,
-    addr: String,
-    token: String,
-    url: String,
-    tmp: tempfile::TempDir,
-}
-
-impl Server {
-    fn start(args: &[&str]) -> Server {
-        let tmp = tempfile::tempdir().unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_lobe"))
-            .args(["explore", "--no-browser"])
-            .args(args)
-            .current_dir(manifest())
-            // The server's own temporary folder goes here, so that a test can see it removed.
-            .env("TMPDIR", tmp.path())
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start lobe explore");
-        let mut out = BufReader::new(child.stdout.take().unwrap());
-        let mut line = String::new();
-        let url = loop {
-            line.clear();
-            if out.read_line(&mut line).unwrap() == 0 {
-                let mut err = String::new();
-                child
-                    .stderr
-                    .take()
-                    .unwrap()
-                    .read_to_string(&mut err)
-                    .unwrap();
-                panic!("lobe explore ended before printing its URL: {err}");
-            }
-            if let Some(at) = line.find("http://") {
-                break line[at..].trim().to_string();
-            }
-        };
-        std::thread::spawn(move || out.lines().for_each(drop));
-        let addr = url["http://".len()..]
-            .split('/')
-            .next()
-            .unwrap()
-            .to_string();
-        let token = url.split("token=").nth(1).unwrap().to_string();
-        Server {
-            child,
-            addr,
-            token,
-            url,
-            tmp,
-        }
-    }
-
-    /// A request with the token in its header and the right Host.
-    fn post(&self, path: &str, body: &Value) -> Reply {
-        http(
-            &self.addr,
-            "POST",
-            path,
-            &[("x-lobe-token", &self.token)],
-            body.to_string().as_bytes(),
-        )
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-struct Reply {
-    status: u16,
-    head: String,
-    body: Vec<u8>,
-}
-
-impl Reply {
-    fn text(&self) -> String {
-        String::from_utf8_lossy(&self.body).into_owned()
-    }
-}
-
-/// One HTTP/1.1 request on its own connection; `Host` is `addr` unless `headers` gives one.
-fn http(addr: &str, method: &str, target: &str, headers: &[(&str, &str)], body: &[u8]) -> Reply {
-    http_claiming(addr, method, target, headers, body.len(), body)
-}
-
-/// [`http`] with a `Content-Length` of `length` whatever the body sent: a server that refuses a
-/// body by its length answers before reading it.
-fn http_claiming(
-    addr: &str,
-    method: &str,
-    target: &str,
-    headers: &[(&str, &str)],
-    length: usize,
-    body: &[u8],
-) -> Reply {
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(PAGE_TIMEOUT)).unwrap();
-    let mut req = format!("{method} {target} HTTP/1.1\r\nConnection: close\r\n");
-    if !headers.iter().any(|(k, _)| k.eq_ignore_ascii_case("host")) {
-        req += &format!("Host: {addr}\r\n");
-    }
-    for (k, v) in headers {
-        req += &format!("{k}: {v}\r\n");
-    }
-    req += &format!("Content-Length: {length}\r\n\r\n");
-    s.write_all(req.as_bytes()).unwrap();
-    s.write_all(body).unwrap();
-    let mut raw = Vec::new();
-    let _ = s.read_to_end(&mut raw);
-    let split = raw
-        .windows(4)
-        .position(|w| w == b"\r\n\r\n")
-        .unwrap_or_else(|| panic!("no HTTP answer: {}", String::from_utf8_lossy(&raw)));
-    let head = String::from_utf8_lossy(&raw[..split]).into_owned();
-    let status = head.split(' ').nth(1).unwrap().parse().unwrap();
-    Reply {
-        status,
-        head,
-        body: raw[split + 4..].to_vec(),
-    }
-}
-
-fn floats(body: &[u8]) -> Vec<f32> {
-    body.chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect()
-}
 
 /// `lobe eval` (same backend as the server: the default GPU) at `pairs` of degrees
 /// (θi, φi, θo, φo).
@@ -335,7 +198,7 @@ fn refuses_oversized_requests_with_a_sentence() {
         ),
         (
             "/api/hemisphere",
-            json!({"model": "lambert", "samples": lobe::explore::MAX_HEMISPHERE_RES + 1}),
+            json!({"model": "lambert", "samples": lobe::explore::MAX_IMAGE_RES + 1}),
             "cells across from 1 to",
         ),
         (
@@ -400,6 +263,58 @@ fn polar_values_equal_lobe_eval() {
     }
     // The mirror direction (s = +30°) holds the peak, and colour reaches the values.
     assert!(got[3 * 6] > got[3 * 6 + 2], "{got:?}");
+}
+
+/// The θh × θd slice (φh = 0, φd = 90°) and the sphere under the point light, cell by cell,
+/// against `lobe eval` at the same directions.
+#[test]
+fn slice_and_sphere_values_equal_lobe_eval() {
+    let server = Server::start(&["lambert"]);
+    let spec = "cook_torrance{roughness=0.2}";
+    let ask = |path: &str, res: usize| {
+        let r = server.post(
+            path,
+            &json!({"model": "cook_torrance", "sets": ["roughness=0.2"], "theta_i_deg": 40, "samples": res}),
+        );
+        assert_eq!(r.status, 200, "{path}: {}", r.text());
+        floats(&r.body)
+    };
+    let res = 4;
+    let slice = ask("/api/slice", res);
+    let step = 90.0 / res as f64;
+    let mut pairs = Vec::new();
+    for row in 0..res {
+        for col in 0..res {
+            let (th, td) = ((col as f64 + 0.5) * step, (row as f64 + 0.5) * step);
+            let (wi, wo) = lobe::grid::half_diff_to_pair(
+                th.to_radians(),
+                0.0,
+                td.to_radians(),
+                90f64.to_radians(),
+            );
+            let ((ti, pi), (to, po)) = (lobe::grid::angles_deg(wi), lobe::grid::angles_deg(wo));
+            pairs.push([ti, pi, to, po]);
+        }
+    }
+    for (k, w) in lobe_eval(spec, &pairs).iter().enumerate() {
+        assert_close(
+            &format!("{spec} slice cell {k} {:?}", pairs[k]),
+            slice[3 * k] as f64,
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
+    // An odd sphere's middle cell faces the viewer: f(θi = 40°, θo = 0) cos 40°; the corners
+    // are outside the disc.
+    let sphere = ask("/api/sphere", 5);
+    let want = lobe_eval(spec, &[[40.0, 180.0, 0.0, 0.0]])[0][1] * 40f64.to_radians().cos();
+    assert_close(
+        &format!("{spec} sphere centre"),
+        sphere[3 * 12 + 1] as f64,
+        want,
+        SAME_BACKEND_REL,
+    );
+    assert!(sphere[0].is_nan(), "{sphere:?}");
 }
 
 #[test]

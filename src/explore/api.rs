@@ -5,6 +5,7 @@
 use super::guard::{self, query_value, refuse};
 use super::limits::*;
 use super::{State, APP_JS, INDEX_HTML, STYLE_CSS};
+use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamKind, ParamSet, Value};
 use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
 use crate::plot::polar::{light_direction, view_direction};
@@ -34,6 +35,8 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/models", get(models))
         .route("/api/polar", post(polar))
         .route("/api/hemisphere", post(hemisphere))
+        .route("/api/slice", post(slice))
+        .route("/api/sphere", post(sphere))
         .route("/api/albedo", post(albedo))
         .route("/api/brdf", post(upload))
         .fallback(|r: Request| async move {
@@ -217,23 +220,75 @@ async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
 }
 
 async fn hemisphere(state: Shared, body: Bytes) -> Response {
-    answer(hemisphere_values(state.0, body).await)
+    answer(image(state.0, body, hemisphere_cell).await)
 }
 
-/// f over ωo on the equal-area disc, `res` × `res` cells in rows from the top (+y), NaN outside
-/// the horizon, for the light of the polar plot.
-async fn hemisphere_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
-    let (req, params) = parse_view(&body, MAX_HEMISPHERE_RES, "cells across")?;
+async fn slice(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, slice_cell).await)
+}
+
+async fn sphere(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, sphere_cell).await)
+}
+
+/// What one cell of an image view evaluates: a pair of directions and the factor its f is
+/// multiplied by, or None for a cell the view leaves empty (NaN).
+type Cell = fn(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)>;
+
+/// The hemisphere of ωo on the equal-area disc, rows from the top (+y), for the polar plot's
+/// light.
+fn hemisphere_cell(
+    res: usize,
+    row: usize,
+    col: usize,
+    theta_i: f64,
+) -> Option<(DVec3, DVec3, f64)> {
+    let (x, y) = cell_point(res, row, col);
+    let wo = cell_direction(Projection::EqualArea, x, y)?;
+    Some((light_direction(theta_i), wo, 1.0))
+}
+
+/// The θh × θd slice at φh = 0, φd = 90° (where MERL slices are shown: both directions stay
+/// above the horizon), θh along the columns and θd down the rows, cell-centred over [0°, 90°).
+fn slice_cell(res: usize, row: usize, col: usize, _: f64) -> Option<(DVec3, DVec3, f64)> {
+    let step = std::f64::consts::FRAC_PI_2 / res as f64;
+    let theta_h = (col as f64 + 0.5) * step;
+    let theta_d = (row as f64 + 0.5) * step;
+    let (wi, wo) = half_diff_to_pair(theta_h, 0.0, theta_d, std::f64::consts::FRAC_PI_2);
+    Some((wi, wo, 1.0))
+}
+
+/// A unit sphere seen from +z (orthographic), lit by a distant point light of unit irradiance
+/// at normal incidence from the polar plot's light direction: radiance f·cos θi. Each normal's
+/// tangent frame is glam's `any_orthonormal_pair` (Duff et al. 2017), so an anisotropic model's
+/// tangent turns with the normal.
+fn sphere_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
+    let (x, y) = cell_point(res, row, col);
+    let r2 = x * x + y * y;
+    if r2 > 1.0 {
+        return None;
+    }
+    let n = DVec3::new(x, y, (1.0 - r2).sqrt());
+    let (t, b) = n.any_orthonormal_pair();
+    let local = |w: DVec3| DVec3::new(w.dot(t), w.dot(b), w.dot(n));
+    let wi = local(light_direction(theta_i));
+    let wo = local(DVec3::Z);
+    Some((wi, wo, wi.z.max(0.0)))
+}
+
+/// An image view: `res` × `res` cells (`cell` says what each evaluates), f32 RGB in rows from the
+/// top, NaN where the view has no value.
+async fn image(state: Arc<State>, body: Bytes, cell: Cell) -> Result<Response, Refusal> {
+    let (req, params) = parse_view(&body, MAX_IMAGE_RES, "cells across")?;
     let res = req.samples;
-    let wi = light_direction(req.theta_i_deg.to_radians());
-    let mut inside = Vec::with_capacity(res * res);
+    let theta_i = req.theta_i_deg.to_radians();
+    let mut cells = Vec::with_capacity(res * res);
     let mut pairs = Vec::new();
     for row in 0..res {
         for col in 0..res {
-            let (x, y) = cell_point(res, row, col);
-            let wo = cell_direction(Projection::EqualArea, x, y);
-            inside.push(wo.is_some());
-            pairs.extend(wo.map(|wo| (wi, wo)));
+            let c = cell(res, row, col, theta_i);
+            cells.push(c.map(|(_, _, factor)| factor));
+            pairs.extend(c.map(|(wi, wo, _)| (wi, wo)));
         }
     }
     let session = state.session.clone();
@@ -241,14 +296,16 @@ async fn hemisphere_values(state: Arc<State>, body: Bytes) -> Result<Response, R
     let (f, count) =
         blocking(move || session.eval_pairs_counting(&p, req.white_furnace, &pairs)).await?;
     let mut values = f.into_iter();
-    let cells: Vec<[f64; 3]> = inside
+    let image: Vec<[f64; 3]> = cells
         .iter()
-        .map(|&i| match i {
-            true => values.next().unwrap_or([f64::NAN; 3]),
-            false => [f64::NAN; 3],
+        .map(|c| match c {
+            Some(factor) => values
+                .next()
+                .map_or([f64::NAN; 3], |v| v.map(|x| x * factor)),
+            None => [f64::NAN; 3],
         })
         .collect();
-    Ok(binary(&cells, count.invalid, &params))
+    Ok(binary(&image, count.invalid, &params))
 }
 
 /// The view directions of an E(μ) curve: μ = k/n for k = 1..n, at φo = 0.
@@ -298,8 +355,9 @@ fn json_response(v: &serde_json::Value) -> Response {
         .into_response()
 }
 
-/// A model's parameter table as the page builds its controls from it.
-fn model_json(model: Model) -> serde_json::Value {
+/// A model's parameter table as the page builds its controls from it; `source` is the file a
+/// model defined at run time came from, as the command line names it.
+fn model_json(model: Model, source: Option<&str>) -> serde_json::Value {
     let finite = |x: f64| if x.is_finite() { json!(x) } else { json!(null) };
     let params: Vec<serde_json::Value> = model
         .params()
@@ -328,6 +386,7 @@ fn model_json(model: Model) -> serde_json::Value {
         "name": model.name(),
         "description": model.description(),
         "params": params,
+        "source": source,
     })
 }
 
@@ -345,12 +404,19 @@ fn changed_assignments(p: &ParamSet) -> Vec<String> {
 }
 
 async fn models(state: Shared) -> Response {
-    let mut list: Vec<Model> = Model::ALL.to_vec();
-    let extra = state.initial.iter().map(|(_, p)| p.model());
+    // A spec's name part that is not its model's name is the file it was loaded from.
+    let given = state.initial.iter().map(|(label, p)| {
+        let name = label.split('{').next().unwrap_or(label).trim();
+        (
+            p.model(),
+            (name != p.model().name()).then(|| name.to_string()),
+        )
+    });
     let uploaded = state.uploaded.lock().map(|u| u.clone()).unwrap_or_default();
-    for m in extra.chain(uploaded) {
-        if !list.iter().any(|k| k.name() == m.name()) {
-            list.push(m);
+    let mut list: Vec<(Model, Option<String>)> = Model::ALL.iter().map(|&m| (m, None)).collect();
+    for (m, source) in given.chain(uploaded.into_iter().map(|(m, s)| (m, Some(s)))) {
+        if !list.iter().any(|(k, _)| k.name() == m.name()) {
+            list.push((m, source));
         }
     }
     let initial: Vec<serde_json::Value> = state
@@ -359,14 +425,17 @@ async fn models(state: Shared) -> Response {
         .map(|(_, p)| json!({"model": p.model().name(), "sets": changed_assignments(p)}))
         .collect();
     json_response(&json!({
-        "models": list.into_iter().map(model_json).collect::<Vec<_>>(),
+        "models": list
+            .iter()
+            .map(|(m, source)| model_json(*m, source.as_deref()))
+            .collect::<Vec<_>>(),
         "materials": crate::material::all_names(),
         "material": state.material,
         "initial": initial,
         "backend": state.session.backend_name(),
         "limits": {
             "polar_samples": MAX_POLAR_SAMPLES,
-            "hemisphere_res": MAX_HEMISPHERE_RES,
+            "hemisphere_res": MAX_IMAGE_RES,
             "albedo_points": MAX_ALBEDO_POINTS,
             "brdf_bytes": MAX_BRDF_BYTES,
         },
@@ -439,9 +508,9 @@ async fn load_brdf(state: Arc<State>, name: &str, body: Bytes) -> Result<Respons
     })?
     .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
     if let Ok(mut list) = state.uploaded.lock() {
-        list.push(loaded.model);
+        list.push((loaded.model, label.clone()));
     }
-    let mut v = model_json(loaded.model);
+    let mut v = model_json(loaded.model, Some(&label));
     v["notes"] = json!(loaded
         .notes
         .iter()

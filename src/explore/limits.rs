@@ -14,8 +14,9 @@ pub const MAX_BRDF_BYTES: usize = 1024 * 1024;
 /// View angles of one polar curve: 4096 puts a point every 0.044°.
 pub const MAX_POLAR_SAMPLES: usize = 4096;
 
-/// Cells across a hemisphere image (256 × 256 = 65536 directions).
-pub const MAX_HEMISPHERE_RES: usize = 256;
+/// Cells across an image view: the hemisphere, the θh × θd slice, the lit sphere (256 × 256 =
+/// 65536 evaluations).
+pub const MAX_IMAGE_RES: usize = 256;
 
 /// View directions of one E(μ) curve.
 pub const MAX_ALBEDO_POINTS: usize = 64;

@@ -63,8 +63,9 @@ pub(crate) struct State {
     pub hosts: Vec<String>,
     pub initial: Vec<(String, ParamSet)>,
     pub material: Option<String>,
-    /// Models loaded from the page (.brdf uploads), by name, kept for the models list.
-    pub uploaded: Mutex<Vec<crate::Model>>,
+    /// Models loaded from the page (.brdf uploads), each with its file's name as the page gave
+    /// it, kept for the models list.
+    pub uploaded: Mutex<Vec<(crate::Model, String)>>,
     /// The folder uploaded files are compiled from; removed when the server ends.
     pub uploads: tempfile::TempDir,
 }

@@ -4,7 +4,7 @@
 
 const TOKEN = new URLSearchParams(location.search).get('token') || '';
 const POLAR_SAMPLES = 721;      // view angles per curve: one every 0.25°
-const HEMI_RES = 64;            // hemisphere cells across
+const IMAGE_RES = 64;           // cells across the hemisphere, slice and sphere images
 const ALBEDO_POINTS = 24;       // E(μ) view directions
 const ALBEDO_DELAY_MS = 250;    // quiet time after the last change before the albedo is asked for
 const BUSY_DELAY_MS = 150;      // how long a view may wait before the page says it is busy
@@ -74,9 +74,12 @@ function loadState() {
 
 // ---- "copy as command" -----------------------------------------------------------------------
 
+// The model as the command line names it: a file a model came from, else its name.
 function spec(entry) {
+  const info = catalog && modelInfo(entry.model);
+  const name = info && info.source ? info.source : entry.model;
   const sets = Object.entries(entry.sets).map(([k, v]) => `${k}=${v}`);
-  return sets.length ? `${entry.model}{${sets.join(',')}}` : entry.model;
+  return sets.length ? `${name}{${sets.join(',')}}` : name;
 }
 
 const quote = (s) => `'${s.replace(/'/g, "'\\''")}'`;
@@ -244,19 +247,22 @@ async function refreshViews() {
   try {
     const entries = state.m.map((e) => request(e, 0));
     const polar = entries.map((r) => call('/api/polar', { ...r, samples: POLAR_SAMPLES }));
-    const hemi = entries.map((r) => call('/api/hemisphere', { ...r, samples: HEMI_RES }));
-    const answers = await Promise.all(polar.concat(hemi));
+    const images = ['/api/hemisphere', '/api/slice', '/api/sphere']
+      .flatMap((path) => entries.map((r) => call(path, { ...r, samples: IMAGE_RES })));
+    const answers = await Promise.all(polar.concat(images));
     const n = entries.length;
     const data = await Promise.all(answers.map((a) => a.arrayBuffer()));
     probe.polar = data.slice(0, n).map((b) => new Float32Array(b));
     probe.invalid = answers.slice(0, n).map((a) => Number(a.headers.get('x-lobe-invalid')));
     probe.params = answers.slice(0, n).map((a) => JSON.parse(a.headers.get('x-lobe-params')));
     probe.request = entries;
-    probe.hemi = data.slice(n).map((b) => new Float32Array(b));
+    probe.hemi = data.slice(n, 2 * n).map((b) => new Float32Array(b));
+    probe.slice = data.slice(2 * n, 3 * n).map((b) => new Float32Array(b));
+    probe.sphere = data.slice(3 * n).map((b) => new Float32Array(b));
     if (controlsStale && n === state.m.length) { controlsStale = false; buildControls(); }
     showError('');
     drawPolar();
-    drawHemispheres();
+    drawImages();
     requestAnimationFrame(() => {
       probe.frames += 1;
       if (since !== null) probe.latencies.push(performance.now() - since);
@@ -288,6 +294,7 @@ async function refreshAlbedo() {
     probe.albedo = answers;
     probe.albedoRequest = asked;
     drawAlbedo(answers);
+    drawSkies(answers);
   } catch (e) {
     if (e.name !== 'AbortError') showError(e.message);
   }
@@ -367,37 +374,88 @@ function ramp(t) {
   return RAMP[k].map((c, j) => Math.round(c + (RAMP[k + 1][j] - c) * u));
 }
 
-function drawHemispheres() {
-  const box = $('hemispheres');
-  const figures = state.m.map((e, i) => {
-    const f = probe.hemi[i];
-    const c = Object.assign(document.createElement('canvas'), { width: HEMI_RES, height: HEMI_RES });
-    c.style.width = c.style.height = '160px';
-    c.style.imageRendering = 'pixelated';
-    const g = c.getContext('2d');
-    const img = g.createImageData(HEMI_RES, HEMI_RES);
-    let peak = 0;
-    for (let k = 0; k < f.length / 3; k++) { const v = luminance(f[3 * k], f[3 * k + 1], f[3 * k + 2]); if (v > peak) peak = v; }
-    for (let k = 0; k < f.length / 3; k++) {
-      const v = luminance(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
-      if (Number.isNaN(f[3 * k])) { img.data[4 * k + 3] = 0; continue; }
-      const rgb = ramp(peak > 0 ? 1 + Math.log10(Math.max(v, 1e-300) / peak) / DECADES : 0);
-      img.data.set([...rgb, 255], 4 * k);
-    }
-    g.putImageData(img, 0, 0);
-    const bar = Object.assign(document.createElement('canvas'), { width: 160, height: 10 });
-    const bg = bar.getContext('2d');
-    for (let x = 0; x < 160; x++) { bg.fillStyle = `rgb(${ramp(x / 159).join(',')})`; bg.fillRect(x, 0, 1, 10); }
-    const div = document.createElement('div');
+// An image of f32 RGB cells (NaN: empty) in a canvas: `colour` maps a cell's RGB to bytes.
+function imageCanvas(f, colour) {
+  const c = Object.assign(document.createElement('canvas'), { width: IMAGE_RES, height: IMAGE_RES });
+  c.style.width = c.style.height = '150px';
+  c.style.imageRendering = 'pixelated';
+  const g = c.getContext('2d');
+  const img = g.createImageData(IMAGE_RES, IMAGE_RES);
+  for (let k = 0; k < IMAGE_RES * IMAGE_RES; k++) {
+    if (Number.isNaN(f[3 * k])) continue;
+    img.data.set([...colour(f[3 * k], f[3 * k + 1], f[3 * k + 2]), 255], 4 * k);
+  }
+  g.putImageData(img, 0, 0);
+  return c;
+}
+
+function peakOf(f) {
+  let peak = 0;
+  for (let k = 0; k < f.length / 3; k++) { const v = luminance(f[3 * k], f[3 * k + 1], f[3 * k + 2]); if (v > peak) peak = v; }
+  return peak;
+}
+
+// Log colour over DECADES below the image's peak, with its colour bar.
+function logPanel(f, caption) {
+  const peak = peakOf(f);
+  const c = imageCanvas(f, (r, g, b) => ramp(peak > 0 ? 1 + Math.log10(Math.max(luminance(r, g, b), 1e-300) / peak) / DECADES : 0));
+  const bar = Object.assign(document.createElement('canvas'), { width: 150, height: 8 });
+  const bg = bar.getContext('2d');
+  for (let x = 0; x < 150; x++) { bg.fillStyle = `rgb(${ramp(x / 149).join(',')})`; bg.fillRect(x, 0, 1, 8); }
+  return panel(c, caption, bar, `${fmt(peak * Math.pow(10, -DECADES))} … ${fmt(peak)} 1/sr`);
+}
+
+// Radiance relative to a white Lambertian surface's (π L), clipped at 1, as sRGB.
+const display = (r, g, b) => [r, g, b].map((v) => Math.round(255 * srgb(Math.min(1, Math.max(0, Math.PI * v)))));
+
+function panel(canvas, caption, ...below) {
+  const div = document.createElement('div');
+  const cap = document.createElement('div');
+  cap.textContent = caption;
+  div.append(canvas, ...below.map((b) => (typeof b === 'string' ? Object.assign(document.createElement('div'), { textContent: b }) : b)), cap);
+  return div;
+}
+
+function drawImages() {
+  const rows = state.m.map((e, i) => {
+    const row = document.createElement('div');
+    row.className = 'images';
     const title = document.createElement('div');
+    title.className = 'title';
     title.textContent = spec(e);
     title.style.color = COLOURS[i % COLOURS.length];
-    const scale = document.createElement('div');
-    scale.textContent = `${fmt(peak * 1e-4)} … ${fmt(peak)} 1/sr`;
-    div.append(title, c, document.createElement('br'), bar, scale);
-    return div;
+    const sky = Object.assign(document.createElement('canvas'), { width: IMAGE_RES, height: IMAGE_RES, className: 'sky' });
+    sky.style.width = sky.style.height = '150px';
+    row.append(title,
+      logPanel(probe.hemi[i], 'hemisphere of ωo'),
+      logPanel(probe.slice[i], 'θh → × θd ↓ (φd = 90°)'),
+      panel(imageCanvas(probe.sphere[i], display), 'sphere, point light at θi'),
+      panel(sky, 'sphere, white sky: E(μo)'));
+    return row;
   });
-  box.replaceChildren(...figures);
+  $('images').replaceChildren(...rows);
+  if (probe.albedo.length === state.m.length) drawSkies(probe.albedo);
+}
+
+// Under a uniform white sky of unit radiance a point's radiance is its directional albedo
+// E(μo), μo = n·v; E is interpolated in the curve the server computed.
+function drawSkies(answers) {
+  document.querySelectorAll('#images canvas.sky').forEach((c, i) => {
+    const a = answers[i];
+    if (!a) return;
+    const E = (mu) => {
+      const x = mu * a.mu.length - 1, k = Math.max(0, Math.min(a.mu.length - 2, Math.floor(x))), u = Math.max(0, Math.min(1, x - k));
+      return [0, 1, 2].map((j) => a.albedo[k][j] * (1 - u) + a.albedo[k + 1][j] * u);
+    };
+    const f = new Float32Array(3 * IMAGE_RES * IMAGE_RES).fill(NaN);
+    for (let row = 0; row < IMAGE_RES; row++) {
+      for (let col = 0; col < IMAGE_RES; col++) {
+        const x = -1 + (col + 0.5) * 2 / IMAGE_RES, y = 1 - (row + 0.5) * 2 / IMAGE_RES, r2 = x * x + y * y;
+        if (r2 <= 1) f.set(E(Math.sqrt(1 - r2)).map((v) => v / Math.PI), 3 * (row * IMAGE_RES + col));
+      }
+    }
+    c.getContext('2d').drawImage(imageCanvas(f, display), 0, 0);
+  });
 }
 
 function drawAlbedo(answers) {
