@@ -265,10 +265,11 @@ fn polar_values_equal_lobe_eval() {
     assert!(got[3 * 6] > got[3 * 6 + 2], "{got:?}");
 }
 
-/// The θh × θd slice (φh = 0, φd = 90°) and the sphere under the point light, cell by cell,
+/// The θh × θd slice (φh = 0, φd = 90°), the sphere under the point light and the 3D lobe's mesh,
+/// cell by cell,
 /// against `lobe eval` at the same directions.
 #[test]
-fn slice_and_sphere_values_equal_lobe_eval() {
+fn slice_sphere_and_3d_lobe_equal_lobe_eval() {
     let server = Server::start(&["lambert"]);
     let spec = "cook_torrance{roughness=0.2}";
     let ask = |path: &str, res: usize| {
@@ -315,6 +316,27 @@ fn slice_and_sphere_values_equal_lobe_eval() {
         SAME_BACKEND_REL,
     );
     assert!(sphere[0].is_nan(), "{sphere:?}");
+    // The 3D lobe's mesh: row r at θo = (r + ½)·90°/res, column c at φo = c·360°/res.
+    let mesh = ask("/api/lobe", res);
+    let mut pairs = Vec::new();
+    for row in 0..res {
+        for col in 0..res {
+            pairs.push([
+                40.0,
+                180.0,
+                (row as f64 + 0.5) * 90.0 / res as f64,
+                col as f64 * 360.0 / res as f64,
+            ]);
+        }
+    }
+    for (k, w) in lobe_eval(spec, &pairs).iter().enumerate() {
+        assert_close(
+            &format!("{spec} 3D lobe cell {k} {:?}", pairs[k]),
+            mesh[3 * k] as f64,
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
 }
 
 #[test]

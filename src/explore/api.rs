@@ -37,6 +37,7 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/hemisphere", post(hemisphere))
         .route("/api/slice", post(slice))
         .route("/api/sphere", post(sphere))
+        .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
         .route("/api/brdf", post(upload))
         .fallback(|r: Request| async move {
@@ -231,6 +232,10 @@ async fn sphere(state: Shared, body: Bytes) -> Response {
     answer(image(state.0, body, sphere_cell).await)
 }
 
+async fn lobe(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, lobe_cell).await)
+}
+
 /// What one cell of an image view evaluates: a pair of directions and the factor its f is
 /// multiplied by, or None for a cell the view leaves empty (NaN).
 type Cell = fn(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)>;
@@ -274,6 +279,18 @@ fn sphere_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec
     let wi = local(light_direction(theta_i));
     let wo = local(DVec3::Z);
     Some((wi, wo, wi.z.max(0.0)))
+}
+
+/// The 3D lobe's mesh: ωo at θo = (row + ½)·90°/res down the rows and φo = col·360°/res along
+/// the columns (the page closes each ring), for the polar plot's light.
+fn lobe_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
+    let theta_o = (row as f64 + 0.5) * std::f64::consts::FRAC_PI_2 / res as f64;
+    let phi_o = col as f64 * std::f64::consts::TAU / res as f64;
+    Some((
+        light_direction(theta_i),
+        crate::grid::direction(theta_o, phi_o),
+        1.0,
+    ))
 }
 
 /// An image view: `res` × `res` cells (`cell` says what each evaluates), f32 RGB in rows from the

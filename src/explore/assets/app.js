@@ -247,7 +247,7 @@ async function refreshViews() {
   try {
     const entries = state.m.map((e) => request(e, 0));
     const polar = entries.map((r) => call('/api/polar', { ...r, samples: POLAR_SAMPLES }));
-    const images = ['/api/hemisphere', '/api/slice', '/api/sphere']
+    const images = ['/api/hemisphere', '/api/slice', '/api/sphere', '/api/lobe']
       .flatMap((path) => entries.map((r) => call(path, { ...r, samples: IMAGE_RES })));
     const answers = await Promise.all(polar.concat(images));
     const n = entries.length;
@@ -258,11 +258,13 @@ async function refreshViews() {
     probe.request = entries;
     probe.hemi = data.slice(n, 2 * n).map((b) => new Float32Array(b));
     probe.slice = data.slice(2 * n, 3 * n).map((b) => new Float32Array(b));
-    probe.sphere = data.slice(3 * n).map((b) => new Float32Array(b));
+    probe.sphere = data.slice(3 * n, 4 * n).map((b) => new Float32Array(b));
+    probe.lobe = data.slice(4 * n).map((b) => new Float32Array(b));
     if (controlsStale && n === state.m.length) { controlsStale = false; buildControls(); }
     showError('');
     drawPolar();
     drawImages();
+    drawLobe();
     requestAnimationFrame(() => {
       probe.frames += 1;
       if (since !== null) probe.latencies.push(performance.now() - since);
@@ -484,6 +486,67 @@ function drawAlbedo(answers) {
   $('albedo-readout').tBodies[0].replaceChildren(...rows);
 }
 
+// The 3D lobe: the point at radius ρ(f) along each ωo of the server's (θo, φo) mesh, with ρ the
+// polar plot's radius (log or linear, common peak), drawn as rings and meridians, orthographic,
+// turned by dragging.
+let view3d = { yaw: -0.6, pitch: 1.1 };
+function drawLobe() {
+  const c = $('lobe3d');
+  const g = c.getContext('2d');
+  g.clearRect(0, 0, c.width, c.height);
+  if (!probe.lobe) return;
+  const n = IMAGE_RES;
+  const scale = state.cos ? Math.cos(state.ti * Math.PI / 180) : 1;
+  const lum = probe.lobe.map((f) => { const v = new Float64Array(n * n); for (let k = 0; k < n * n; k++) v[k] = luminance(f[3 * k], f[3 * k + 1], f[3 * k + 2]) * scale; return v; });
+  const peak = Math.max(1e-30, ...lum.map((v) => v.reduce((m, x) => (x > m ? x : m), 0)));
+  const radius = (v) => (state.log ? Math.max(0, 1 + Math.log10(Math.max(v, 1e-300) / peak) / DECADES) : Math.max(0, v / peak));
+  const R = Math.min(c.width, c.height) * 0.42, cx = c.width / 2, cy = c.height * 0.62;
+  const [cy_, sy] = [Math.cos(view3d.yaw), Math.sin(view3d.yaw)], [cp, sp] = [Math.cos(view3d.pitch), Math.sin(view3d.pitch)];
+  const project = (x, y, z) => { const x1 = cy_ * x - sy * y, y1 = sy * x + cy_ * y; return [cx + R * x1, cy - R * (cp * z - sp * y1)]; };
+  const point = (v, row, col) => {
+    const t = (row + 0.5) * Math.PI / 2 / n, p = col * 2 * Math.PI / n, r = radius(v[row * n + (col % n)]);
+    return project(r * Math.sin(t) * Math.cos(p), r * Math.sin(t) * Math.sin(p), r * Math.cos(t));
+  };
+  g.lineWidth = 1;
+  g.strokeStyle = '#bbb';
+  g.setLineDash([]);
+  g.beginPath();
+  for (let k = 0; k <= 64; k++) { const [x, y] = project(Math.cos(k * Math.PI / 32), Math.sin(k * Math.PI / 32), 0); if (k) g.lineTo(x, y); else g.moveTo(x, y); }
+  g.stroke();
+  const ti = state.ti * Math.PI / 180;
+  g.strokeStyle = '#f0a000';
+  g.beginPath(); g.moveTo(...project(0, 0, 0)); g.lineTo(...project(-Math.sin(ti), 0, Math.cos(ti))); g.stroke();
+  lum.forEach((v, i) => {
+    g.strokeStyle = COLOURS[i % COLOURS.length];
+    g.globalAlpha = 0.6;
+    for (let row = 0; row < n; row += 4) {
+      g.beginPath();
+      for (let col = 0; col <= n; col++) { const [x, y] = point(v, row, col); if (col) g.lineTo(x, y); else g.moveTo(x, y); }
+      g.stroke();
+    }
+    for (let col = 0; col < n; col += 4) {
+      g.beginPath();
+      for (let row = 0; row < n; row++) { const [x, y] = point(v, row, col); if (row) g.lineTo(x, y); else g.moveTo(x, y); }
+      g.stroke();
+    }
+    g.globalAlpha = 1;
+  });
+}
+
+function dragLobe() {
+  const c = $('lobe3d');
+  let last = null;
+  c.addEventListener('pointerdown', (e) => { last = [e.clientX, e.clientY]; c.setPointerCapture(e.pointerId); });
+  c.addEventListener('pointerup', () => { last = null; });
+  c.addEventListener('pointermove', (e) => {
+    if (!last) return;
+    view3d.yaw += (e.clientX - last[0]) * 0.01;
+    view3d.pitch = Math.min(Math.PI / 2, Math.max(0, view3d.pitch + (e.clientY - last[1]) * 0.01));
+    last = [e.clientX, e.clientY];
+    drawLobe();
+  });
+}
+
 // ---- files -----------------------------------------------------------------------------------
 
 async function openBrdf(file) {
@@ -528,8 +591,9 @@ async function start() {
   }
   buildControls();
   $('theta-i').addEventListener('input', () => { state.ti = Number($('theta-i').value); $('theta-i-value').textContent = `${state.ti}°`; changed(false); });
-  $('cos').addEventListener('change', () => { state.cos = $('cos').checked; saveState(); drawPolar(); });
-  $('log').addEventListener('change', () => { state.log = $('log').checked; saveState(); drawPolar(); });
+  $('cos').addEventListener('change', () => { state.cos = $('cos').checked; saveState(); drawPolar(); drawLobe(); });
+  $('log').addEventListener('change', () => { state.log = $('log').checked; saveState(); drawPolar(); drawLobe(); });
+  dragLobe();
   $('white-furnace').addEventListener('change', () => { state.wf = $('white-furnace').checked; changed(false); });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openBrdf(ev.target.files[0]); ev.target.value = ''; });
