@@ -228,15 +228,20 @@ let inFlight = false;
 let dirty = false;
 let albedoTimer = null;
 let albedoAbort = null;
+let imagesAbort = null;
 
 function changed(rebuild) {
   if (pendingInput === null) pendingInput = performance.now();
+  // The image views under way show a state that is gone: drop them, so the new one starts now.
+  if (imagesAbort) imagesAbort.abort();
   if (rebuild) buildControls();
   saveState();
   refreshViews();
   scheduleAlbedo();
 }
 
+// The polar plot and the 3D lobe first, drawn as soon as they arrive; the image views after them,
+// and only when no newer state is waiting (a drag asks for them once it rests).
 async function refreshViews() {
   if (inFlight) { dirty = true; return; }
   inFlight = true;
@@ -244,35 +249,40 @@ async function refreshViews() {
   const since = pendingInput;
   pendingInput = null;
   const busy = setTimeout(() => { $('status').textContent = 'computing…'; }, BUSY_DELAY_MS);
+  const fetchAll = async (entries, views, signal) => {
+    const answers = await Promise.all(views.flatMap(([path, samples]) => entries.map((r) => call(path, { ...r, samples }, signal))));
+    const data = await Promise.all(answers.map((a) => a.arrayBuffer()));
+    return { answers, data: data.map((d) => new Float32Array(d)) };
+  };
   try {
     const entries = state.m.map((e) => request(e, 0));
-    const polar = entries.map((r) => call('/api/polar', { ...r, samples: POLAR_SAMPLES }));
-    const images = ['/api/hemisphere', '/api/slice', '/api/sphere', '/api/lobe']
-      .flatMap((path) => entries.map((r) => call(path, { ...r, samples: IMAGE_RES })));
-    const answers = await Promise.all(polar.concat(images));
     const n = entries.length;
-    const data = await Promise.all(answers.map((a) => a.arrayBuffer()));
-    probe.polar = data.slice(0, n).map((b) => new Float32Array(b));
-    probe.invalid = answers.slice(0, n).map((a) => Number(a.headers.get('x-lobe-invalid')));
-    probe.params = answers.slice(0, n).map((a) => JSON.parse(a.headers.get('x-lobe-params')));
+    const first = await fetchAll(entries, [['/api/polar', POLAR_SAMPLES], ['/api/lobe', IMAGE_RES]]);
+    probe.polar = first.data.slice(0, n);
+    probe.lobe = first.data.slice(n);
+    probe.invalid = first.answers.slice(0, n).map((a) => Number(a.headers.get('x-lobe-invalid')));
+    probe.params = first.answers.slice(0, n).map((a) => JSON.parse(a.headers.get('x-lobe-params')));
     probe.request = entries;
-    probe.hemi = data.slice(n, 2 * n).map((b) => new Float32Array(b));
-    probe.slice = data.slice(2 * n, 3 * n).map((b) => new Float32Array(b));
-    probe.sphere = data.slice(3 * n, 4 * n).map((b) => new Float32Array(b));
-    probe.lobe = data.slice(4 * n).map((b) => new Float32Array(b));
     if (controlsStale && n === state.m.length) { controlsStale = false; buildControls(); }
     showError('');
     drawPolar();
-    drawImages();
     drawLobe();
     requestAnimationFrame(() => {
       probe.frames += 1;
       if (since !== null) probe.latencies.push(performance.now() - since);
       probe.ready = true;
     });
+    if (!dirty) {
+      imagesAbort = new AbortController();
+      const images = await fetchAll(entries, [['/api/hemisphere', IMAGE_RES], ['/api/slice', IMAGE_RES], ['/api/sphere', IMAGE_RES]], imagesAbort.signal);
+      [probe.hemi, probe.slice, probe.sphere] = [0, 1, 2].map((k) => images.data.slice(k * n, (k + 1) * n));
+      probe.imagesRequest = entries;
+      if (!dirty) drawImages();
+    }
   } catch (e) {
-    showError(e.message);
+    if (e.name !== 'AbortError') showError(e.message);
   } finally {
+    imagesAbort = null;
     clearTimeout(busy);
     $('status').textContent = '';
     inFlight = false;
