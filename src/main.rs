@@ -76,8 +76,8 @@ enum Command {
     /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A
     /// and B overlaid and their difference over the hemisphere.
     Compare(cli::compare::CompareArgs),
-    /// The models on a local web page: polar plot, hemisphere and albedo, with a slider per
-    /// parameter, every value computed by lobe. Serves until Ctrl-C.
+    /// The models on a local web page: polar plot, 3D lobe, hemisphere, slice, lit spheres and
+    /// albedo, with a control per parameter, every value computed by lobe. Serves until Ctrl-C.
     Explore(cli::explore::ExploreArgs),
 }
 
