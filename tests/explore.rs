@@ -352,6 +352,12 @@ fn exits_on_sigterm_leaving_nothing() {
         &text,
     );
     assert_eq!(r.status, 200, "{}", r.text());
+    assert!(
+        !r.text().contains(&*server.tmp.path().to_string_lossy()),
+        "the page is shown the server's folder: {}",
+        r.text()
+    );
+    assert!(r.text().contains("ggx.brdf"), "{}", r.text());
     assert_eq!(std::fs::read_dir(server.tmp.path()).unwrap().count(), 1);
     // SAFETY: kill only sends a signal to the child this test started.
     assert_eq!(

@@ -431,11 +431,16 @@ async fn models(state: Shared) -> Response {
     });
     let uploaded = state.uploaded.lock().map(|u| u.clone()).unwrap_or_default();
     let mut list: Vec<(Model, Option<String>)> = Model::ALL.iter().map(|&m| (m, None)).collect();
-    for (m, source) in given.chain(uploaded.into_iter().map(|(m, s)| (m, Some(s)))) {
+    for (m, source) in given.chain(uploaded.iter().map(|(m, s, _)| (*m, Some(s.clone())))) {
         if !list.iter().any(|(k, _)| k.name() == m.name()) {
             list.push((m, source));
         }
     }
+    let shown =
+        |m: Model, v: serde_json::Value| match uploaded.iter().find(|u| u.0.name() == m.name()) {
+            Some((_, label, path)) => renamed(v, path, label),
+            None => v,
+        };
     let initial: Vec<serde_json::Value> = state
         .initial
         .iter()
@@ -444,7 +449,7 @@ async fn models(state: Shared) -> Response {
     json_response(&json!({
         "models": list
             .iter()
-            .map(|(m, source)| model_json(*m, source.as_deref()))
+            .map(|(m, source)| shown(*m, model_json(*m, source.as_deref())))
             .collect::<Vec<_>>(),
         "materials": crate::material::all_names(),
         "material": state.material,
@@ -525,15 +530,30 @@ async fn load_brdf(state: Arc<State>, name: &str, body: Bytes) -> Result<Respons
     })?
     .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
     if let Ok(mut list) = state.uploaded.lock() {
-        list.push((loaded.model, label.clone()));
+        list.push((loaded.model, label.clone(), shown.clone()));
     }
     let mut v = model_json(loaded.model, Some(&label));
-    v["notes"] = json!(loaded
-        .notes
-        .iter()
-        .map(|n| n.replace(&shown, &label))
-        .collect::<Vec<_>>());
-    Ok(json_response(&v))
+    v["notes"] = json!(loaded.notes);
+    Ok(json_response(&renamed(v, &shown, &label)))
+}
+
+/// `v` with every mention of the folder path `from` in its strings replaced by the name `to`.
+fn renamed(v: serde_json::Value, from: &str, to: &str) -> serde_json::Value {
+    match v {
+        serde_json::Value::String(text) => json!(text.replace(from, to)),
+        serde_json::Value::Array(items) => {
+            json!(items
+                .into_iter()
+                .map(|x| renamed(x, from, to))
+                .collect::<Vec<_>>())
+        }
+        serde_json::Value::Object(map) => serde_json::Value::Object(
+            map.into_iter()
+                .map(|(k, x)| (k, renamed(x, from, to)))
+                .collect(),
+        ),
+        other => other,
+    }
 }
 
 #[cfg(test)]

@@ -64,8 +64,9 @@ pub(crate) struct State {
     pub initial: Vec<(String, ParamSet)>,
     pub material: Option<String>,
     /// Models loaded from the page (.brdf uploads), each with its file's name as the page gave
-    /// it, kept for the models list.
-    pub uploaded: Mutex<Vec<(crate::Model, String)>>,
+    /// it and the path it was compiled from (which the page never sees), kept for the models
+    /// list.
+    pub uploaded: Mutex<Vec<(crate::Model, String, String)>>,
     /// The folder uploaded files are compiled from; removed when the server ends.
     pub uploads: tempfile::TempDir,
 }
