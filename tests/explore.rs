@@ -97,7 +97,12 @@ fn assert_close(what: &str, got: f64, want: f64, rel: f64) {
 fn refuses_requests_without_the_token() {
     let server = Server::start(&["lambert"]);
     let body = json!({"model": "lambert", "samples": 3}).to_string();
-    for (method, target) in [("GET", "/"), ("GET", "/app.js"), ("GET", "/api/models")] {
+    for (method, target) in [
+        ("GET", "/"),
+        ("GET", "/app.js"),
+        ("GET", "/views.js"),
+        ("GET", "/api/models"),
+    ] {
         let r = http(&server.addr, method, target, &[], b"");
         assert_eq!(r.status, 403, "{method} {target}: {}", r.text());
         assert!(r.text().contains("token"), "{}", r.text());

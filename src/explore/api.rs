@@ -4,7 +4,7 @@
 
 use super::guard::{self, query_value, refuse};
 use super::limits::*;
-use super::{State, APP_JS, INDEX_HTML, STYLE_CSS};
+use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
 use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamKind, ParamSet, Value};
 use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
@@ -27,6 +27,10 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route(
             "/app.js",
             get(|| asset("text/javascript; charset=utf-8", APP_JS)),
+        )
+        .route(
+            "/views.js",
+            get(|| asset("text/javascript; charset=utf-8", VIEWS_JS)),
         )
         .route(
             "/style.css",

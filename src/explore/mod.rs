@@ -19,9 +19,10 @@ use crate::Session;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::{Arc, Mutex};
 
-/// The page, its script and its style, compiled in.
+/// The page, its scripts and its style, compiled in.
 pub(crate) const INDEX_HTML: &str = include_str!("assets/index.html");
 pub(crate) const APP_JS: &str = include_str!("assets/app.js");
+pub(crate) const VIEWS_JS: &str = include_str!("assets/views.js");
 pub(crate) const STYLE_CSS: &str = include_str!("assets/style.css");
 
 /// What `lobe explore` starts with.
