@@ -24,6 +24,8 @@ pub mod demo;
 pub mod energy;
 pub mod error;
 pub mod eval;
+#[cfg(feature = "explore")]
+pub mod explore;
 pub mod finite;
 pub mod fit;
 pub mod gpu;

@@ -76,6 +76,9 @@ enum Command {
     /// cosine-weighted log error, relative L2 and the albedo difference E_A - E_B; -o draws A
     /// and B overlaid and their difference over the hemisphere.
     Compare(cli::compare::CompareArgs),
+    /// The models on a local web page: polar plot, 3D lobe, hemisphere, slice, lit spheres and
+    /// albedo, with a control per parameter, every value computed by lobe. Serves until Ctrl-C.
+    Explore(cli::explore::ExploreArgs),
 }
 
 /// The exit status after standard output was closed early (`lobe ... | head`): 128 + SIGPIPE,
@@ -161,6 +164,7 @@ fn main() {
         Command::Plot(a) => cli::plot::run(a),
         Command::Fit(a) => cli::fit::run(a),
         Command::Compare(a) => cli::compare::run(a),
+        Command::Explore(a) => cli::explore::run(a),
     };
     if let Err(e) = result {
         let io_kind = |c: &(dyn std::error::Error + 'static)| {

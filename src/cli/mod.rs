@@ -8,6 +8,7 @@ pub mod compare;
 pub mod demo;
 pub mod energy;
 pub mod eval;
+pub mod explore;
 pub mod fit;
 pub mod models;
 pub mod plot;

@@ -1,0 +1,585 @@
+//! The routes: the page and its assets, the model list, and one route per view, each answering
+//! with what a [`Session`](crate::Session) computes (binary little-endian f32 RGB for the
+//! views, JSON for the albedo and the model list).
+
+use super::guard::{self, query_value, refuse};
+use super::limits::*;
+use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
+use crate::grid::half_diff_to_pair;
+use crate::model::{Model, ParamKind, ParamSet, Value};
+use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
+use crate::plot::polar::{light_direction, view_direction};
+use axum::body::Bytes;
+use axum::extract::{DefaultBodyLimit, Request};
+use axum::http::{header, HeaderName, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::Router;
+use glam::DVec3;
+use serde_json::json;
+use std::sync::Arc;
+
+type Shared = axum::extract::State<Arc<State>>;
+
+pub(crate) fn router(state: Arc<State>) -> Router {
+    Router::new()
+        .route("/", get(index))
+        .route(
+            "/app.js",
+            get(|| asset("text/javascript; charset=utf-8", APP_JS)),
+        )
+        .route(
+            "/views.js",
+            get(|| asset("text/javascript; charset=utf-8", VIEWS_JS)),
+        )
+        .route(
+            "/style.css",
+            get(|| asset("text/css; charset=utf-8", STYLE_CSS)),
+        )
+        .route("/api/models", get(models))
+        .route("/api/polar", post(polar))
+        .route("/api/hemisphere", post(hemisphere))
+        .route("/api/slice", post(slice))
+        .route("/api/sphere", post(sphere))
+        .route("/api/lobe", post(lobe))
+        .route("/api/albedo", post(albedo))
+        .route("/api/brdf", post(upload))
+        .fallback(|r: Request| async move {
+            refuse(
+                StatusCode::NOT_FOUND,
+                format!("no such page: {}", r.uri().path()),
+            )
+        })
+        .layer(DefaultBodyLimit::max(MAX_BRDF_BYTES))
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            guard::guard,
+        ))
+        .with_state(state)
+}
+
+/// The page: scripts only from this server, requests only to it.
+const CSP: &str = "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'";
+
+async fn index(state: Shared) -> Response {
+    let html = INDEX_HTML.replace("__TOKEN__", &state.token);
+    (
+        [
+            (header::CONTENT_TYPE, "text/html; charset=utf-8"),
+            (header::CONTENT_SECURITY_POLICY, CSP),
+            (header::CACHE_CONTROL, "no-store"),
+            (header::REFERRER_POLICY, "no-referrer"),
+        ],
+        html,
+    )
+        .into_response()
+}
+
+async fn asset(content_type: &'static str, text: &'static str) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, content_type),
+            (header::CACHE_CONTROL, "no-store"),
+            (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        ],
+        text,
+    )
+        .into_response()
+}
+
+/// What a view asks for: a model with its parameters (as `lobe table --model M --material P
+/// --set K=V` takes them) and the view's settings.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ViewRequest {
+    model: String,
+    #[serde(default)]
+    material: Option<String>,
+    #[serde(default)]
+    sets: Vec<String>,
+    #[serde(default)]
+    white_furnace: bool,
+    #[serde(default)]
+    theta_i_deg: f64,
+    /// Polar: view angles; hemisphere: cells across; albedo: view directions.
+    samples: usize,
+}
+
+/// A request that cannot be answered: the status and the sentence the page shows.
+type Refusal = (StatusCode, String);
+
+fn bad(message: String) -> Refusal {
+    (StatusCode::UNPROCESSABLE_ENTITY, message)
+}
+
+/// Parses and checks a view request; `max` bounds `samples`, `what` names them.
+fn parse_view(body: &[u8], max: usize, what: &str) -> Result<(ViewRequest, ParamSet), Refusal> {
+    let req: ViewRequest =
+        serde_json::from_slice(body).map_err(|e| bad(format!("request body: {e}")))?;
+    if !(1..=max).contains(&req.samples) {
+        return Err(bad(format!(
+            "samples {}: expected {what} from 1 to {max}",
+            req.samples
+        )));
+    }
+    if !(req.theta_i_deg.is_finite() && (0.0..90.0).contains(&req.theta_i_deg)) {
+        return Err(bad(format!(
+            "theta_i_deg {}: expected an incidence angle in [0, 90) degrees",
+            req.theta_i_deg
+        )));
+    }
+    if req.sets.len() > MAX_ASSIGNMENTS {
+        return Err(bad(format!(
+            "{} assignments: at most {MAX_ASSIGNMENTS} are accepted",
+            req.sets.len()
+        )));
+    }
+    let params = crate::resolve_params(&req.model, req.material.as_deref(), &req.sets)
+        .map_err(|e| bad(format!("model {}: {e}", req.model)))?;
+    Ok((req, params))
+}
+
+/// Runs `job` on a blocking thread (evaluation holds a core) and turns its failure into a
+/// refusal: a parameter the model refuses is the request's fault, anything else the server's.
+async fn blocking<T: Send + 'static>(
+    job: impl FnOnce() -> crate::Result<T> + Send + 'static,
+) -> Result<T, Refusal> {
+    match tokio::task::spawn_blocking(job).await {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e @ crate::Error::Param(_))) => Err(bad(e.to_string())),
+        Ok(Err(e)) => Err((StatusCode::INTERNAL_SERVER_ERROR, e.to_string())),
+        Err(e) => Err((
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("evaluation failed: {e}"),
+        )),
+    }
+}
+
+/// f32 RGB values as little-endian bytes, with the count of invalid values (NaN, ±Inf,
+/// negative) in a header.
+fn binary(values: &[[f64; 3]], invalid: u64, params: &ParamSet) -> Response {
+    let floats: Vec<f32> = values.iter().flatten().map(|&v| v as f32).collect();
+    let bytes: Vec<u8> = floats.iter().flat_map(|v| v.to_le_bytes()).collect();
+    (
+        [
+            (header::CONTENT_TYPE, "application/octet-stream".to_string()),
+            (header::CACHE_CONTROL, "no-store".to_string()),
+            (
+                HeaderName::from_static("x-lobe-invalid"),
+                invalid.to_string(),
+            ),
+            // The values evaluated (defaults, preset, assignments), for the page's controls.
+            (
+                HeaderName::from_static("x-lobe-params"),
+                ascii_json(&params.to_json()),
+            ),
+        ],
+        bytes,
+    )
+        .into_response()
+}
+
+/// JSON with every character outside printable ASCII escaped, as a header value must be.
+fn ascii_json(v: &serde_json::Value) -> String {
+    v.to_string()
+        .chars()
+        .map(|c| match c {
+            ' '..='~' => c.to_string(),
+            c => c
+                .encode_utf16(&mut [0; 2])
+                .iter()
+                .map(|u| format!("\\u{u:04x}"))
+                .collect(),
+        })
+        .collect()
+}
+
+fn answer(r: Result<Response, Refusal>) -> Response {
+    r.unwrap_or_else(|(status, message)| refuse(status, message))
+}
+
+/// The view angles of a polar curve, degrees: `n` cell centres over (−90°, 90°); positive is
+/// φo = 0, the mirror side of a light at φi = 180° ([`crate::plot::polar`]).
+pub fn polar_angles_deg(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|k| -90.0 + (k as f64 + 0.5) * 180.0 / n as f64)
+        .collect()
+}
+
+async fn polar(state: Shared, body: Bytes) -> Response {
+    answer(polar_values(state.0, body).await)
+}
+
+async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
+    let (req, params) = parse_view(&body, MAX_POLAR_SAMPLES, "view angles")?;
+    let wi = light_direction(req.theta_i_deg.to_radians());
+    let pairs: Vec<(DVec3, DVec3)> = polar_angles_deg(req.samples)
+        .into_iter()
+        .map(|s| (wi, view_direction(s.to_radians())))
+        .collect();
+    let session = state.session.clone();
+    let p = params.clone();
+    let (f, count) =
+        blocking(move || session.eval_pairs_counting(&p, req.white_furnace, &pairs)).await?;
+    Ok(binary(&f, count.invalid, &params))
+}
+
+async fn hemisphere(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, hemisphere_cell).await)
+}
+
+async fn slice(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, slice_cell).await)
+}
+
+async fn sphere(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, sphere_cell).await)
+}
+
+async fn lobe(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, lobe_cell).await)
+}
+
+/// What one cell of an image view evaluates: a pair of directions and the factor its f is
+/// multiplied by, or None for a cell the view leaves empty (NaN).
+type Cell = fn(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)>;
+
+/// The hemisphere of ωo on the equal-area disc, rows from the top (+y), for the polar plot's
+/// light.
+fn hemisphere_cell(
+    res: usize,
+    row: usize,
+    col: usize,
+    theta_i: f64,
+) -> Option<(DVec3, DVec3, f64)> {
+    let (x, y) = cell_point(res, row, col);
+    let wo = cell_direction(Projection::EqualArea, x, y)?;
+    Some((light_direction(theta_i), wo, 1.0))
+}
+
+/// The θh × θd slice at φh = 0, φd = 90° (where MERL slices are shown: both directions stay
+/// above the horizon), θh along the columns and θd down the rows, cell-centred over [0°, 90°).
+fn slice_cell(res: usize, row: usize, col: usize, _: f64) -> Option<(DVec3, DVec3, f64)> {
+    let step = std::f64::consts::FRAC_PI_2 / res as f64;
+    let theta_h = (col as f64 + 0.5) * step;
+    let theta_d = (row as f64 + 0.5) * step;
+    let (wi, wo) = half_diff_to_pair(theta_h, 0.0, theta_d, std::f64::consts::FRAC_PI_2);
+    Some((wi, wo, 1.0))
+}
+
+/// A unit sphere seen from +z (orthographic), lit by a distant point light of unit irradiance
+/// at normal incidence from the polar plot's light direction: radiance f·cos θi. Each normal's
+/// tangent frame is glam's `any_orthonormal_pair` (Duff et al. 2017), so an anisotropic model's
+/// tangent turns with the normal.
+fn sphere_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
+    let (x, y) = cell_point(res, row, col);
+    let r2 = x * x + y * y;
+    if r2 > 1.0 {
+        return None;
+    }
+    let n = DVec3::new(x, y, (1.0 - r2).sqrt());
+    let (t, b) = n.any_orthonormal_pair();
+    let local = |w: DVec3| DVec3::new(w.dot(t), w.dot(b), w.dot(n));
+    let wi = local(light_direction(theta_i));
+    let wo = local(DVec3::Z);
+    Some((wi, wo, wi.z.max(0.0)))
+}
+
+/// The 3D lobe's mesh: ωo at θo = (row + ½)·90°/res down the rows and φo = col·360°/res along
+/// the columns (the page closes each ring), for the polar plot's light.
+fn lobe_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
+    let theta_o = (row as f64 + 0.5) * std::f64::consts::FRAC_PI_2 / res as f64;
+    let phi_o = col as f64 * std::f64::consts::TAU / res as f64;
+    Some((
+        light_direction(theta_i),
+        crate::grid::direction(theta_o, phi_o),
+        1.0,
+    ))
+}
+
+/// An image view: `res` × `res` cells (`cell` says what each evaluates), f32 RGB in rows from the
+/// top, NaN where the view has no value.
+async fn image(state: Arc<State>, body: Bytes, cell: Cell) -> Result<Response, Refusal> {
+    let (req, params) = parse_view(&body, MAX_IMAGE_RES, "cells across")?;
+    let res = req.samples;
+    let theta_i = req.theta_i_deg.to_radians();
+    let mut cells = Vec::with_capacity(res * res);
+    let mut pairs = Vec::new();
+    for row in 0..res {
+        for col in 0..res {
+            let c = cell(res, row, col, theta_i);
+            cells.push(c.map(|(_, _, factor)| factor));
+            pairs.extend(c.map(|(wi, wo, _)| (wi, wo)));
+        }
+    }
+    let session = state.session.clone();
+    let p = params.clone();
+    let (f, count) =
+        blocking(move || session.eval_pairs_counting(&p, req.white_furnace, &pairs)).await?;
+    let mut values = f.into_iter();
+    let image: Vec<[f64; 3]> = cells
+        .iter()
+        .map(|c| match c {
+            Some(factor) => values
+                .next()
+                .map_or([f64::NAN; 3], |v| v.map(|x| x * factor)),
+            None => [f64::NAN; 3],
+        })
+        .collect();
+    Ok(binary(&image, count.invalid, &params))
+}
+
+/// The view directions of an E(μ) curve: μ = k/n for k = 1..n, at φo = 0.
+pub fn albedo_mus(n: usize) -> Vec<f64> {
+    (1..=n).map(|k| k as f64 / n as f64).collect()
+}
+
+async fn albedo(state: Shared, body: Bytes) -> Response {
+    answer(albedo_values(state.0, body).await)
+}
+
+async fn albedo_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
+    let (req, params) = parse_view(&body, MAX_ALBEDO_POINTS, "view directions")?;
+    let settings = crate::AlbedoSettings {
+        white_furnace: req.white_furnace,
+        ..crate::AlbedoSettings::default()
+    };
+    let mus = albedo_mus(req.samples);
+    let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, 0.0)).collect();
+    let session = state.session.clone();
+    let (e, hemi) = blocking(move || {
+        let e = session.directional_albedo(&params, &settings, &points)?;
+        let hemi = session.hemispherical_albedo(&params, &settings, 0.0)?;
+        Ok((e, hemi))
+    })
+    .await?;
+    let v = |d: DVec3| json!([d.x, d.y, d.z]);
+    let body = json!({
+        "mu": mus,
+        "albedo": e.iter().map(|p| v(p.albedo)).collect::<Vec<_>>(),
+        "error": e.iter().map(|p| v(p.error)).collect::<Vec<_>>(),
+        "hemispherical": v(hemi.albedo),
+        "hemispherical_error": v(hemi.error),
+        "method": "peak",
+    });
+    Ok(json_response(&body))
+}
+
+fn json_response(v: &serde_json::Value) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "application/json"),
+            (header::CACHE_CONTROL, "no-store"),
+        ],
+        v.to_string(),
+    )
+        .into_response()
+}
+
+/// A model's parameter table as the page builds its controls from it; `source` is the file a
+/// model defined at run time came from, as the command line names it.
+fn model_json(model: Model, source: Option<&str>) -> serde_json::Value {
+    let finite = |x: f64| if x.is_finite() { json!(x) } else { json!(null) };
+    let params: Vec<serde_json::Value> = model
+        .params()
+        .iter()
+        .map(|s| {
+            let (kind, options) = match s.kind {
+                ParamKind::Rgb => ("rgb", json!(null)),
+                ParamKind::Scalar => ("scalar", json!(null)),
+                ParamKind::Flag => ("flag", json!(null)),
+                ParamKind::Choice(o) => ("choice", json!(o)),
+            };
+            let default = match s.default_value() {
+                Value::One(x) => json!(x),
+                Value::Three(c) => json!(c),
+                Value::Choice(name) => json!(name),
+            };
+            json!({
+                "key": s.key, "kind": kind, "min": finite(s.min), "max": finite(s.max),
+                "min_exclusive": s.min_exclusive, "default": default, "options": options,
+                "doc": s.doc,
+                "optional": model.info().optional_keys.contains(&s.key),
+            })
+        })
+        .collect();
+    json!({
+        "name": model.name(),
+        "description": model.description(),
+        "params": params,
+        "source": source,
+    })
+}
+
+/// The assignments that take a set from its model's defaults to itself.
+fn changed_assignments(p: &ParamSet) -> Vec<String> {
+    // The defaults of the model's name, not of its current component choices, so that a changed
+    // choice is listed.
+    let defaults =
+        ParamSet::for_model(p.model().name()).unwrap_or_else(|_| ParamSet::defaults(p.model()));
+    p.entries()
+        .into_iter()
+        .filter(|(k, v)| defaults.get(k) != *v)
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect()
+}
+
+async fn models(state: Shared) -> Response {
+    // A spec's name part that is not its model's name is the file it was loaded from.
+    let given = state.initial.iter().map(|(label, p)| {
+        let name = label.split('{').next().unwrap_or(label).trim();
+        (
+            p.model(),
+            (name != p.model().name()).then(|| name.to_string()),
+        )
+    });
+    let uploaded = state.uploaded.lock().map(|u| u.clone()).unwrap_or_default();
+    let mut list: Vec<(Model, Option<String>)> = Model::ALL.iter().map(|&m| (m, None)).collect();
+    for (m, source) in given.chain(uploaded.iter().map(|(m, s, _)| (*m, Some(s.clone())))) {
+        if !list.iter().any(|(k, _)| k.name() == m.name()) {
+            list.push((m, source));
+        }
+    }
+    let shown =
+        |m: Model, v: serde_json::Value| match uploaded.iter().find(|u| u.0.name() == m.name()) {
+            Some((_, label, path)) => renamed(v, path, label),
+            None => v,
+        };
+    let initial: Vec<serde_json::Value> = state
+        .initial
+        .iter()
+        .map(|(_, p)| json!({"model": p.model().name(), "sets": changed_assignments(p)}))
+        .collect();
+    json_response(&json!({
+        "models": list
+            .iter()
+            .map(|(m, source)| shown(*m, model_json(*m, source.as_deref())))
+            .collect::<Vec<_>>(),
+        "materials": crate::material::all_names(),
+        "material": state.material,
+        "initial": initial,
+        "backend": state.session.backend_name(),
+        "limits": {
+            "polar_samples": MAX_POLAR_SAMPLES,
+            "hemisphere_res": MAX_IMAGE_RES,
+            "albedo_points": MAX_ALBEDO_POINTS,
+            "brdf_bytes": MAX_BRDF_BYTES,
+        },
+    }))
+}
+
+async fn upload(state: Shared, request: Request) -> Response {
+    let name = query_value(request.uri().query().unwrap_or(""), "name").unwrap_or_default();
+    let body = match axum::body::to_bytes(request.into_body(), MAX_BRDF_BYTES).await {
+        Ok(b) => b,
+        Err(_) => {
+            return refuse(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                format!("a .brdf file may be at most {MAX_BRDF_BYTES} bytes"),
+            )
+        }
+    };
+    answer(load_brdf(state.0, &name, body).await)
+}
+
+/// Compiles an opened `.brdf` file with the same code as `--model PATH` ([`crate::brdf::load`]):
+/// the file is written into the server's own folder under a name made of its stem's letters,
+/// digits, `-` and `_`, and messages name it as the page gave it.
+async fn load_brdf(state: Arc<State>, name: &str, body: Bytes) -> Result<Response, Refusal> {
+    let stem: String = name
+        .strip_suffix(".brdf")
+        .unwrap_or(name)
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(64)
+        .collect();
+    let stem = if stem.is_empty() {
+        "uploaded".to_string()
+    } else {
+        stem
+    };
+    if std::str::from_utf8(&body).is_err() {
+        return Err(bad(format!("{stem}.brdf: not a text file (not UTF-8)")));
+    }
+    let mut path = state.uploads.path().join(format!("{stem}.brdf"));
+    for k in 2.. {
+        if !path.exists() {
+            break;
+        }
+        path = state.uploads.path().join(format!("{stem}-{k}.brdf"));
+    }
+    std::fs::write(&path, &body).map_err(|e| {
+        (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("keeping {stem}.brdf: {e}"),
+        )
+    })?;
+    let shown = path.display().to_string();
+    let label = format!("{stem}.brdf");
+    let loaded = tokio::task::spawn_blocking(move || {
+        crate::brdf::load(&path, &crate::brdf::LoadOptions::default())
+    })
+    .await
+    .map_err(|e| {
+        (
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("compiling {label}: {e}"),
+        )
+    })?
+    .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
+    if let Ok(mut list) = state.uploaded.lock() {
+        list.push((loaded.model, label.clone(), shown.clone()));
+    }
+    let mut v = model_json(loaded.model, Some(&label));
+    v["notes"] = json!(loaded.notes);
+    Ok(json_response(&renamed(v, &shown, &label)))
+}
+
+/// `v` with every mention of the folder path `from` in its strings replaced by the name `to`.
+fn renamed(v: serde_json::Value, from: &str, to: &str) -> serde_json::Value {
+    match v {
+        serde_json::Value::String(text) => json!(text.replace(from, to)),
+        serde_json::Value::Array(items) => {
+            json!(items
+                .into_iter()
+                .map(|x| renamed(x, from, to))
+                .collect::<Vec<_>>())
+        }
+        serde_json::Value::Object(map) => serde_json::Value::Object(
+            map.into_iter()
+                .map(|(k, x)| (k, renamed(x, from, to)))
+                .collect(),
+        ),
+        other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::direction_deg;
+
+    /// The direction of `lobe eval --wo-deg THETA,PHI` for a polar view angle `s` (degrees):
+    /// (|s|, 0) on the mirror side, (|s|, 180) on the other.
+    fn eval_angles_of_view(s_deg: f64) -> (f64, f64) {
+        (s_deg.abs(), if s_deg >= 0.0 { 0.0 } else { 180.0 })
+    }
+
+    /// The polar geometry written as `lobe eval` angles reaches the same directions.
+    #[test]
+    fn polar_directions_are_eval_angles() {
+        for s in polar_angles_deg(7) {
+            let (t, p) = eval_angles_of_view(s);
+            let d = direction_deg(t, p) - view_direction(s.to_radians());
+            assert!(d.length() < 1e-12, "s = {s}: {d}");
+        }
+        let wi = direction_deg(30.0, 180.0) - light_direction(30f64.to_radians());
+        assert!(wi.length() < 1e-12, "{wi}");
+    }
+}

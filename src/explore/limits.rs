@@ -1,0 +1,25 @@
+//! The bounds on what one request may ask for. Each keeps one request's work to a fraction of a
+//! second on a CPU driver and its answer to a few megabytes, far beyond what a view draws.
+
+/// The longest request target (path and query) accepted, in bytes.
+pub const MAX_URI_BYTES: usize = 8 * 1024;
+
+/// The largest request body accepted for a view's parameters (JSON), in bytes.
+pub const MAX_BODY_BYTES: usize = 64 * 1024;
+
+/// The largest `.brdf` file the page may open, in bytes: the BRDF Explorer files that ship with
+/// it are under 10 KiB.
+pub const MAX_BRDF_BYTES: usize = 1024 * 1024;
+
+/// View angles of one polar curve: 4096 puts a point every 0.044°.
+pub const MAX_POLAR_SAMPLES: usize = 4096;
+
+/// Cells across an image view: the hemisphere, the θh × θd slice, the lit sphere (256 × 256 =
+/// 65536 evaluations).
+pub const MAX_IMAGE_RES: usize = 256;
+
+/// View directions of one E(μ) curve.
+pub const MAX_ALBEDO_POINTS: usize = 64;
+
+/// Assignments (`key=value`) in one request: more than any model has parameters.
+pub const MAX_ASSIGNMENTS: usize = 64;

@@ -1,0 +1,559 @@
+//! `lobe explore`: the real server on an ephemeral port, spoken to over real HTTP (a plain
+//! socket, so that the tests can send what a browser would not: no token, a foreign Host), and
+//! the page in headless Chromium over the DevTools protocol.
+
+#[path = "explore/cdp.rs"]
+mod cdp;
+#[path = "explore/server.rs"]
+mod server;
+
+use serde_json::{json, Value};
+use server::{floats, http, http_claiming, manifest, Server};
+use std::io::Read;
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// The f32 values the server sends and `lobe eval` prints come from the same kernel on the same
+/// device; the directions differ in their last bits (the server builds them from radians as the
+/// polar plot does, `lobe eval` from degrees), which moves a Phong lobe of exponent ≤ 1000 by far
+/// less than this relative amount.
+const SAME_BACKEND_REL: f64 = 1e-4;
+
+/// The page's albedo and `lobe albedo` run the same rule with the same nodes on the same device;
+/// only the order of the GPU's partial sums may differ between two runs (f32 sums of ~10⁶ terms
+/// round at ~1e-6 relative).
+const SAME_RULE_REL: f64 = 1e-5;
+
+/// The page shows 5 significant digits: half a unit in the 5th place, relative.
+const SHOWN_REL: f64 = 5e-5;
+
+/// How long a page may take to load and draw its first frame on a shared 2-core machine.
+const PAGE_TIMEOUT: Duration = Duration::from_secs(90);
+
+/// `lobe eval` (same backend as the server: the default GPU) at `pairs` of degrees
+/// (θi, φi, θo, φo).
+fn lobe_eval(model: &str, pairs: &[[f64; 4]]) -> Vec<[f64; 3]> {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("pairs.csv");
+    let mut csv = String::from("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n");
+    for p in pairs {
+        csv += &format!("{},{},{},{}\n", p[0], p[1], p[2], p[3]);
+    }
+    std::fs::write(&file, csv).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["eval", "--model", model, "--pairs"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            [v[4], v[5], v[6]]
+        })
+        .collect()
+}
+
+/// `lobe albedo --format json`'s hemispherical albedo of `model`.
+fn common_albedo(model: &str) -> Vec<f64> {
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args(["albedo", "--model", model, "--format", "json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    serde_json::from_value(v["hemispherical"]["albedo"].clone()).unwrap()
+}
+
+/// The `lobe eval` angles of polar view angle `s` (degrees) for a light at (θi, 180°): the page's
+/// geometry (docs/architecture.md, the explorer).
+fn polar_pair(theta_i: f64, s: f64) -> [f64; 4] {
+    [theta_i, 180.0, s.abs(), if s >= 0.0 { 0.0 } else { 180.0 }]
+}
+
+fn assert_close(what: &str, got: f64, want: f64, rel: f64) {
+    let err = (got - want).abs();
+    assert!(
+        err <= rel * want.abs().max(1e-30),
+        "{what}: got {got}, lobe eval {want}, error {err:e}, allowed {:e}",
+        rel * want.abs()
+    );
+}
+
+#[test]
+fn refuses_requests_without_the_token() {
+    let server = Server::start(&["lambert"]);
+    let body = json!({"model": "lambert", "samples": 3}).to_string();
+    for (method, target) in [
+        ("GET", "/"),
+        ("GET", "/app.js"),
+        ("GET", "/views.js"),
+        ("GET", "/api/models"),
+    ] {
+        let r = http(&server.addr, method, target, &[], b"");
+        assert_eq!(r.status, 403, "{method} {target}: {}", r.text());
+        assert!(r.text().contains("token"), "{}", r.text());
+    }
+    let r = http(&server.addr, "POST", "/api/polar", &[], body.as_bytes());
+    assert_eq!(r.status, 403, "{}", r.text());
+    let wrong = "0".repeat(server.token.len());
+    let r = http(&server.addr, "GET", &format!("/?token={wrong}"), &[], b"");
+    assert_eq!(r.status, 403, "{}", r.text());
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/polar",
+        &[("x-lobe-token", &wrong)],
+        body.as_bytes(),
+    );
+    assert_eq!(r.status, 403, "{}", r.text());
+    // With the token the same requests are answered.
+    let r = http(
+        &server.addr,
+        "GET",
+        &format!("/?token={}", server.token),
+        &[],
+        b"",
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    assert!(r.text().contains(&format!("app.js?token={}", server.token)));
+    assert!(
+        !r.head.to_ascii_lowercase().contains("access-control-allow"),
+        "{}",
+        r.head
+    );
+}
+
+#[test]
+fn refuses_a_foreign_host_or_origin() {
+    let server = Server::start(&["lambert"]);
+    let target = format!("/?token={}", server.token);
+    let port = server.addr.rsplit(':').next().unwrap().to_string();
+    for host in [
+        format!("evil.example:{port}"),
+        "127.0.0.1:1".to_string(),
+        String::new(),
+    ] {
+        let r = http(&server.addr, "GET", &target, &[("Host", &host)], b"");
+        assert_eq!(r.status, 403, "Host {host}: {}", r.text());
+        assert!(r.text().contains("Host"), "{}", r.text());
+    }
+    let local = format!("localhost:{port}");
+    assert_eq!(
+        http(&server.addr, "GET", &target, &[("Host", &local)], b"").status,
+        200
+    );
+    let r = http(
+        &server.addr,
+        "GET",
+        &target,
+        &[("Origin", "http://evil.example")],
+        b"",
+    );
+    assert_eq!(r.status, 403, "{}", r.text());
+}
+
+#[test]
+fn refuses_oversized_requests_with_a_sentence() {
+    let server = Server::start(&["lambert"]);
+    let token = [("x-lobe-token", server.token.as_str())];
+    let big = lobe::explore::MAX_BODY_BYTES + 1;
+    let r = http_claiming(&server.addr, "POST", "/api/polar", &token, big, b"");
+    assert_eq!(r.status, 413, "{}", r.text());
+    assert!(
+        r.text()
+            .contains(&lobe::explore::MAX_BODY_BYTES.to_string()),
+        "{}",
+        r.text()
+    );
+    let long = format!(
+        "/api/models?token={}&x={}",
+        server.token,
+        "a".repeat(lobe::explore::MAX_URI_BYTES)
+    );
+    assert_eq!(http(&server.addr, "GET", &long, &[], b"").status, 414);
+    let brdf = lobe::explore::MAX_BRDF_BYTES + 1;
+    let r = http_claiming(
+        &server.addr,
+        "POST",
+        "/api/brdf?name=big.brdf",
+        &token,
+        brdf,
+        b"",
+    );
+    assert_eq!(r.status, 413, "{}", r.text());
+    let cases = [
+        (
+            "/api/polar",
+            json!({"model": "lambert", "samples": lobe::explore::MAX_POLAR_SAMPLES + 1}),
+            "view angles from 1 to",
+        ),
+        (
+            "/api/hemisphere",
+            json!({"model": "lambert", "samples": lobe::explore::MAX_IMAGE_RES + 1}),
+            "cells across from 1 to",
+        ),
+        (
+            "/api/albedo",
+            json!({"model": "lambert", "samples": 0}),
+            "view directions from 1 to",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "lambert", "samples": 3, "theta_i_deg": 95}),
+            "theta_i_deg 95",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "phong", "samples": 3, "sets": ["shininess=-1"]}),
+            "shininess",
+        ),
+        (
+            "/api/polar",
+            json!({"model": "nonesuch", "samples": 3}),
+            "nonesuch",
+        ),
+    ];
+    for (path, body, says) in cases {
+        let r = server.post(path, &body);
+        assert_eq!(r.status, 422, "{path} {body}: {}", r.text());
+        assert!(r.text().contains(says), "{path} {body}: {}", r.text());
+    }
+}
+
+#[test]
+fn polar_values_equal_lobe_eval() {
+    let server = Server::start(&["phong{shininess=50}"]);
+    let spec = "phong{shininess=50,specular=0.9,0.5,0.2}";
+    let n = 9;
+    let r = server.post(
+        "/api/polar",
+        &json!({"model": "phong", "sets": ["shininess=50", "specular=0.9,0.5,0.2"], "theta_i_deg": 30, "samples": n}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let got = floats(&r.body);
+    assert_eq!(got.len(), 3 * n);
+    let angles: Vec<f64> = (0..n)
+        .map(|k| -90.0 + (k as f64 + 0.5) * 180.0 / n as f64)
+        .collect();
+    let want = lobe_eval(
+        spec,
+        &angles
+            .iter()
+            .map(|&s| polar_pair(30.0, s))
+            .collect::<Vec<_>>(),
+    );
+    for (k, w) in want.iter().enumerate() {
+        for c in 0..3 {
+            assert_close(
+                &format!("{spec} at s = {}°, channel {c}", angles[k]),
+                got[3 * k + c] as f64,
+                w[c],
+                SAME_BACKEND_REL,
+            );
+        }
+    }
+    // The mirror direction (s = +30°) holds the peak, and colour reaches the values.
+    assert!(got[3 * 6] > got[3 * 6 + 2], "{got:?}");
+}
+
+/// The θh × θd slice (φh = 0, φd = 90°), the sphere under the point light and the 3D lobe's mesh,
+/// cell by cell,
+/// against `lobe eval` at the same directions.
+#[test]
+fn slice_sphere_and_3d_lobe_equal_lobe_eval() {
+    let server = Server::start(&["lambert"]);
+    let spec = "cook_torrance{roughness=0.2}";
+    let ask = |path: &str, res: usize| {
+        let r = server.post(
+            path,
+            &json!({"model": "cook_torrance", "sets": ["roughness=0.2"], "theta_i_deg": 40, "samples": res}),
+        );
+        assert_eq!(r.status, 200, "{path}: {}", r.text());
+        floats(&r.body)
+    };
+    let res = 4;
+    let slice = ask("/api/slice", res);
+    let step = 90.0 / res as f64;
+    let mut pairs = Vec::new();
+    for row in 0..res {
+        for col in 0..res {
+            let (th, td) = ((col as f64 + 0.5) * step, (row as f64 + 0.5) * step);
+            let (wi, wo) = lobe::grid::half_diff_to_pair(
+                th.to_radians(),
+                0.0,
+                td.to_radians(),
+                90f64.to_radians(),
+            );
+            let ((ti, pi), (to, po)) = (lobe::grid::angles_deg(wi), lobe::grid::angles_deg(wo));
+            pairs.push([ti, pi, to, po]);
+        }
+    }
+    for (k, w) in lobe_eval(spec, &pairs).iter().enumerate() {
+        assert_close(
+            &format!("{spec} slice cell {k} {:?}", pairs[k]),
+            slice[3 * k] as f64,
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
+    // An odd sphere's middle cell faces the viewer: f(θi = 40°, θo = 0) cos 40°; the corners
+    // are outside the disc.
+    let sphere = ask("/api/sphere", 5);
+    let want = lobe_eval(spec, &[[40.0, 180.0, 0.0, 0.0]])[0][1] * 40f64.to_radians().cos();
+    assert_close(
+        &format!("{spec} sphere centre"),
+        sphere[3 * 12 + 1] as f64,
+        want,
+        SAME_BACKEND_REL,
+    );
+    assert!(sphere[0].is_nan(), "{sphere:?}");
+    // The 3D lobe's mesh: row r at θo = (r + ½)·90°/res, column c at φo = c·360°/res.
+    let mesh = ask("/api/lobe", res);
+    let mut pairs = Vec::new();
+    for row in 0..res {
+        for col in 0..res {
+            pairs.push([
+                40.0,
+                180.0,
+                (row as f64 + 0.5) * 90.0 / res as f64,
+                col as f64 * 360.0 / res as f64,
+            ]);
+        }
+    }
+    for (k, w) in lobe_eval(spec, &pairs).iter().enumerate() {
+        assert_close(
+            &format!("{spec} 3D lobe cell {k} {:?}", pairs[k]),
+            mesh[3 * k] as f64,
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
+}
+
+#[test]
+fn exits_on_sigterm_leaving_nothing() {
+    let mut server = Server::start(&["lambert"]);
+    // An opened .brdf file is kept in the server's temporary folder until it ends.
+    let text = std::fs::read(manifest().join("testdata/brdf/ggx.brdf")).unwrap();
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/brdf?name=ggx.brdf",
+        &[("x-lobe-token", &server.token)],
+        &text,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    assert!(
+        !r.text().contains(&*server.tmp.path().to_string_lossy()),
+        "the page is shown the server's folder: {}",
+        r.text()
+    );
+    assert!(r.text().contains("ggx.brdf"), "{}", r.text());
+    assert_eq!(std::fs::read_dir(server.tmp.path()).unwrap().count(), 1);
+    // SAFETY: kill only sends a signal to the child this test started.
+    assert_eq!(
+        unsafe { libc::kill(server.child.id() as i32, libc::SIGTERM) },
+        0
+    );
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = server.child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "lobe explore still running 30 s after SIGTERM"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    server
+        .child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(status.success(), "{status}: {err}");
+    assert!(err.contains("stopped"), "{err}");
+    let left: Vec<PathBuf> = std::fs::read_dir(server.tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    assert!(
+        TcpStream::connect(&server.addr).is_err(),
+        "{} still accepts connections",
+        server.addr
+    );
+}
+
+/// Moves the slider `key` of model card `card` to `value` (as a user's drag would: an input
+/// event) and waits until the page has drawn the state it set.
+fn move_slider(b: &mut cdp::Browser, card: usize, key: &str, t: u32) {
+    let frames = b.eval("window.lobeExplore.frames");
+    b.eval(&format!(
+        "(() => {{ const s = document.querySelectorAll('#models .card')[{card}].querySelector('input[type=range][data-key={key}]'); s.value = {t}; s.dispatchEvent(new Event('input')); }})()"
+    ));
+    b.wait_for(&format!("window.lobeExplore.frames > {frames} && window.lobeExplore.request[{card}].sets.some(s => s.startsWith('{key}='))"), PAGE_TIMEOUT);
+}
+
+#[test]
+fn page_in_chromium_shows_lobe_eval_values() {
+    let server = Server::start(&["phong{shininess=20}", "lambert"]);
+    let mut b = cdp::Browser::launch(1400, 1000);
+    b.navigate(&server.url);
+    b.wait_for("!!(window.lobeExplore && window.lobeExplore.ready && window.lobeExplore.albedo.length === 2)", PAGE_TIMEOUT);
+    assert!(
+        b.errors().is_empty(),
+        "console errors on load: {:?}",
+        b.errors()
+    );
+    let readout = "document.querySelector('#readout tbody tr td:nth-child(2)').textContent";
+    let before = b.eval(readout);
+    move_slider(&mut b, 0, "shininess", 700);
+    let after = b.eval(readout);
+    assert_ne!(before, after, "the polar plot's numbers did not change");
+    // What the page drew and shows, against `lobe eval` with the parameters the page sent.
+    let req = b.eval("window.lobeExplore.request[0]");
+    let sets: Vec<String> = req["sets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap().to_string())
+        .collect();
+    let spec = format!("phong{{{}}}", sets.join(","));
+    let ti = b
+        .eval("window.lobeExplore.request[0].theta_i_deg")
+        .as_f64()
+        .unwrap();
+    let drawn: Vec<f64> =
+        serde_json::from_value(b.eval("Array.from(window.lobeExplore.polar[0])")).unwrap();
+    let angles: Vec<f64> = serde_json::from_value(b.eval("window.lobeExplore.angles")).unwrap();
+    let mirror = b.eval("window.lobeExplore.mirrorIndex").as_u64().unwrap() as usize;
+    let picks: Vec<usize> = (0..angles.len()).step_by(40).chain([mirror]).collect();
+    let want = lobe_eval(
+        &spec,
+        &picks
+            .iter()
+            .map(|&k| polar_pair(ti, angles[k]))
+            .collect::<Vec<_>>(),
+    );
+    for (&k, w) in picks.iter().zip(&want) {
+        assert_close(
+            &format!("{spec} drawn at s = {}°", angles[k]),
+            drawn[3 * k],
+            w[0],
+            SAME_BACKEND_REL,
+        );
+    }
+    let shown: Vec<f64> = after
+        .as_str()
+        .unwrap()
+        .split(", ")
+        .map(|x| x.parse().unwrap())
+        .collect();
+    for c in 0..3 {
+        assert_close(
+            &format!("{spec} shown at the mirror, channel {c}"),
+            shown[c],
+            want[want.len() - 1][c],
+            SHOWN_REL + SAME_BACKEND_REL,
+        );
+    }
+    // The hemispherical albedo shown, against `lobe albedo` (same rule, same backend).
+    b.wait_for(&format!("!!(window.lobeExplore.albedoRequest && window.lobeExplore.albedoRequest[0].sets.includes('{}'))", sets.iter().find(|s| s.starts_with("shininess=")).unwrap()), PAGE_TIMEOUT);
+    let albedo: Vec<f64> =
+        serde_json::from_value(b.eval("window.lobeExplore.albedo[0].hemispherical")).unwrap();
+    let cli = common_albedo(&spec);
+    for c in 0..3 {
+        assert_close(
+            &format!("{spec} hemispherical albedo, channel {c}"),
+            albedo[c],
+            cli[c],
+            SAME_RULE_REL,
+        );
+    }
+    // The URL carries the state: a reload restores the slider's value.
+    let shininess = sets
+        .iter()
+        .find(|s| s.starts_with("shininess="))
+        .unwrap()
+        .clone();
+    b.call("Page.reload", json!({}));
+    b.wait_for(
+        "!!(window.lobeExplore && window.lobeExplore.ready)",
+        PAGE_TIMEOUT,
+    );
+    let restored = b.eval("window.lobeExplore.request[0].sets");
+    assert!(
+        restored.as_array().unwrap().contains(&json!(shininess)),
+        "{restored} after reload, expected {shininess}"
+    );
+    // A .brdf file opened from the page appears as a model with its sliders and colour pickers.
+    b.set_file("#open-brdf", &manifest().join("testdata/brdf/ggx.brdf"));
+    b.wait_for("window.lobeExplore.request && window.lobeExplore.request.length === 3 && window.lobeExplore.polar.length === 3", PAGE_TIMEOUT);
+    let card = "document.querySelectorAll('#models .card')[2]";
+    let model = b.eval(&format!("{card}.querySelector('select.model').value"));
+    assert!(model.as_str().unwrap().contains("ggx"), "{model}");
+    assert_eq!(
+        b.eval(&format!(
+            "!!{card}.querySelector('input[type=range][data-key=alpha]')"
+        )),
+        json!(true)
+    );
+    assert_eq!(
+        b.eval(&format!(
+            "{card}.querySelectorAll('input[type=color]').length"
+        )),
+        json!(2)
+    );
+    move_slider(&mut b, 2, "alpha", 500);
+    assert!(b.errors().is_empty(), "console errors: {:?}", b.errors());
+}
+
+/// Latency of a slider drag, input event to the frame drawn with the new values, measured in the
+/// browser over 50 moves of a built-in model's slider. A benchmark, not a test: run it alone with
+/// `cargo test --release --test explore -- --ignored --nocapture explore_latency`.
+#[test]
+#[ignore]
+fn explore_latency() {
+    let server = Server::start(&["cook_torrance"]);
+    let mut b = cdp::Browser::launch(1400, 1000);
+    b.navigate(&server.url);
+    b.wait_for(
+        "!!(window.lobeExplore && window.lobeExplore.ready)",
+        PAGE_TIMEOUT,
+    );
+    let moves = 50;
+    let script = format!(
+        "(async () => {{ const p = window.lobeExplore; const s = document.querySelector('#models .card input[type=range]');
+           const out = [];
+           for (let k = 0; k < {moves}; k++) {{
+             const n = p.latencies.length;
+             s.value = 100 + 15 * k; s.dispatchEvent(new Event('input'));
+             while (p.latencies.length === n) await new Promise(r => setTimeout(r, 2));
+             out.push(p.latencies[p.latencies.length - 1]);
+           }}
+           return out; }})()"
+    );
+    let mut ms: Vec<f64> = serde_json::from_value(b.eval(&script)).unwrap();
+    ms.sort_by(f64::total_cmp);
+    let median = ms[ms.len() / 2];
+    let p95 = ms[(ms.len() * 95).div_ceil(100) - 1];
+    println!("explore latency over {moves} slider moves (cook_torrance): median {median:.1} ms, p95 {p95:.1} ms, max {:.1} ms", ms[ms.len() - 1]);
+}
