@@ -78,11 +78,6 @@ const SHADER: &str = "shader";
 
 /// Parses the text of a `.brdf` file; `file` is how errors name it.
 pub fn parse(file: &str, text: &str) -> Result<BrdfFile, BrdfError> {
-    let err = |line: usize, message: String| BrdfError::Parse {
-        file: file.to_string(),
-        line,
-        message,
-    };
     if text.len() > MAX_FILE_BYTES {
         return Err(BrdfError::TooLarge {
             file: file.to_string(),
@@ -90,137 +85,178 @@ pub fn parse(file: &str, text: &str) -> Result<BrdfFile, BrdfError> {
         });
     }
     let text = crate::input::without_bom(text);
+    let mut reader = Reader::new(file);
     if let Some(at) = text.find('\0') {
-        return Err(err(
+        return Err(reader.err(
             1 + text[..at].matches('\n').count(),
             format!("a NUL byte at offset {at}; a .brdf file is text, not a binary file"),
         ));
     }
-    let mut header = false;
-    // The section being read: its name and the line of its `::begin`.
-    let mut section: Option<(String, usize)> = None;
-    let mut params: Vec<Param> = Vec::new();
-    let mut shader: Option<(String, usize)> = None;
-    let mut seen_params: Option<usize> = None;
-    let mut notes = Vec::new();
-    // The last line with text: where a missing section is reported.
-    let mut last = 1;
     for (index, raw) in text.split('\n').enumerate() {
-        let line = index + 1;
-        let raw = raw.strip_suffix('\r').unwrap_or(raw);
+        reader.line(index + 1, raw.strip_suffix('\r').unwrap_or(raw))?;
+    }
+    reader.finish()
+}
+
+/// What the reader has seen so far, line by line.
+struct Reader<'a> {
+    file: &'a str,
+    /// Whether the `analytic` line was seen.
+    header: bool,
+    /// The section being read: its name and the line of its `::begin`.
+    section: Option<(String, usize)>,
+    params: Vec<Param>,
+    /// The shader's text and its first line.
+    shader: Option<(String, usize)>,
+    /// The line of the `parameters` section's `::begin`.
+    seen_params: Option<usize>,
+    notes: Vec<String>,
+    /// The last line with text: where a missing section is reported.
+    last: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn new(file: &'a str) -> Self {
+        Reader {
+            file,
+            header: false,
+            section: None,
+            params: Vec::new(),
+            shader: None,
+            seen_params: None,
+            notes: Vec::new(),
+            last: 1,
+        }
+    }
+
+    fn err(&self, line: usize, message: String) -> BrdfError {
+        BrdfError::Parse {
+            file: self.file.to_string(),
+            line,
+            message,
+        }
+    }
+
+    /// One line of the file, without its line ending.
+    fn line(&mut self, line: usize, raw: &str) -> Result<(), BrdfError> {
         let trimmed = raw.trim();
         if !trimmed.is_empty() {
-            last = line;
+            self.last = line;
         }
-        let directive = trimmed.strip_prefix("::").map(|d| {
-            let mut words = d.split_whitespace();
-            (
-                words.next().unwrap_or(""),
-                words.next().unwrap_or(""),
-                words.next(),
-            )
-        });
         // Section boundaries first: inside the shader, every other line is GLSL.
-        if let Some((word, name, extra)) = directive {
-            if let Some(extra) = extra {
-                return Err(err(
-                    line,
-                    format!("'{extra}' after the section name; expected '::{word} {name}'"),
-                ));
-            }
-            match (word, &section) {
-                ("begin", None) => {
-                    if !header {
-                        return Err(err(line, no_header(trimmed)));
-                    }
-                    if name.is_empty() {
-                        return Err(err(
-                            line,
-                            "'::begin' without a section name (e.g. '::begin shader')".into(),
-                        ));
-                    }
-                    let earlier = match name {
-                        PARAMETERS => seen_params,
-                        SHADER => shader.as_ref().map(|s| s.1 - 1),
-                        _ => None,
-                    };
-                    if let Some(at) = earlier {
-                        return Err(err(
-                            line,
-                            format!("a second '{name}' section (the first begins at line {at})"),
-                        ));
-                    }
-                    match name {
-                        PARAMETERS => seen_params = Some(line),
-                        SHADER => shader = Some((String::new(), line + 1)),
-                        _ => notes.push(format!(
-                            "{file}:{line}: section '{name}' skipped (lobe reads the '{PARAMETERS}' and '{SHADER}' sections)"
-                        )),
-                    }
-                    section = Some((name.to_string(), line));
-                }
-                ("begin", Some((open, at))) => {
-                    return Err(err(
-                        line,
-                        format!("'::begin {name}' inside the section '{open}' begun at line {at}; end it first with '::end {open}'"),
-                    ));
-                }
-                ("end", Some((open, at))) => {
-                    if name != open {
-                        return Err(err(
-                            line,
-                            format!("'::end {name}' while the section '{open}' begun at line {at} is open; expected '::end {open}'"),
-                        ));
-                    }
-                    section = None;
-                }
-                ("end", None) => {
-                    return Err(err(
-                        line,
-                        format!("'::end {name}' without its '::begin {name}'"),
-                    ));
-                }
-                _ => {
-                    return Err(err(
-                        line,
-                        format!("unknown directive '{trimmed}'; expected '::begin NAME' or '::end NAME'"),
-                    ));
-                }
-            }
-            continue;
+        if let Some(directive) = trimmed.strip_prefix("::") {
+            return self.directive(line, trimmed, directive);
         }
-        match &section {
+        match &self.section {
             Some((name, _)) if name == SHADER => {
-                if let Some((text, _)) = &mut shader {
+                if let Some((text, _)) = &mut self.shader {
                     text.push_str(raw);
                     text.push('\n');
                 }
-                continue;
+                return Ok(());
             }
-            Some((name, _)) if name != PARAMETERS => continue,
+            Some((name, _)) if name != PARAMETERS => return Ok(()),
             _ => {}
         }
         // Outside the shader: blank lines and comments; `#` also ends a parameter line.
         let content = trimmed.split('#').next().unwrap_or("").trim();
         if content.is_empty() {
-            continue;
+            return Ok(());
         }
-        if !header {
+        if !self.header {
             if content != "analytic" {
-                return Err(err(line, no_header(content)));
+                return Err(self.err(line, no_header(content)));
             }
-            header = true;
-            continue;
+            self.header = true;
+            return Ok(());
         }
-        if section.is_none() {
-            return Err(err(
+        if self.section.is_none() {
+            return Err(self.err(
                 line,
                 format!("'{content}' outside a section; expected '::begin {PARAMETERS}', '::begin {SHADER}' or a comment starting with '#'"),
             ));
         }
-        let param = parse_param(content, line).map_err(|m| err(line, m))?;
-        if let Some(first) = params.iter().find(|p| p.name == param.name) {
-            return Err(err(
+        self.param(line, content)
+    }
+
+    /// A `::begin NAME` or `::end NAME` line; `trimmed` is the whole line, `directive` what
+    /// follows the `::`.
+    fn directive(&mut self, line: usize, trimmed: &str, directive: &str) -> Result<(), BrdfError> {
+        let mut words = directive.split_whitespace();
+        let word = words.next().unwrap_or("");
+        let name = words.next().unwrap_or("");
+        if let Some(extra) = words.next() {
+            return Err(self.err(
+                line,
+                format!("'{extra}' after the section name; expected '::{word} {name}'"),
+            ));
+        }
+        match (word, &self.section) {
+            ("begin", None) => self.begin(line, trimmed, name),
+            ("begin", Some((open, at))) => Err(self.err(
+                line,
+                format!("'::begin {name}' inside the section '{open}' begun at line {at}; end it first with '::end {open}'"),
+            )),
+            ("end", Some((open, at))) => {
+                if name != open {
+                    return Err(self.err(
+                        line,
+                        format!("'::end {name}' while the section '{open}' begun at line {at} is open; expected '::end {open}'"),
+                    ));
+                }
+                self.section = None;
+                Ok(())
+            }
+            ("end", None) => Err(self.err(
+                line,
+                format!("'::end {name}' without its '::begin {name}'"),
+            )),
+            _ => Err(self.err(
+                line,
+                format!("unknown directive '{trimmed}'; expected '::begin NAME' or '::end NAME'"),
+            )),
+        }
+    }
+
+    /// `::begin NAME` outside any section.
+    fn begin(&mut self, line: usize, trimmed: &str, name: &str) -> Result<(), BrdfError> {
+        if !self.header {
+            return Err(self.err(line, no_header(trimmed)));
+        }
+        if name.is_empty() {
+            return Err(self.err(
+                line,
+                "'::begin' without a section name (e.g. '::begin shader')".into(),
+            ));
+        }
+        let earlier = match name {
+            PARAMETERS => self.seen_params,
+            SHADER => self.shader.as_ref().map(|s| s.1 - 1),
+            _ => None,
+        };
+        if let Some(at) = earlier {
+            return Err(self.err(
+                line,
+                format!("a second '{name}' section (the first begins at line {at})"),
+            ));
+        }
+        match name {
+            PARAMETERS => self.seen_params = Some(line),
+            SHADER => self.shader = Some((String::new(), line + 1)),
+            _ => self.notes.push(format!(
+                "{}:{line}: section '{name}' skipped (lobe reads the '{PARAMETERS}' and '{SHADER}' sections)",
+                self.file
+            )),
+        }
+        self.section = Some((name.to_string(), line));
+        Ok(())
+    }
+
+    /// A declaration in the `parameters` section, without its comment.
+    fn param(&mut self, line: usize, content: &str) -> Result<(), BrdfError> {
+        let param = parse_param(content, line).map_err(|m| self.err(line, m))?;
+        if let Some(first) = self.params.iter().find(|p| p.name == param.name) {
+            return Err(self.err(
                 line,
                 format!(
                     "parameter '{}' is already declared at line {}",
@@ -228,44 +264,50 @@ pub fn parse(file: &str, text: &str) -> Result<BrdfFile, BrdfError> {
                 ),
             ));
         }
-        let numbers: usize = params
+        let numbers: usize = self
+            .params
             .iter()
             .chain([&param])
             .map(|p| p.kind.numbers())
             .sum();
         if numbers > MAX_VALUES {
-            return Err(err(
+            return Err(self.err(
                 line,
                 format!("parameter '{}' makes {numbers} parameter numbers (a color counts three); lobe takes at most {MAX_VALUES}", param.name),
             ));
         }
-        params.push(param);
+        self.params.push(param);
+        Ok(())
     }
-    if let Some((name, at)) = section {
-        return Err(err(
-            at,
-            format!("the section '{name}' has no '::end {name}' before the end of the file"),
-        ));
+
+    /// The checks at the end of the file: every section closed, the header and a shader seen.
+    fn finish(mut self) -> Result<BrdfFile, BrdfError> {
+        if let Some((name, at)) = &self.section {
+            return Err(self.err(
+                *at,
+                format!("the section '{name}' has no '::end {name}' before the end of the file"),
+            ));
+        }
+        if !self.header {
+            return Err(self.err(
+                self.last,
+                "the file has no 'analytic' line (it is empty or only comments); lobe reads BRDF Explorer's analytic files".into(),
+            ));
+        }
+        let Some((shader, shader_line)) = self.shader.take() else {
+            return Err(self.err(
+                self.last,
+                format!("no '::begin {SHADER}' section; it must define vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)"),
+            ));
+        };
+        Ok(BrdfFile {
+            file: self.file.to_string(),
+            params: self.params,
+            shader,
+            shader_line,
+            notes: self.notes,
+        })
     }
-    if !header {
-        return Err(err(
-            last,
-            "the file has no 'analytic' line (it is empty or only comments); lobe reads BRDF Explorer's analytic files".into(),
-        ));
-    }
-    let Some((shader, shader_line)) = shader else {
-        return Err(err(
-            last,
-            format!("no '::begin {SHADER}' section; it must define vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)"),
-        ));
-    };
-    Ok(BrdfFile {
-        file: file.to_string(),
-        params,
-        shader,
-        shader_line,
-        notes,
-    })
 }
 
 fn no_header(found: &str) -> String {
@@ -375,192 +417,4 @@ fn check_name(name: &str) -> Result<(), String> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn parse_err(text: &str) -> (usize, String) {
-        match parse("t.brdf", text) {
-            Err(BrdfError::Parse { line, message, .. }) => (line, message),
-            other => panic!("expected a parse error, got {other:?}"),
-        }
-    }
-
-    #[test]
-    fn a_file_with_every_parameter_type() {
-        let text = "# a comment\n\nanalytic\n# more\n::begin parameters\nfloat n 1 1000 100 # exponent\nbool on 1\ncolor kd 0.1 0.2 0.3\n::end parameters\n::begin isFunc\nanything\n::end isFunc\n::begin shader\n#define TWO 2.0\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return kd; }\n::end shader\n";
-        let f = parse("t.brdf", text).unwrap();
-        assert_eq!(
-            f.params,
-            vec![
-                Param {
-                    name: "n".into(),
-                    kind: ParamType::Float {
-                        min: 1.0,
-                        max: 1000.0,
-                        default: 100.0
-                    },
-                    line: 6
-                },
-                Param {
-                    name: "on".into(),
-                    kind: ParamType::Bool { default: true },
-                    line: 7
-                },
-                Param {
-                    name: "kd".into(),
-                    kind: ParamType::Color {
-                        default: [0.1, 0.2, 0.3]
-                    },
-                    line: 8
-                },
-            ]
-        );
-        assert_eq!(f.shader_line, 14);
-        assert!(
-            f.shader.starts_with("#define TWO 2.0\nvec3 BRDF"),
-            "{}",
-            f.shader
-        );
-        assert_eq!(f.notes.len(), 1);
-        assert!(f.notes[0].contains("t.brdf:10") && f.notes[0].contains("isFunc"));
-    }
-
-    #[test]
-    fn errors_name_the_line() {
-        let cases: &[(&str, usize, &str)] = &[
-            ("measured\n", 1, "expected 'analytic'"),
-            ("", 1, "no 'analytic' line"),
-            (
-                "analytic\n::begin shader\nvec3 x;\n",
-                2,
-                "no '::end shader'",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 0 1\n::end parameters\n",
-                3,
-                "found 4 words",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 0 1 2\n",
-                3,
-                "outside [0, 1]",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 1 0 0.5\n",
-                3,
-                "above MAX",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 0 x 0\n",
-                3,
-                "cannot read MAX 'x'",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 0 inf 0\n",
-                3,
-                "finite",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat k 0 1e39 1e39\n",
-                3,
-                "float 'k': MAX 1e39 is beyond the 32-bit floats",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat k -3.5e38 0 0\n",
-                3,
-                "MIN -3.5e38 is beyond",
-            ),
-            ("analytic\n::begin shader\nvec3\0 x;\n", 3, "a NUL byte"),
-            ("analytic\n::begin parameters\nbool b 2\n", 3, "not 0 or 1"),
-            (
-                "analytic\n::begin parameters\ncolor c 0 0.5 2\n",
-                3,
-                "B = 2",
-            ),
-            (
-                "analytic\n::begin parameters\nint i 0 1 0\n",
-                3,
-                "unknown parameter type 'int'",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat 2a 0 1 0\n",
-                3,
-                "not a GLSL identifier",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat lobe_a 0 1 0\n",
-                3,
-                "reserved",
-            ),
-            (
-                "analytic\n::begin parameters\nfloat a 0 1 0\nbool a 0\n",
-                4,
-                "already declared at line 3",
-            ),
-            ("analytic\nfloat a 0 1 0\n", 2, "outside a section"),
-            (
-                "analytic\n::end shader\n",
-                2,
-                "without its '::begin shader'",
-            ),
-            (
-                "analytic\n::begin shader\n::begin parameters\n",
-                3,
-                "inside the section 'shader'",
-            ),
-            (
-                "analytic\n::begin shader\n::end parameters\n",
-                3,
-                "expected '::end shader'",
-            ),
-            (
-                "analytic\n::begin parameters\n::end parameters\n",
-                3,
-                "no '::begin shader'",
-            ),
-            (
-                "analytic\n::begin shader\n::end shader\n::begin shader\n::end shader\n",
-                4,
-                "a second 'shader' section",
-            ),
-            ("::begin shader\n", 1, "expected 'analytic'"),
-            ("analytic\n::start shader\n", 2, "unknown directive"),
-        ];
-        for &(text, line, words) in cases {
-            let (l, m) = parse_err(text);
-            assert!(l == line && m.contains(words), "{text:?}: line {l}: {m}");
-        }
-    }
-
-    #[test]
-    fn too_many_numbers_are_refused_at_the_line_that_passes_the_limit() {
-        let mut text = String::from("analytic\n::begin parameters\n");
-        for k in 0..MAX_VALUES / 3 + 1 {
-            text.push_str(&format!("color c{k} 0 0 0\n"));
-        }
-        let (line, m) = parse_err(&text);
-        assert_eq!(line, 2 + MAX_VALUES / 3 + 1, "{m}");
-        assert!(m.contains(&format!("at most {MAX_VALUES}")), "{m}");
-    }
-
-    #[test]
-    fn a_byte_order_mark_is_skipped() {
-        let f = parse(
-            "t.brdf",
-            "\u{feff}analytic\n::begin shader\nvec3 x;\n::end shader\n",
-        )
-        .unwrap();
-        assert_eq!((f.shader_line, f.shader.as_str()), (3, "vec3 x;\n"));
-        // Only at the start: elsewhere it is text like any other.
-        let (line, m) = parse_err("analytic\n\u{feff}::begin shader\n");
-        assert!(line == 2 && m.contains("outside a section"), "{m}");
-    }
-
-    #[test]
-    fn crlf_and_comment_lines_in_the_shader_are_kept() {
-        let text = "analytic\r\n::begin shader\r\n# define A 1\r\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(A); }\r\n::end shader\r\n";
-        let f = parse("t.brdf", text).unwrap();
-        assert!(f.shader.starts_with("# define A 1\n"), "{:?}", f.shader);
-        assert!(f.params.is_empty());
-    }
-}
+mod tests;

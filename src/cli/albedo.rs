@@ -5,7 +5,7 @@ use super::run::run_scene;
 use super::{open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
-use lobe::integrate::{Method, Settings};
+use lobe::integrate::{AlbedoReport, Method, Settings};
 use lobe::lut::engine::{self, EngineKind, EngineSpec};
 use lobe::lut::{self, LutSpec, Mapping};
 use lobe::{ParamSet, Session};
@@ -165,25 +165,7 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     let params = a.model.params()?;
     // The same range as every direction on the command line (`lobe eval`'s).
     lobe::pairs::check_angles(0.0, a.phi_deg).map_err(|e| anyhow!("--phi-o-deg: {e}"))?;
-    let mus: Vec<f64> = if !a.theta_deg.is_empty() {
-        a.theta_deg
-            .iter()
-            .map(|&t| {
-                if (0.0..90.0).contains(&t) {
-                    Ok(lobe::grid::sin_cos_deg(t).1)
-                } else {
-                    bail!("--theta-o-deg {t}: expected theta_o in [0, 90) degrees")
-                }
-            })
-            .collect::<Result<_>>()?
-    } else {
-        for &m in &a.mu {
-            if !(m > 0.0 && m <= 1.0) {
-                bail!("--mu {m}: expected mu = cos(theta_o) in (0, 1]");
-            }
-        }
-        a.mu.clone()
-    };
+    let mus = view_mus(&a)?;
     if let Some(n) = a.samples {
         super::check_samples("--samples", n)?;
     }
@@ -213,26 +195,7 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     let report = session.albedo_report(&params, &settings, &points, phi);
     spinner.finish_and_clear();
     let report = report?;
-    let largest = report
-        .points
-        .iter()
-        .map(|p| p.error.max_element())
-        .chain([
-            report.hemispherical.error.max_element(),
-            report.hemispherical.e_avg_error.max_element(),
-        ])
-        .fold(0.0, f64::max);
-    with_flag(lut::check_max_error(largest, a.max_error), |_| {
-        a.max_error.map(|m| format!("--max-error {m}"))
-    })?;
-    let at = report
-        .points
-        .iter()
-        .find(|p| p.error.max_element() == largest)
-        .map_or("the hemispherical albedo".to_string(), |p| {
-            format!("mu = {}", p.mu)
-        });
-    warn_large(largest, &at);
+    check_report_error(&a, &report)?;
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(
@@ -447,5 +410,53 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
             }
         }
     }
+    Ok(())
+}
+
+/// The view directions' mu = cos(theta_o): from --theta-o-deg, else --mu.
+fn view_mus(a: &AlbedoArgs) -> Result<Vec<f64>> {
+    Ok(if !a.theta_deg.is_empty() {
+        a.theta_deg
+            .iter()
+            .map(|&t| {
+                if (0.0..90.0).contains(&t) {
+                    Ok(lobe::grid::sin_cos_deg(t).1)
+                } else {
+                    bail!("--theta-o-deg {t}: expected theta_o in [0, 90) degrees")
+                }
+            })
+            .collect::<Result<_>>()?
+    } else {
+        for &m in &a.mu {
+            if !(m > 0.0 && m <= 1.0) {
+                bail!("--mu {m}: expected mu = cos(theta_o) in (0, 1]");
+            }
+        }
+        a.mu.clone()
+    })
+}
+
+/// The largest error estimate against --max-error, with a warning when it is large.
+fn check_report_error(a: &AlbedoArgs, report: &AlbedoReport) -> Result<()> {
+    let largest = report
+        .points
+        .iter()
+        .map(|p| p.error.max_element())
+        .chain([
+            report.hemispherical.error.max_element(),
+            report.hemispherical.e_avg_error.max_element(),
+        ])
+        .fold(0.0, f64::max);
+    with_flag(lut::check_max_error(largest, a.max_error), |_| {
+        a.max_error.map(|m| format!("--max-error {m}"))
+    })?;
+    let at = report
+        .points
+        .iter()
+        .find(|p| p.error.max_element() == largest)
+        .map_or("the hemispherical albedo".to_string(), |p| {
+            format!("mu = {}", p.mu)
+        });
+    warn_large(largest, &at);
     Ok(())
 }

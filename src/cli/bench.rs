@@ -3,6 +3,7 @@
 use super::{bar, open_session, BackendArg, BackendArgs, TableFormat};
 use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
+use lobe::bench::Throughput;
 use lobe::grid::Grid;
 use lobe::ParamSet;
 use std::io::Write;
@@ -115,65 +116,85 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?,
-        TableFormat::Csv => {
-            writeln!(
-                out,
-                "model,task,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
-            )?;
-            for r in &rows {
-                let k = r.kernel_per_s.map(|k| k.to_string()).unwrap_or_default();
-                writeln!(
-                    out,
-                    "{},{},{},{},{},{k}",
-                    r.model, r.task, r.backend, r.evaluations, r.wall_per_s
-                )?;
-            }
-        }
-        TableFormat::Table => {
-            writeln!(
-                out,
-                "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
-                 albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
-                 lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
-                a.repeats,
-                grid.cells().unwrap_or(0),
-                lobe::bench::ALBEDO_DIRECTIONS,
-                lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-                    + lobe::bench::ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
-                    + lobe::bench::ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len(),
-                lobe::bench::LUT_RES,
-                lobe::bench::LUT_RES,
-                lobe::bench::LUT_SAMPLES
-            )?;
-            let mut drivers: Vec<(&str, &str)> = rows
-                .iter()
-                .filter_map(|r| Some((r.backend.as_str(), r.driver.as_deref()?)))
-                .collect();
-            drivers.dedup();
-            for (backend, driver) in drivers {
-                writeln!(out, "{backend}: driver {driver}")?;
-            }
-            writeln!(
-                out,
-                "{:<18} {:<7} {:<44} {:>14} {:>16}",
-                "model", "task", "backend", "wall (M/s)", "kernel (M/s)"
-            )?;
-            for r in &rows {
-                let k = r
-                    .kernel_per_s
-                    .map(|k| format!("{:.1}", k / 1e6))
-                    .unwrap_or_else(|| "-".into());
-                writeln!(
-                    out,
-                    "{:<18} {:<7} {:<44} {:>14.1} {:>16}",
-                    r.model,
-                    r.task,
-                    r.backend,
-                    r.wall_per_s / 1e6,
-                    k
-                )?;
-            }
-        }
+        TableFormat::Csv => print_csv(&mut out, &rows)?,
+        TableFormat::Table => print_table(&mut out, &a, &grid, &rows)?,
+    }
+    Ok(())
+}
+
+/// One CSV line per model, task and backend.
+fn print_csv(out: &mut impl Write, rows: &[Throughput]) -> Result<()> {
+    writeln!(
+        out,
+        "model,task,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
+    )?;
+    for r in rows {
+        let k = r.kernel_per_s.map(|k| k.to_string()).unwrap_or_default();
+        writeln!(
+            out,
+            "{},{},{},{},{},{k}",
+            r.model, r.task, r.backend, r.evaluations, r.wall_per_s
+        )?;
+    }
+    Ok(())
+}
+
+/// What was timed, the drivers, then one line per model, task and backend.
+fn print_table(
+    out: &mut impl Write,
+    a: &BenchArgs,
+    grid: &Grid,
+    rows: &[Throughput],
+) -> Result<()> {
+    writeln!(
+        out,
+        "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
+             albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
+             lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
+        a.repeats,
+        grid.cells().unwrap_or(0),
+        lobe::bench::ALBEDO_DIRECTIONS,
+        lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
+            + lobe::bench::ALBEDO_RULE
+                .coarse()
+                .nodes(glam::DVec3::Z)
+                .len()
+            + lobe::bench::ALBEDO_RULE
+                .coarse()
+                .coarse()
+                .nodes(glam::DVec3::Z)
+                .len(),
+        lobe::bench::LUT_RES,
+        lobe::bench::LUT_RES,
+        lobe::bench::LUT_SAMPLES
+    )?;
+    let mut drivers: Vec<(&str, &str)> = rows
+        .iter()
+        .filter_map(|r| Some((r.backend.as_str(), r.driver.as_deref()?)))
+        .collect();
+    drivers.dedup();
+    for (backend, driver) in drivers {
+        writeln!(out, "{backend}: driver {driver}")?;
+    }
+    writeln!(
+        out,
+        "{:<18} {:<7} {:<44} {:>14} {:>16}",
+        "model", "task", "backend", "wall (M/s)", "kernel (M/s)"
+    )?;
+    for r in rows {
+        let k = r
+            .kernel_per_s
+            .map(|k| format!("{:.1}", k / 1e6))
+            .unwrap_or_else(|| "-".into());
+        writeln!(
+            out,
+            "{:<18} {:<7} {:<44} {:>14.1} {:>16}",
+            r.model,
+            r.task,
+            r.backend,
+            r.wall_per_s / 1e6,
+            k
+        )?;
     }
     Ok(())
 }

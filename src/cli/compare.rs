@@ -143,97 +143,33 @@ fn apply_side(
 }
 
 pub fn run(a: CompareArgs) -> Result<()> {
-    if let Some(n) = a.samples {
-        super::check_samples("--samples", n)?;
-    }
-    for &mu in &a.mu {
-        if !(mu > 0.0 && mu <= 1.0) {
-            bail!("--mu {mu}: expected mu = cos(theta_o) in (0, 1]");
-        }
-    }
-    for &t in &a.theta_i_deg {
-        if !(0.0..90.0).contains(&t) {
-            bail!("--theta-i-deg {t}: expected theta_i in [0, 90) degrees");
-        }
-    }
+    check_directions(&a)?;
     let specs = [a.a.clone(), a.b.clone()];
     let mut resolved = resolve_all(&specs, None, &a.sets)?;
     let (label_b, mut pb) = resolved.remove(1);
     let (label_a, mut pa) = resolved.remove(0);
     apply_side(&mut pa, "--set-a", "A", &label_a, &a.set_a)?;
     apply_side(&mut pb, "--set-b", "B", &label_b, &a.set_b)?;
-    if a.backend.backend == BackendArg::Cpu {
-        for (side, spec, p) in [("A", &label_a, &pa), ("B", &label_b, &pb)] {
-            if !p.model().has_reference() {
-                bail!(
-                    "--backend cpu: model {side} = {spec} has no f64 CPU twin (a .brdf shader runs \
-                     on the GPU only); leave out --backend cpu"
-                );
-            }
-        }
-    }
-    let merl_side = |spec: &str| {
-        super::split_spec(spec).is_ok_and(|(name, _)| lobe::merl::model::is_merl_path(name))
-    };
-    let bins = match a.grid {
-        None if merl_side(&label_a) || merl_side(&label_b) => Bins::Merl,
-        None => {
-            let kind = if pa.is_isotropic() && pb.is_isotropic() {
-                GridArg::Isotropic
-            } else {
-                GridArg::Full
-            };
-            Bins::Grid(Grid::parse(kind.name(), default_res(kind)).map_err(anyhow::Error::msg)?)
-        }
-        Some(kind) => {
-            let res = a.res.as_deref().unwrap_or(default_res(kind));
-            let grid = Grid::parse(kind.name(), res).map_err(|e| anyhow::anyhow!("--res: {e}"))?;
-            super::check_held_cells("--res", &grid)?;
-            Bins::Grid(grid)
-        }
-    };
+    check_cpu_twins(&a, [(label_a.as_str(), &pa), (label_b.as_str(), &pb)])?;
+    let bins = bins(&a, [(label_a.as_str(), &pa), (label_b.as_str(), &pb)])?;
     let format = match a.plot_format {
         PlotFormat::Png => Format::Png,
         PlotFormat::Svg => Format::Svg,
         PlotFormat::Pdf => Format::Pdf,
     };
     if let Some(prefix) = &a.output {
-        let (polar, difference) = difference::plot_paths(prefix, format);
-        let folder = lobe::output::folder_of(&polar);
-        if !folder.as_os_str().is_empty() && !folder.is_dir() {
-            bail!(
-                "-o {}: the folder {} does not exist",
-                prefix.display(),
-                folder.display()
-            );
-        }
-        for p in [&polar, &difference] {
-            lobe::output::check_destination(p).context("-o")?;
-        }
+        check_plot_paths(prefix, format)?;
     }
     let mut side_a = Side::new(pa.clone());
     let mut side_b = Side::new(pb.clone());
     for (side, spec) in [(&mut side_a, &label_a), (&mut side_b, &label_b)] {
-        if merl_side(spec) {
+        if is_merl_spec(spec) {
             let (name, _) = super::split_spec(spec)?;
             side.missing = compare::missing_bins(std::path::Path::new(name))?;
         }
     }
     let method = Method::from(a.method);
-    let opts = Options {
-        bins,
-        white_furnace: a.white_furnace,
-        mus: if a.no_albedo {
-            Vec::new()
-        } else {
-            a.mu.clone()
-        },
-        albedo: (!a.no_albedo).then(|| Settings {
-            method,
-            samples: a.samples.unwrap_or(method.default_samples()),
-            white_furnace: a.white_furnace,
-        }),
-    };
+    let opts = options(&a, bins, method);
     let session = open_session(&a.backend)?;
     let progress = bar(bins.cells(), "{msg} [{bar:40}] {percent}% eta {eta}");
     progress.set_message(format!("comparing on {}", bins.describe()));
@@ -280,31 +216,13 @@ pub fn run(a: CompareArgs) -> Result<()> {
     }
     out.flush()?;
     if let Some(prefix) = &a.output {
-        let plot_opts = difference::PlotOptions {
-            theta_i_deg: a.theta_i_deg.clone(),
-            common: lobe::plot::Common {
-                white_furnace: a.white_furnace,
-                ..difference::PlotOptions::default().common
-            },
-            ..difference::PlotOptions::default()
-        };
-        let sa = Subject {
-            label: format!("A: {label_a}"),
-            params: pa.clone(),
-        };
-        let sb = Subject {
-            label: format!("B: {label_b}"),
-            params: pb.clone(),
-        };
-        let plots = with_flag(
-            difference::write_plots(&session.evaluator(), &sa, &sb, &plot_opts, prefix, format),
-            compare_flag,
+        write_plots(
+            &a,
+            &session,
+            [(label_a.as_str(), &pa), (label_b.as_str(), &pb)],
+            prefix,
+            format,
         )?;
-        eprintln!(
-            "lobe: wrote {} and {}",
-            plots.polar_path.display(),
-            plots.difference_path.display()
-        );
     }
     eprintln!(
         "lobe: compared on {} in {seconds:.2} s",
@@ -405,4 +323,135 @@ fn print_table(
         )?;
     }
     Ok(())
+}
+
+/// --samples, --mu and --theta-i-deg in their ranges.
+fn check_directions(a: &CompareArgs) -> Result<()> {
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
+    }
+    for &mu in &a.mu {
+        if !(mu > 0.0 && mu <= 1.0) {
+            bail!("--mu {mu}: expected mu = cos(theta_o) in (0, 1]");
+        }
+    }
+    for &t in &a.theta_i_deg {
+        if !(0.0..90.0).contains(&t) {
+            bail!("--theta-i-deg {t}: expected theta_i in [0, 90) degrees");
+        }
+    }
+    Ok(())
+}
+
+/// With --backend cpu, both sides need an f64 twin.
+fn check_cpu_twins(a: &CompareArgs, sides: [(&str, &ParamSet); 2]) -> Result<()> {
+    if a.backend.backend == BackendArg::Cpu {
+        for (side, (spec, p)) in ["A", "B"].into_iter().zip(sides) {
+            if !p.model().has_reference() {
+                bail!(
+                    "--backend cpu: model {side} = {spec} has no f64 CPU twin (a .brdf shader runs \
+                     on the GPU only); leave out --backend cpu"
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether a side's spec names a MERL file.
+fn is_merl_spec(spec: &str) -> bool {
+    super::split_spec(spec).is_ok_and(|(name, _)| lobe::merl::model::is_merl_path(name))
+}
+
+/// The bins both sides are compared on: --grid and --res, MERL's bins when a side is a MERL
+/// file, else the grid both sides' isotropy allows.
+fn bins(a: &CompareArgs, [(label_a, pa), (label_b, pb)]: [(&str, &ParamSet); 2]) -> Result<Bins> {
+    Ok(match a.grid {
+        None if is_merl_spec(label_a) || is_merl_spec(label_b) => Bins::Merl,
+        None => {
+            let kind = if pa.is_isotropic() && pb.is_isotropic() {
+                GridArg::Isotropic
+            } else {
+                GridArg::Full
+            };
+            Bins::Grid(Grid::parse(kind.name(), default_res(kind)).map_err(anyhow::Error::msg)?)
+        }
+        Some(kind) => {
+            let res = a.res.as_deref().unwrap_or(default_res(kind));
+            let grid = Grid::parse(kind.name(), res).map_err(|e| anyhow::anyhow!("--res: {e}"))?;
+            super::check_held_cells("--res", &grid)?;
+            Bins::Grid(grid)
+        }
+    })
+}
+
+/// The folder of -o exists and neither picture belongs to a set.
+fn check_plot_paths(prefix: &std::path::Path, format: Format) -> Result<()> {
+    let (polar, difference) = difference::plot_paths(prefix, format);
+    let folder = lobe::output::folder_of(&polar);
+    if !folder.as_os_str().is_empty() && !folder.is_dir() {
+        bail!(
+            "-o {}: the folder {} does not exist",
+            prefix.display(),
+            folder.display()
+        );
+    }
+    for p in [&polar, &difference] {
+        lobe::output::check_destination(p).context("-o")?;
+    }
+    Ok(())
+}
+
+/// The polar overlay of both sides and the picture of their difference.
+fn write_plots(
+    a: &CompareArgs,
+    session: &lobe::Session,
+    [(label_a, pa), (label_b, pb)]: [(&str, &ParamSet); 2],
+    prefix: &std::path::Path,
+    format: Format,
+) -> Result<()> {
+    let plot_opts = difference::PlotOptions {
+        theta_i_deg: a.theta_i_deg.clone(),
+        common: lobe::plot::Common {
+            white_furnace: a.white_furnace,
+            ..difference::PlotOptions::default().common
+        },
+        ..difference::PlotOptions::default()
+    };
+    let sa = Subject {
+        label: format!("A: {label_a}"),
+        params: pa.clone(),
+    };
+    let sb = Subject {
+        label: format!("B: {label_b}"),
+        params: pb.clone(),
+    };
+    let plots = with_flag(
+        difference::write_plots(&session.evaluator(), &sa, &sb, &plot_opts, prefix, format),
+        compare_flag,
+    )?;
+    eprintln!(
+        "lobe: wrote {} and {}",
+        plots.polar_path.display(),
+        plots.difference_path.display()
+    );
+    Ok(())
+}
+
+/// What is compared: the bins, and unless --no-albedo the albedo at --mu and its settings.
+fn options(a: &CompareArgs, bins: Bins, method: Method) -> Options {
+    Options {
+        bins,
+        white_furnace: a.white_furnace,
+        mus: if a.no_albedo {
+            Vec::new()
+        } else {
+            a.mu.clone()
+        },
+        albedo: (!a.no_albedo).then(|| Settings {
+            method,
+            samples: a.samples.unwrap_or(method.default_samples()),
+            white_furnace: a.white_furnace,
+        }),
+    }
 }

@@ -55,28 +55,7 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         Method::Peak => energy::DEFAULT_PEAK_SAMPLES,
         m => m.default_samples(),
     });
-    let series: Vec<energy::Series> = if a.models.is_empty() && a.sets.is_empty() {
-        super::models_or_all(&[])?
-            .into_iter()
-            .map(energy::Series::Model)
-            .collect()
-    } else {
-        let specs = if a.models.is_empty() {
-            lobe::Model::ALL.map(|m| m.name().to_string()).to_vec()
-        } else {
-            super::split_specs(&a.models)
-        };
-        super::resolve_all(&specs, None, &a.sets)?
-            .into_iter()
-            .map(|(label, p)| {
-                if p == lobe::ParamSet::defaults(p.model()) {
-                    energy::Series::Model(p.model())
-                } else {
-                    energy::Series::Params(label, p)
-                }
-            })
-            .collect()
-    };
+    let series = series(&a)?;
     let bar = indicatif::ProgressBar::new(0);
     // Without a terminal the bar is hidden: say how far it got on stderr, one line per model.
     let plain = !std::io::stderr().is_terminal();
@@ -146,4 +125,30 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         )?,
     }
     Ok(())
+}
+
+/// What is reported: every model at its presets, or the models and parameters asked for.
+fn series(a: &EnergyArgs) -> Result<Vec<energy::Series>> {
+    Ok(if a.models.is_empty() && a.sets.is_empty() {
+        super::models_or_all(&[])?
+            .into_iter()
+            .map(energy::Series::Model)
+            .collect()
+    } else {
+        let specs = if a.models.is_empty() {
+            lobe::Model::ALL.map(|m| m.name().to_string()).to_vec()
+        } else {
+            super::split_specs(&a.models)
+        };
+        super::resolve_all(&specs, None, &a.sets)?
+            .into_iter()
+            .map(|(label, p)| {
+                if p == lobe::ParamSet::defaults(p.model()) {
+                    energy::Series::Model(p.model())
+                } else {
+                    energy::Series::Params(label, p)
+                }
+            })
+            .collect()
+    })
 }

@@ -6,6 +6,7 @@ use clap::{Args, ValueEnum};
 use lobe::fit::{FitOptions, FitReport, Space, Target};
 use lobe::loss::LossKind;
 use lobe::plot::{Format, Subject};
+use lobe::ParamSet;
 use std::io::Write;
 
 /// Output format of `lobe fit`.
@@ -83,18 +84,7 @@ fn fixed_keys(spec: &str, sets: &[String]) -> Result<Vec<String>> {
 
 /// Runs `lobe fit`.
 pub fn run(a: FitArgs) -> Result<()> {
-    let target = match Target::file_kind(&a.target) {
-        Some(t) => {
-            if !a.target_sets.is_empty() {
-                anyhow::bail!(
-                    "--target-set: the target {} is a file, which has no parameters to set",
-                    a.target
-                );
-            }
-            t
-        }
-        None => Target::Model(resolve(&a.target, None, &a.target_sets).context("--target")?),
-    };
+    let target = target(&a)?;
     let base = resolve(&a.model, None, &a.sets).context("--model")?;
     let fixed = fixed_keys(&a.model, &a.sets)?;
     let space = with_flag(Space::new(base, &a.free, &fixed), |o| {
@@ -110,28 +100,7 @@ pub fn run(a: FitArgs) -> Result<()> {
         max_iters: a.max_iters,
     };
     let plot_target = match &a.output {
-        Some(prefix) => {
-            let (polar, difference) = lobe::plot::difference::plot_paths(prefix, Format::Png);
-            let folder = lobe::output::folder_of(&polar);
-            if !folder.as_os_str().is_empty() && !folder.is_dir() {
-                anyhow::bail!(
-                    "-o {}: the folder {} does not exist",
-                    prefix.display(),
-                    folder.display()
-                );
-            }
-            for p in [&polar, &difference] {
-                lobe::output::check_destination(p).context("-o")?;
-            }
-            match lobe::fit::target_model(&target)? {
-                Some(p) => Some(p),
-                None => anyhow::bail!(
-                    "-o {}: the target {} is a table, which cannot be drawn as a model; fit without -o, or give the model or MERL file it came from",
-                    prefix.display(),
-                    a.target
-                ),
-            }
-        }
+        Some(prefix) => Some(plot_target(&a, prefix, &target)?),
         None => None,
     };
     let session = open_session(&a.backend)?;
@@ -251,4 +220,44 @@ fn print_table(out: &mut impl Write, r: &FitReport, target: &Target) -> Result<(
         )?;
     }
     Ok(())
+}
+
+/// The target: a file of measurements or a table, else a model with --target-set.
+fn target(a: &FitArgs) -> Result<Target> {
+    Ok(match Target::file_kind(&a.target) {
+        Some(t) => {
+            if !a.target_sets.is_empty() {
+                anyhow::bail!(
+                    "--target-set: the target {} is a file, which has no parameters to set",
+                    a.target
+                );
+            }
+            t
+        }
+        None => Target::Model(resolve(&a.target, None, &a.target_sets).context("--target")?),
+    })
+}
+
+/// With -o: the target as a model to draw, once the pictures' folder and names are checked.
+fn plot_target(a: &FitArgs, prefix: &std::path::Path, target: &Target) -> Result<ParamSet> {
+    let (polar, difference) = lobe::plot::difference::plot_paths(prefix, Format::Png);
+    let folder = lobe::output::folder_of(&polar);
+    if !folder.as_os_str().is_empty() && !folder.is_dir() {
+        anyhow::bail!(
+            "-o {}: the folder {} does not exist",
+            prefix.display(),
+            folder.display()
+        );
+    }
+    for p in [&polar, &difference] {
+        lobe::output::check_destination(p).context("-o")?;
+    }
+    match lobe::fit::target_model(target)? {
+        Some(p) => Ok(p),
+        None => anyhow::bail!(
+            "-o {}: the target {} is a table, which cannot be drawn as a model; fit without -o, or give the model or MERL file it came from",
+            prefix.display(),
+            a.target
+        ),
+    }
 }

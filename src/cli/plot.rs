@@ -240,9 +240,66 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
     } else {
         a.materials.iter().map(|m| Some(m.as_str())).collect()
     };
+    let subjects = subjects(&a, &models, &materials)?;
+    if let Some(n) = a.samples {
+        super::check_samples("--samples", n)?;
+    }
+    check_curves(&a, subjects.len(), (models.len(), materials.len()))?;
+    let style: plot::Style = a.style.into();
+    let size = canvas_size(&a, style, models.len() * materials.len())?;
+    let common = Common {
+        white_furnace: a.white_furnace,
+        cos: a.cos,
+        log: a.log || (a.kind == PlotKind::Hemisphere && !a.linear),
+        decades: a.decades,
+        channel: a.channel.into(),
+        size,
+        style,
+    };
+    let request = request(&a);
+    // The picture and the two files beside it, checked before any work: none may belong to a set.
+    for dest in [
+        a.output.clone(),
+        plot::params_json_path(&a.output),
+        plot::csv::data_csv_path(&a.output),
+    ] {
+        lobe::output::check_destination(&dest).context("-o")?;
+    }
+    let session = match a.kind {
+        PlotKind::Albedo => open_albedo_session(&a.backend, a.method.into())?,
+        _ => open_session(&a.backend)?,
+    };
+    let start = std::time::Instant::now();
+    let plotted = with_flag(
+        plot::plot(
+            &session.evaluator(),
+            &subjects,
+            &common,
+            &request,
+            &a.output,
+        ),
+        plot_flag,
+    )?;
+    plot::write_params_json(&a.output, &subjects, &plotted)?;
+    plot::csv::write_data_csv(&a.output, &subjects, &plotted)?;
+    let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "lobe plot: wrote {} ({} bytes, parameters in {}, {} evaluations, {:.2} s): {}",
+        a.output.display(),
+        bytes,
+        plot::params_json_path(&a.output).display(),
+        plotted.evaluations(),
+        start.elapsed().as_secs_f64(),
+        plotted.title()
+    );
+    Ok(())
+}
+
+/// One subject per model and material; a label gains its material where the spec has `{`.
+fn subjects(a: &PlotArgs, models: &[String], materials: &[Option<&str>]) -> Result<Vec<Subject>> {
     let mut subjects = Vec::new();
-    for material in &materials {
-        for (label, params) in resolve_all(&models, *material, &a.sets)? {
+    for material in materials {
+        for (label, params) in resolve_all(models, *material, &a.sets)? {
             let mut subject = Subject::new(params, *material);
             if label.contains('{') {
                 subject.label = match material {
@@ -253,25 +310,27 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             subjects.push(subject);
         }
     }
-    if let Some(n) = a.samples {
-        super::check_samples("--samples", n)?;
-    }
+    Ok(subjects)
+}
+
+/// Refuses more curves than one picture overlays.
+fn check_curves(a: &PlotArgs, subjects: usize, (models, materials): (usize, usize)) -> Result<()> {
     let n_angles = if a.theta_i_deg.is_empty() {
         4
     } else {
         a.theta_i_deg.len()
     };
     let curves = match a.kind {
-        PlotKind::Polar => subjects.len() * n_angles,
-        PlotKind::Albedo => subjects.len(),
+        PlotKind::Polar => subjects * n_angles,
+        PlotKind::Albedo => subjects,
         _ => 0,
     };
     if curves > MAX_CURVES {
         bail!(
             "{curves} curves in one picture ({} models x {} materials{}); a plot overlays at most \
              {MAX_CURVES}: ask for fewer --model, --material or --theta-i-deg values",
-            models.len(),
-            materials.len(),
+            models,
+            materials,
             if a.kind == PlotKind::Polar {
                 format!(" x {n_angles} angles")
             } else {
@@ -279,14 +338,18 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             }
         );
     }
-    let style: plot::Style = a.style.into();
-    // The canvas: --size, or the kind's default, in canvas pixels (paper: written pixels, whose
-    // canvas is smaller by the style's zoom).
+    Ok(())
+}
+
+/// The canvas: --size, or the kind's default, in canvas pixels (paper: written pixels, whose
+/// canvas is smaller by the style's zoom). `pairs` is the models times the materials: a
+/// hemisphere map gives each its own rows of panels.
+fn canvas_size(a: &PlotArgs, style: plot::Style, pairs: usize) -> Result<(u32, u32)> {
     let width = match style {
         plot::Style::Screen => 1200,
         plot::Style::Paper => plot::PAPER_CANVAS_WIDTH,
     };
-    let size = match &a.size {
+    Ok(match &a.size {
         Some(text) => style.canvas_for(parse_size("--size", text, "1200x800")?),
         None if a.kind == PlotKind::Hemisphere => {
             let cols = if a.theta_i_deg.is_empty() {
@@ -296,7 +359,7 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             };
             let maps = width.saturating_sub(plot::hemisphere::COLOUR_BAR_WIDTH);
             let per_row = plot::hemisphere::panel_columns(maps, cols);
-            let rows = models.len() * materials.len() * cols.div_ceil(per_row);
+            let rows = pairs * cols.div_ceil(per_row);
             let side = (maps / per_row as u32).clamp(20, 520);
             // 150 px for the title on a screen; a paper figure has none. 30 px per panel caption.
             let head = match style {
@@ -307,16 +370,11 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
         }
         None if a.kind == PlotKind::Polar => (width, width * 680 / 1200),
         None => (width, width * 2 / 3),
-    };
-    let common = Common {
-        white_furnace: a.white_furnace,
-        cos: a.cos,
-        log: a.log || (a.kind == PlotKind::Hemisphere && !a.linear),
-        decades: a.decades,
-        channel: a.channel.into(),
-        size,
-        style,
-    };
+    })
+}
+
+/// The kind of plot with its own options, from the flags.
+fn request(a: &PlotArgs) -> Request {
     let angles = |default: &[f64]| {
         if a.theta_i_deg.is_empty() {
             default.to_vec()
@@ -324,7 +382,7 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             a.theta_i_deg.clone()
         }
     };
-    let request = match a.kind {
+    match a.kind {
         PlotKind::Polar => Request::Polar(plot::polar::PolarOptions {
             theta_i_deg: angles(&[0.0, 30.0, 60.0, 80.0]),
             samples: a.res.unwrap_or(plot::polar::DEFAULT_SAMPLES),
@@ -362,41 +420,5 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
             samples: a.samples,
             phi_deg: a.phi_i_deg,
         }),
-    };
-    // The picture and the two files beside it, checked before any work: none may belong to a set.
-    for dest in [
-        a.output.clone(),
-        plot::params_json_path(&a.output),
-        plot::csv::data_csv_path(&a.output),
-    ] {
-        lobe::output::check_destination(&dest).context("-o")?;
     }
-    let session = match a.kind {
-        PlotKind::Albedo => open_albedo_session(&a.backend, a.method.into())?,
-        _ => open_session(&a.backend)?,
-    };
-    let start = std::time::Instant::now();
-    let plotted = with_flag(
-        plot::plot(
-            &session.evaluator(),
-            &subjects,
-            &common,
-            &request,
-            &a.output,
-        ),
-        plot_flag,
-    )?;
-    plot::write_params_json(&a.output, &subjects, &plotted)?;
-    plot::csv::write_data_csv(&a.output, &subjects, &plotted)?;
-    let bytes = std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0);
-    println!(
-        "lobe plot: wrote {} ({} bytes, parameters in {}, {} evaluations, {:.2} s): {}",
-        a.output.display(),
-        bytes,
-        plot::params_json_path(&a.output).display(),
-        plotted.evaluations(),
-        start.elapsed().as_secs_f64(),
-        plotted.title()
-    );
-    Ok(())
 }

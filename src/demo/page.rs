@@ -26,12 +26,24 @@ code { background: #f4f4f4; padding: 0 0.25em; border-radius: 3px; }
 ";
 
 /// The whole page: every section, with links to the files in the output folder.
-pub(super) fn page(
-    r: &Report,
-    plots: &[PlannedPlot],
-    (preview_png, preview_exr): PreviewSizes,
-) -> String {
+pub(super) fn page(r: &Report, plots: &[PlannedPlot], preview_sizes: PreviewSizes) -> String {
     let mut h = String::new();
+    head(&mut h, r);
+    at_a_glance(&mut h, r);
+    steps(&mut h, r);
+    preview(&mut h, r, preview_sizes);
+    albedo(&mut h, r, plots);
+    measured(&mut h, r);
+    super::shipped::section(&mut h, r.shipped.as_ref());
+    lut(&mut h, r);
+    lobes(&mut h, r, plots);
+    parity(&mut h, r);
+    files(&mut h, r);
+    h
+}
+
+/// The title, the run's settings and what the demo is.
+fn head(h: &mut String, r: &Report) {
     let _ = writeln!(
         h,
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>lobe demo</title><style>{CSS}</style></head><body>"
@@ -54,7 +66,10 @@ pub(super) fn page(
         let _ = writeln!(h, "<li>{}</li>", esc(&line));
     }
     let _ = writeln!(h, "</ul>");
+}
 
+/// Energy gain, energy loss and parity in one list.
+fn at_a_glance(h: &mut String, r: &Report) {
     let _ = writeln!(h, "<h2>At a glance</h2><ul id=\"glance\">");
     let gains: Vec<&AlbedoRow> = r.albedo.iter().filter(|a| a.gains_energy()).collect();
     if gains.is_empty() {
@@ -104,7 +119,10 @@ pub(super) fn page(
         }
     }
     let _ = writeln!(h, "</ul>");
+}
 
+/// Each step's time and output.
+fn steps(h: &mut String, r: &Report) {
     let _ = writeln!(
         h,
         "<h2>Steps</h2><table id=\"steps\"><tr><th>step</th><th>time</th><th>output</th></tr>"
@@ -119,10 +137,13 @@ pub(super) fn page(
         );
     }
     let _ = writeln!(h, "</table>");
+}
 
+/// The contact sheet and the white furnace.
+fn preview(h: &mut String, r: &Report, (preview_png, preview_exr): PreviewSizes) {
     let _ = writeln!(h, "<h2>Preview</h2>");
     figure(
-        &mut h,
+        h,
         "preview/contact_sheet.png",
         preview_png,
         "Rows: materials; columns: models. Spheres under the lab's four point lights at (0,0,1), (0,1,1), (1,0,1), (−1,0,1), camera at the origin, no ambient light; sRGB, exposure 0 (a white Lambertian facing the camera reads 1). Mirror spikes of the layered models are not drawn.",
@@ -133,12 +154,15 @@ pub(super) fn page(
         preview_exr.0, preview_exr.1
     );
     figure(
-        &mut h,
+        h,
         "preview/white_furnace.png",
         r.white_furnace_png,
         "White furnace: colours at 1 and F = 1 under a uniform white sky, so each pixel shows the albedo E(μo) and anything darker than white is energy the model loses. Left to right: qualitative Oren–Nayar (σ = 0.5), EON (r = 1), GGX α = 1 (height-correlated Smith), the same with multiscatter=kulla_conty.",
     );
+}
 
+/// Albedo tables per material and the albedo plots.
+fn albedo(h: &mut String, r: &Report, plots: &[PlannedPlot]) {
     let _ = writeln!(h, "<h2>Albedo and energy</h2>");
     let _ = writeln!(
         h,
@@ -161,19 +185,22 @@ pub(super) fn page(
             esc(mat)
         );
         for a in r.albedo.iter().filter(|a| a.material == *mat) {
-            albedo_row(&mut h, a);
+            albedo_row(h, a);
         }
         let _ = writeln!(h, "</table>");
     }
     for pl in plots.iter().filter(|p| p.material.is_some()) {
         figure(
-            &mut h,
+            h,
             &pl.file,
             (PLOT_SIZE.0 as usize, PLOT_SIZE.1 as usize),
             &pl.caption,
         );
     }
+}
 
+/// The MERL-format file read back and integrated.
+fn measured(h: &mut String, r: &Report) {
     let m = &r.measured;
     let _ = writeln!(h, "<h2 id=\"measured\">Measured data in MERL's format</h2>");
     let _ = writeln!(
@@ -188,12 +215,13 @@ pub(super) fn page(
         .iter()
         .filter(|a| a.material == "gold" && a.model == "cook_torrance");
     for a in analytic.chain(&m.rows) {
-        albedo_row(&mut h, a);
+        albedo_row(h, a);
     }
     let _ = writeln!(h, "</table>");
+}
 
-    super::shipped::section(&mut h, r.shipped.as_ref());
-
+/// Kulla–Conty's table: the figure, E_avg per α and its files.
+fn lut(h: &mut String, r: &Report) {
     let _ = writeln!(h, "<h2>Albedo LUT</h2>");
     let _ = writeln!(
         h,
@@ -203,7 +231,7 @@ pub(super) fn page(
     );
     let (e, mu, alpha) = r.lut.min_e;
     figure(
-        &mut h,
+        h,
         &r.lut.png,
         (r.lut.png_size.0 as usize, r.lut.png_size.1 as usize),
         &format!("E(μ, α) of the GGX lobe under the white furnace; 1 − E is the energy single scattering loses. The smallest E in the table is {e:.3}, at μ = {mu:.3}, α = {alpha:.3}."),
@@ -227,11 +255,14 @@ pub(super) fn page(
         let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
     }
     let _ = writeln!(h, "</ul>");
+}
 
+/// The lobe figures and the lobe tables' files.
+fn lobes(h: &mut String, r: &Report, plots: &[PlannedPlot]) {
     let _ = writeln!(h, "<h2>Lobes</h2>");
     for pl in plots.iter().filter(|p| p.material.is_none()) {
         let size = (pl.common.size.0 as usize, pl.common.size.1 as usize);
-        figure(&mut h, &pl.file, size, &pl.caption);
+        figure(h, &pl.file, size, &pl.caption);
     }
 
     let _ = writeln!(h, "<h2>Lobe tables</h2><p>Gold under Cook–Torrance, f(ωi, ωo) in 1/sr without the cosine, on cell-centred grids (angles in radians). Each table is an EXR mosaic (one slice per light direction; the layout is in the EXR header and the JSON sidecar), a NumPy array and a JSON sidecar.</p><ul>");
@@ -239,7 +270,10 @@ pub(super) fn page(
         let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
     }
     let _ = writeln!(h, "</ul>");
+}
 
+/// GPU against CPU per model, or why it was not measured.
+fn parity(h: &mut String, r: &Report) {
     let _ = writeln!(h, "<h2>GPU vs CPU parity</h2>");
     match &r.parity {
         None => {
@@ -272,11 +306,13 @@ pub(super) fn page(
             let _ = writeln!(h, "</table>");
         }
     }
+}
 
+/// Every file in the output folder.
+fn files(h: &mut String, r: &Report) {
     let _ = writeln!(h, "<h2>Files</h2><ul class=\"files\">");
     for f in &r.files {
         let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", esc(f));
     }
     let _ = writeln!(h, "</ul></body></html>");
-    h
 }

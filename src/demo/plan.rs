@@ -33,13 +33,31 @@ pub(super) fn plan_plots(
     materials: &[&'static str],
     models: &[Model],
 ) -> Result<Vec<PlannedPlot>> {
-    let subject = |mat: &str, model: Model| -> Result<Subject> {
-        Ok(Subject::new(material::preset(mat, model)?, Some(mat)))
-    };
-    let line = Common {
+    let mut out = polar_plots(settings, materials)?;
+    out.push(hemisphere_plot(settings)?);
+    for &mat in materials {
+        out.push(albedo_plot(settings, mat, models)?);
+    }
+    Ok(out)
+}
+
+/// A model at a material's preset, labelled with the material.
+fn subject(mat: &str, model: Model) -> Result<Subject> {
+    Ok(Subject::new(material::preset(mat, model)?, Some(mat)))
+}
+
+/// The canvas and scale of the line charts.
+fn line_common() -> Common {
+    Common {
         size: PLOT_SIZE,
         ..Common::default()
-    };
+    }
+}
+
+/// Polar overlays: Cook–Torrance at every material, gold under the glossy models, and one lobe
+/// at several incidence angles.
+fn polar_plots(settings: &Settings, materials: &[&'static str]) -> Result<Vec<PlannedPlot>> {
+    let line = line_common();
     // A half disc is twice as wide as tall: polar plots get a lower canvas.
     let log = Common {
         log: true,
@@ -53,7 +71,7 @@ pub(super) fn plan_plots(
             radius: plot::polar::Radius::Auto,
         })
     };
-    let mut out = vec![
+    Ok(vec![
         PlannedPlot {
             file: "plots/polar_cook_torrance_materials.png".into(),
             caption: "Cook–Torrance at the four materials, θi = 45°, log radius: roughness sets the lobe's width, the diffuse share its floor.".into(),
@@ -94,15 +112,18 @@ pub(super) fn plan_plots(
             },
             request: polar(vec![0.0, 30.0, 60.0, 80.0]),
         },
-    ];
-    // Hemisphere maps: an isotropic and an anisotropic lobe, four incidence angles each; the
-    // height fits two rows of four square panels (as `lobe plot` sizes them).
+    ])
+}
+
+/// Hemisphere maps: an isotropic and an anisotropic lobe, four incidence angles each; the
+/// height fits two rows of four square panels (as `lobe plot` sizes them).
+fn hemisphere_plot(settings: &Settings) -> Result<PlannedPlot> {
     let hemi_subjects = vec![
         subject("gold", Model::CookTorrance)?,
         subject("tin", Model::AshikhminShirley)?,
     ];
     let side = 1090 / 4;
-    out.push(PlannedPlot {
+    Ok(PlannedPlot {
         file: "plots/hemisphere_gold_tin.png".into(),
         caption: "f over every ωo for ωi at θi = 0°, 30°, 60°, 80° (φi = 0), equal-area projection, log colour: gold Cook–Torrance (isotropic) and tin Ashikhmin–Shirley (anisotropic, brushed).".into(),
         material: None,
@@ -116,24 +137,25 @@ pub(super) fn plan_plots(
             res: settings.hemisphere_res,
             ..Default::default()
         }),
-    });
-    for &mat in materials {
-        out.push(PlannedPlot {
-            file: format!("plots/albedo_{mat}.png"),
-            caption: format!("Directional albedo E(μ) of every model at {mat}; above the dashed line E = 1 a model creates energy."),
-            material: Some(mat),
-            subjects: models
-                .iter()
-                .map(|&m| subject(mat, m))
-                .collect::<Result<_>>()?,
-            common: line.clone(),
-            request: Request::Albedo(plot::albedo::AlbedoOptions {
-                n_mu: settings.curve_mu,
-                method: Method::Peak,
-                samples: Some(settings.curve_samples),
-                phi_deg: 0.0,
-            }),
-        });
-    }
-    Ok(out)
+    })
+}
+
+/// The E(μ) chart of every model at one material.
+fn albedo_plot(settings: &Settings, mat: &'static str, models: &[Model]) -> Result<PlannedPlot> {
+    Ok(PlannedPlot {
+        file: format!("plots/albedo_{mat}.png"),
+        caption: format!("Directional albedo E(μ) of every model at {mat}; above the dashed line E = 1 a model creates energy."),
+        material: Some(mat),
+        subjects: models
+            .iter()
+            .map(|&m| subject(mat, m))
+            .collect::<Result<_>>()?,
+        common: line_common(),
+        request: Request::Albedo(plot::albedo::AlbedoOptions {
+            n_mu: settings.curve_mu,
+            method: Method::Peak,
+            samples: Some(settings.curve_samples),
+            phi_deg: 0.0,
+        }),
+    })
 }

@@ -28,7 +28,8 @@
 //! `PATH.json` (the sidecar).
 
 use super::{
-    check_max_error, compute, file_name, sibling_paths, write_npy, LutSpec, LutSummary, Mapping,
+    check_max_error, compute, exr_channels_layer, file_name, sibling_paths, write_npy, LutSpec,
+    LutSummary, Mapping,
 };
 use crate::eval::Evaluator;
 use crate::model::Value;
@@ -341,34 +342,6 @@ pub fn write_engine(
     set.commit()?;
     table.files = dests.iter().map(|p| p.to_path_buf()).collect();
     Ok(table)
-}
-
-/// One EXR layer of float32 channels named `names`, each `width × height` values taken from
-/// `values` (interleaved, `names.len()` per texel).
-pub(crate) fn exr_channels_layer(
-    name: &str,
-    width: usize,
-    height: usize,
-    names: &[&str],
-    values: &[f32],
-) -> Layer<AnyChannels<FlatSamples>> {
-    let n = names.len();
-    let channels = names
-        .iter()
-        .enumerate()
-        .map(|(c, &ch)| {
-            AnyChannel::new(
-                ch,
-                FlatSamples::F32(values.iter().skip(c).step_by(n).copied().collect()),
-            )
-        })
-        .collect();
-    Layer::new(
-        (width, height),
-        LayerAttributes::named(name),
-        crate::output::EXR_ENCODING,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    )
 }
 
 const CHANNEL_NAMES: [&str; 2] = ["R", "G"];

@@ -7,7 +7,8 @@
 
 use super::{
     bad, check_finite_deg, describe_subjects, header_in, legend, legend_width, pixel_map, render,
-    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Subject,
+    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, SeriesStyle,
+    Subject,
 };
 use crate::eval::Evaluator;
 use crate::integrate::{directional, Method, Settings};
@@ -172,22 +173,7 @@ fn draw<DB: DrawingBackend>(
     lines.push(note);
     let body = header_in(common.style, root, &data.title, &lines)?;
     let styles = subject_styles(subjects);
-    let entries: Vec<LegendEntry> = subjects
-        .iter()
-        .zip(&styles)
-        .map(|(s, st)| LegendEntry {
-            label: s.label.clone(),
-            colour: st.colour,
-            dash: st.dash,
-            marker: st.marker,
-        })
-        .chain(std::iter::once(LegendEntry {
-            label: "E = 1: energy conserved".to_string(),
-            colour: RGBColor(120, 120, 120),
-            dash: Dash::Dashed,
-            marker: Marker::None,
-        }))
-        .collect();
+    let entries = legend_entries(subjects, &styles);
     let (w, h) = body.dim_in_pixel();
     let paper = common.style == super::Style::Paper;
     // A paper figure's legend goes in rows under the chart, whose axes take only the room
@@ -251,6 +237,42 @@ fn draw<DB: DrawingBackend>(
         Dash::Dashed,
         1.0,
     );
+    draw_curves(ink, &px, data, &styles);
+    if paper {
+        rows.draw(&legend_area, ink, &entries)?;
+    } else {
+        legend(&legend_area, ink, &entries)?;
+    }
+    Ok(())
+}
+
+/// One legend entry per subject, then the dashed line at E = 1.
+fn legend_entries(subjects: &[Subject], styles: &[SeriesStyle]) -> Vec<LegendEntry> {
+    subjects
+        .iter()
+        .zip(styles)
+        .map(|(s, st)| LegendEntry {
+            label: s.label.clone(),
+            colour: st.colour,
+            dash: st.dash,
+            marker: st.marker,
+        })
+        .chain(std::iter::once(LegendEntry {
+            label: "E = 1: energy conserved".to_string(),
+            colour: RGBColor(120, 120, 120),
+            dash: Dash::Dashed,
+            marker: Marker::None,
+        }))
+        .collect()
+}
+
+/// Every E(μ) curve through `px` (a chart point to canvas pixels), with its markers.
+fn draw_curves(
+    ink: &mut Ink,
+    px: &dyn Fn((f64, f64)) -> (f64, f64),
+    data: &AlbedoData,
+    styles: &[SeriesStyle],
+) {
     for c in &data.curves {
         let st = styles[c.subject];
         let pts: Vec<(f64, f64)> =
@@ -262,10 +284,4 @@ fn draw<DB: DrawingBackend>(
         let phase = (c.subject % 4) as f64 / 4.0;
         ink.markers_along(&pts, st.marker, st.colour, MARKER_SPACING, phase);
     }
-    if paper {
-        rows.draw(&legend_area, ink, &entries)?;
-    } else {
-        legend(&legend_area, ink, &entries)?;
-    }
-    Ok(())
 }

@@ -11,9 +11,9 @@
 //! Every panel is one (model, fixed direction); all panels share one colour scale.
 
 use super::{
-    bad, check_deg, check_finite_deg, colour_bar, colour_map, describe_subjects, draw_placed,
-    fmt_value, header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Placed,
-    Scale, Style, Subject, LABEL_GAP,
+    bad, check_deg, check_finite_deg, colour_bar, describe_subjects, draw_placed, fmt_value,
+    header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Placed, Scale, Style,
+    Subject, LABEL_GAP,
 };
 use crate::eval::Evaluator;
 pub use crate::grid::angles_deg;
@@ -27,6 +27,7 @@ use std::f64::consts::SQRT_2;
 use std::path::Path;
 
 mod cells;
+mod marks;
 use cells::draw_cells;
 
 /// How a direction (θ, φ) of the hemisphere maps to the disc point r·(cosφ, sinφ); both put the
@@ -169,29 +170,7 @@ pub fn hemisphere_data(
     common: &Common,
     opts: &HemisphereOptions,
 ) -> Result<HemisphereData> {
-    common.check()?;
-    if subjects.is_empty() {
-        bail!("a hemisphere plot needs at least one model");
-    }
-    if opts.theta_deg.is_empty() {
-        return Err(bad(
-            "theta_deg",
-            "give at least one angle theta for the fixed direction".into(),
-        ));
-    }
-    for &t in &opts.theta_deg {
-        check_deg("theta_deg", "theta of the fixed direction", t, 0.0, 90.0)?;
-    }
-    check_finite_deg("phi_deg", "phi of the fixed direction", opts.phi_deg)?;
-    if !(8..=2048).contains(&opts.res) {
-        return Err(bad(
-            "res",
-            format!(
-                "{} cells across: a hemisphere map takes 8 to 2048",
-                opts.res
-            ),
-        ));
-    }
+    check_request(subjects, common, opts)?;
     let n = opts.res;
     let cells: Vec<Option<DVec3>> = (0..n * n)
         .map(|k| {
@@ -232,16 +211,7 @@ pub fn hemisphere_data(
                     }
                 })
                 .collect();
-            let mut best: Option<usize> = None;
-            for (k, v) in values.iter().enumerate() {
-                if v.is_finite() && best.is_none_or(|b| *v > values[b]) {
-                    best = Some(k);
-                }
-            }
-            let peak_deg = match best.and_then(|k| cells[k]) {
-                Some(d) => angles_deg(d),
-                None => (f64::NAN, f64::NAN),
-            };
+            let peak_deg = peak_direction(&values, &cells);
             panels.push(HemispherePanel {
                 subject: j,
                 theta_deg: t,
@@ -278,6 +248,49 @@ pub fn hemisphere_data(
         scale,
         evaluations,
     })
+}
+
+/// The options and subjects of a hemisphere plot, checked before any evaluation.
+fn check_request(subjects: &[Subject], common: &Common, opts: &HemisphereOptions) -> Result<()> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a hemisphere plot needs at least one model");
+    }
+    if opts.theta_deg.is_empty() {
+        return Err(bad(
+            "theta_deg",
+            "give at least one angle theta for the fixed direction".into(),
+        ));
+    }
+    for &t in &opts.theta_deg {
+        check_deg("theta_deg", "theta of the fixed direction", t, 0.0, 90.0)?;
+    }
+    check_finite_deg("phi_deg", "phi of the fixed direction", opts.phi_deg)?;
+    if !(8..=2048).contains(&opts.res) {
+        return Err(bad(
+            "res",
+            format!(
+                "{} cells across: a hemisphere map takes 8 to 2048",
+                opts.res
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// (θ, φ) in degrees of the cell with the largest finite value (the first of equals), NaN when
+/// none is finite.
+fn peak_direction(values: &[f64], cells: &[Option<DVec3>]) -> (f64, f64) {
+    let mut best: Option<usize> = None;
+    for (k, v) in values.iter().enumerate() {
+        if v.is_finite() && best.is_none_or(|b| *v > values[b]) {
+            best = Some(k);
+        }
+    }
+    match best.and_then(|k| cells[k]) {
+        Some(d) => angles_deg(d),
+        None => (f64::NAN, f64::NAN),
+    }
 }
 
 /// Evaluates and draws the heat maps into `path` (.png, .svg or .pdf); returns what it drew.
@@ -406,60 +419,11 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
         .drawing("a hemisphere chart")?;
     let pa = chart.plotting_area();
     let n = data.res;
-    let cell = 2.0 / n as f64;
-    // A cell outside the disc takes the value of a neighbour inside it, so that the cells
-    // cover the whole disc; the white mask drawn over them then gives the rim its round,
-    // anti-aliased edge.
-    let value = |row: usize, col: usize| -> f64 {
-        let v = panel.values[row * n + col];
-        if v.is_finite() {
-            return v;
-        }
-        let (r, c) = (row as i64, col as i64);
-        [
-            (0, 1),
-            (0, -1),
-            (1, 0),
-            (-1, 0),
-            (1, 1),
-            (1, -1),
-            (-1, 1),
-            (-1, -1),
-        ]
-        .iter()
-        .map(|(dr, dc)| (r + dr, c + dc))
-        .filter(|&(a, b)| a >= 0 && b >= 0 && a < n as i64 && b < n as i64)
-        .map(|(a, b)| panel.values[a as usize * n + b as usize])
-        .find(|v| v.is_finite())
-        .unwrap_or(f64::NAN)
-    };
+    let value = |row: usize, col: usize| cells::filled_value(&panel.values, n, row, col);
     if paper {
         draw_cells(ink, &pixel_map(pa), n, &value, &data.scale);
-    }
-    // Runs of cells of one colour along a row are drawn as one rectangle (smaller SVG files).
-    for row in (0..n).filter(|_| !paper) {
-        let mut col = 0;
-        while col < n {
-            let v = value(row, col);
-            if !v.is_finite() {
-                col += 1;
-                continue;
-            }
-            let colour = colour_map(data.scale.unit(v));
-            let mut end = col + 1;
-            while end < n {
-                let u = value(row, end);
-                if !u.is_finite() || colour_map(data.scale.unit(u)) != colour {
-                    break;
-                }
-                end += 1;
-            }
-            let (x0, y0) = (-1.0 + col as f64 * cell, 1.0 - row as f64 * cell);
-            let (x1, y1) = (-1.0 + end as f64 * cell, 1.0 - (row + 1) as f64 * cell);
-            pa.draw(&Rectangle::new([(x0, y0), (x1, y1)], colour.filled()))
-                .drawing("the heat map")?;
-            col = end;
-        }
+    } else {
+        cells::draw_runs(pa, n, &value, &data.scale)?;
     }
     let px = pixel_map(pa);
     let (c, edge) = (px((0.0, 0.0)), px((1.0, 0.0)));
@@ -476,52 +440,8 @@ pub(crate) fn draw_panel<DB: DrawingBackend>(
         ink.line(&circle(t), WHITE, 1.0, Dash::Solid, 0.6);
     }
     ink.line(&circle(90.0), BLACK, 1.0, Dash::Solid, 1.0);
-    for k in 0..4 {
-        let phi = 90.0 * k as f64;
-        if paper {
-            let (ox, oy) = area.get_base_pixel();
-            let bounds = (
-                ox as f64,
-                oy as f64,
-                (ox + w as i32) as f64,
-                (oy + h as i32) as f64,
-            );
-            let label = format!("{}°", k * 90);
-            // Clockwise from up: φ = 90° is up, φ = 0 to the right.
-            let angle = rad(90.0 - phi);
-            let l = Placed::by_circle(label, 12, c, edge.0 - c.0, angle, true);
-            if l.inside(bounds) {
-                draw_placed(area, &l, 12, BLACK)?;
-            }
-            continue;
-        }
-        let (x, y) = (1.08 * rad(phi).cos(), 1.08 * rad(phi).sin());
-        pa.draw(&Text::new(
-            format!("{}°", k * 90),
-            (x, y),
-            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .drawing("an azimuth label")?;
-    }
-    let marker = |theta: f64, phi: f64| px(opts.projection.point(rad(theta), rad(phi)));
-    let (mx, my) = marker(panel.mirror_deg.0, panel.mirror_deg.1);
-    let d = 0.05 * (edge.0 - c.0);
-    for (a, b) in [
-        ((mx - d, my - d), (mx + d, my + d)),
-        ((mx - d, my + d), (mx + d, my - d)),
-    ] {
-        ink.line(&[a, b], WHITE, 4.0, Dash::Solid, 1.0);
-        ink.line(&[a, b], RED, 2.0, Dash::Solid, 1.0);
-    }
-    let (fx, fy) = marker(panel.theta_deg, panel.phi_deg);
-    let ring: Vec<(f64, f64)> = (0..=48)
-        .map(|k| {
-            let a = rad(k as f64 * 7.5);
-            (fx + 5.0 * a.cos(), fy + 5.0 * a.sin())
-        })
-        .collect();
-    ink.line(&ring, WHITE, 3.0, Dash::Solid, 1.0);
-    ink.line(&ring, BLACK, 1.0, Dash::Solid, 1.0);
+    marks::draw_azimuth_labels(area, pa, paper, (c, edge))?;
+    marks::draw_directions(ink, &px, panel, opts, (c, edge));
     Ok(())
 }
 

@@ -263,28 +263,7 @@ fn draw_panel<DB: DrawingBackend>(
         .draw()
         .drawing("the Pareto axes")?;
 
-    // The front's staircase: from each point along the cost axis to the next point's cost, then
-    // down to its error; the region above and to the right of it is what this device can reach.
-    let mut front: Vec<(f64, f64)> = panel
-        .points
-        .iter()
-        .filter(|p| p.2)
-        .map(|p| (p.0, p.1))
-        .collect();
-    front.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut stairs = Vec::new();
-    for (k, &(c, e)) in front.iter().enumerate() {
-        if k > 0 {
-            stairs.push((c, front[k - 1].1));
-        }
-        stairs.push((c, e));
-    }
-    if let Some(&(_, e)) = front.last() {
-        stairs.push((x1, e));
-    }
-    if let Some(&(c, _)) = front.first() {
-        stairs.insert(0, (c, y1));
-    }
+    let stairs = front_stairs(panel);
     chart
         .draw_series(LineSeries::new(stairs, FRONT.stroke_width(2)))
         .drawing("the Pareto front")?
@@ -296,10 +275,7 @@ fn draw_panel<DB: DrawingBackend>(
     for (r, &(c, e, on_front)) in rows.iter().zip(&panel.points) {
         let colour = colour_of(r);
         let style = colour.filled();
-        let group = match r.section {
-            Section::Integration => r.variant.split(' ').next().unwrap_or("").to_string(),
-            _ => if is_gpu(r) { "f32 GPU" } else { "f64 CPU" }.to_string(),
-        };
+        let group = legend_group(r);
         let series = if is_gpu(r) {
             chart
                 .draw_series(std::iter::once(Circle::new((c, e), 5, style)))
@@ -340,7 +316,55 @@ fn draw_panel<DB: DrawingBackend>(
         .draw()
         .drawing("the Pareto legend")?;
 
-    // Labels of the front's points: the first free spot of a few around each point.
+    let to_px = |p: (f64, f64)| chart.backend_coord(&p);
+    draw_front_labels(root, area, &rows, panel, &to_px, placed)?;
+    Ok(())
+}
+
+/// The front's staircase: from each point along the cost axis to the next point's cost, then
+/// down to its error; the region above and to the right of it is what this device can reach.
+fn front_stairs(panel: &Panel) -> Vec<(f64, f64)> {
+    let mut front: Vec<(f64, f64)> = panel
+        .points
+        .iter()
+        .filter(|p| p.2)
+        .map(|p| (p.0, p.1))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut stairs = Vec::new();
+    for (k, &(c, e)) in front.iter().enumerate() {
+        if k > 0 {
+            stairs.push((c, front[k - 1].1));
+        }
+        stairs.push((c, e));
+    }
+    if let Some(&(_, e)) = front.last() {
+        stairs.push((panel.x_range.1, e));
+    }
+    if let Some(&(c, _)) = front.first() {
+        stairs.insert(0, (c, panel.y_range.1));
+    }
+    stairs
+}
+
+/// The legend entry a variant's marker falls under: its integration rule, or its device.
+fn legend_group(r: &Row) -> String {
+    match r.section {
+        Section::Integration => r.variant.split(' ').next().unwrap_or("").to_string(),
+        _ => if is_gpu(r) { "f32 GPU" } else { "f64 CPU" }.to_string(),
+    }
+}
+
+/// Labels of the front's points, each at the first free spot of a few around its point
+/// (`to_px` maps a point to canvas pixels); `placed` holds the boxes of labels drawn so far.
+fn draw_front_labels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    area: &DrawingArea<DB, Shift>,
+    rows: &[&Row],
+    panel: &Panel,
+    to_px: &dyn Fn((f64, f64)) -> (i32, i32),
+    placed: &mut Vec<(i32, i32, i32, i32)>,
+) -> Result<()> {
     let size = 12u32;
     let mut front_rows: Vec<(&Row, (f64, f64))> = rows
         .iter()
@@ -353,7 +377,7 @@ fn draw_panel<DB: DrawingBackend>(
     let (aw, ah) = area.dim_in_pixel();
     for (r, (c, e)) in front_rows {
         let label = short_label(r);
-        let (px, py) = chart.backend_coord(&(c, e));
+        let (px, py) = to_px((c, e));
         let tw = (label.chars().count() as f64 * 0.56 * size as f64).ceil() as i32;
         let th = size as i32 + 2;
         let candidates = [

@@ -20,6 +20,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 mod curves;
+mod frame;
 mod paper;
 
 use curves::{at, draw_curves};
@@ -144,28 +145,7 @@ pub fn polar_data(
     common: &Common,
     opts: &PolarOptions,
 ) -> Result<PolarData> {
-    common.check()?;
-    if subjects.is_empty() {
-        bail!("a polar plot needs at least one model");
-    }
-    if opts.theta_i_deg.is_empty() {
-        return Err(bad(
-            "theta_i_deg",
-            "give at least one incidence angle theta_i".into(),
-        ));
-    }
-    for &t in &opts.theta_i_deg {
-        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
-    }
-    if !(16..=1 << 20).contains(&opts.samples) {
-        return Err(bad(
-            "samples",
-            format!(
-                "{} view angles: a polar curve takes between 16 and 1048576",
-                opts.samples
-            ),
-        ));
-    }
+    check_request(subjects, common, opts)?;
     let n = opts.samples;
     let s_deg: Vec<f64> = (0..n)
         .map(|k| -90.0 + (k as f64 + 0.5) * 180.0 / n as f64)
@@ -247,6 +227,33 @@ pub fn polar_data(
         peaks,
         radius_note,
     })
+}
+
+/// The options and subjects of a polar plot, checked before any evaluation.
+fn check_request(subjects: &[Subject], common: &Common, opts: &PolarOptions) -> Result<()> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a polar plot needs at least one model");
+    }
+    if opts.theta_i_deg.is_empty() {
+        return Err(bad(
+            "theta_i_deg",
+            "give at least one incidence angle theta_i".into(),
+        ));
+    }
+    for &t in &opts.theta_i_deg {
+        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
+    }
+    if !(16..=1 << 20).contains(&opts.samples) {
+        return Err(bad(
+            "samples",
+            format!(
+                "{} view angles: a polar curve takes between 16 and 1048576",
+                opts.samples
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The radius a polar plot draws with, and the words that say so: `Auto` resolves by the
@@ -454,135 +461,26 @@ fn draw<DB: DrawingBackend>(
     // Wrapped to the chart's width (a narrow paper figure needs several lines); the lines after
     // the first take room from the half disc.
     let caption_lines = super::wrap_to_width(&axis_caption, pw, 14, false);
-    let line_px = (14 + 3) as f64;
-    let (half_w, y_hi) = (1.12, 1.09);
-    // Below the diameter: the radial tick labels (from y = -0.02, 16 px) and the caption's
-    // lines, or 0.14 chart units where that is more (a screen canvas, whose one caption line
-    // fits there).
-    let labels_px = 16.0 + caption_lines.len() as f64 * line_px;
-    let below_px = |ppu: f64| (0.14 * ppu).max(0.02 * ppu + labels_px);
-    let mut px_per_unit = (pw / (2.0 * half_w)).min(ph / (y_hi + 0.14));
-    if below_px(px_per_unit) > 0.14 * px_per_unit {
-        px_per_unit = (pw / (2.0 * half_w)).min((ph - labels_px).max(1.0) / (y_hi + 0.02));
-    }
-    let y_lo = -below_px(px_per_unit) / px_per_unit;
-    let caption_top = (-0.08f64).min(-0.02 - 16.0 / px_per_unit);
-    let x_half = pw / px_per_unit / 2.0;
-    // Spare height goes equally above and below the half disc.
-    let spare = ph / px_per_unit - (y_hi - y_lo);
-    let (y_bottom, y_top) = (y_lo - spare / 2.0, y_hi + spare / 2.0);
+    let fr = frame::Frame::fit(pw, ph, caption_lines.len());
     let chart = ChartBuilder::on(&plot_area)
         .margin(margin)
-        .build_cartesian_2d(-x_half..x_half, y_bottom..y_top)
+        .build_cartesian_2d(-fr.x_half..fr.x_half, fr.y_bottom..fr.y_top)
         .drawing("the polar chart")?;
     let pa = chart.plotting_area().clone();
     let px = pixel_map(&pa);
-    let arc = |rho: f64| -> Vec<(f64, f64)> {
-        (0..=360)
-            .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
-            .collect()
-    };
-    let grid = RGBColor(200, 200, 200);
-    // Rings: the scale's ticks; spokes every 15°.
-    let ticks = data.scale.ticks();
-    for &v in &ticks {
-        let rho = data.scale.unit(v);
-        if rho <= 0.0 {
-            continue;
-        }
-        ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
-        pa.draw(&Text::new(
-            fmt_value(v),
-            (rho, -0.02),
-            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-        ))
-        .drawing("a ring label")?;
-    }
-    ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
-    for k in -6..=6 {
-        let s = 15.0 * k as f64;
-        ink.line(
-            &[px((0.0, 0.0)), px(at(1.0, s))],
-            grid,
-            1.0,
-            Dash::Solid,
-            1.0,
-        );
-        pa.draw(&Text::new(
-            format!("{}°", k * 15),
-            at(1.05, s),
-            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .drawing("a spoke label")?;
-    }
-    ink.line(
-        &[px((-1.0, 0.0)), px((1.0, 0.0))],
-        BLACK,
-        1.0,
-        Dash::Solid,
-        1.0,
-    );
-    let line_step = line_px / px_per_unit;
-    for (k, line) in caption_lines.into_iter().enumerate() {
-        pa.draw(&Text::new(
-            line,
-            (0.0, caption_top - k as f64 * line_step),
-            text_style(14, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-        ))
-        .drawing("the axis caption")?;
-    }
-
-    let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
-    // Incidence directions: thin lines towards the light, labelled with θi.
-    for &t in &opts.theta_i_deg {
-        let (colour, dash) = if subjects.len() == 1 {
-            (palette(angle_index(t)), Dash::Solid)
-        } else {
-            (RGBColor(90, 90, 90), Dash::nth(angle_index(t)))
-        };
-        ink.line(&[px((0.0, 0.0)), px(at(1.0, -t))], colour, 1.0, dash, 0.6);
-        pa.draw(&Text::new(
-            format!("ωi {}°", fmt_value(t)),
-            at(0.93, -t - 2.5),
-            text_style(12, colour).pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .drawing("an incidence label")?;
-    }
+    frame::draw_rings_and_spokes(&pa, ink, &px, &data.scale)?;
+    fr.draw_caption(&pa, caption_lines)?;
+    frame::draw_incidence(&pa, ink, &px, subjects, &opts.theta_i_deg)?;
     // Curves, in canvas pixels with sub-pixel precision.
     draw_curves(ink, data, &styles, &opts.theta_i_deg, &px, 90.0);
-    // Delta lobes: an arrow to the horizon circle along the mirror direction, labelled with the
-    // spike's albedo (it has no finite value to plot).
-    for d in &data.deltas {
-        let colour = if subjects.len() == 1 {
-            palette(angle_index(d.theta_i_deg))
-        } else {
-            styles[d.subject].colour
-        };
-        let tip = at(1.0, d.mirror_deg);
-        let back = |da: f64, r: f64| px(at(r, d.mirror_deg + da));
-        ink.line(&[px((0.0, 0.0)), px(tip)], colour, 3.0, Dash::Solid, 1.0);
-        ink.line(
-            &[back(-2.5, 0.93), px(tip), back(2.5, 0.93)],
-            colour,
-            3.0,
-            Dash::Solid,
-            1.0,
-        );
-        let a = d.albedo;
-        let label = format!(
-            "δ ρ={} ({}, {}, {})",
-            fmt_value(common.channel.of(a)),
-            fmt_value(a[0]),
-            fmt_value(a[1]),
-            fmt_value(a[2])
-        );
-        pa.draw(&Text::new(
-            label,
-            at(1.0, d.mirror_deg + 4.0),
-            text_style(12, colour).pos(Pos::new(HPos::Left, VPos::Bottom)),
-        ))
-        .drawing("a delta label")?;
-    }
+    frame::draw_deltas(
+        &pa,
+        ink,
+        &px,
+        (data, subjects, &styles),
+        common,
+        &opts.theta_i_deg,
+    )?;
     legend(&legend_area, ink, &entries)?;
     Ok(())
 }

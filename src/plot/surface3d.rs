@@ -6,7 +6,8 @@
 
 use super::{
     bad, check_deg, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
-    text_style, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Scale, Subject,
+    text_style, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Scale, SeriesStyle,
+    Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -96,29 +97,7 @@ pub fn surface3d_data(
     common: &Common,
     opts: &Surface3dOptions,
 ) -> Result<Surface3dData> {
-    common.check()?;
-    if subjects.is_empty() {
-        bail!("a 3d plot needs at least one model");
-    }
-    if opts.theta_i_deg.is_empty() {
-        return Err(bad(
-            "theta_i_deg",
-            "give at least one incidence angle theta_i".into(),
-        ));
-    }
-    for &t in &opts.theta_i_deg {
-        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
-    }
-    check_finite_deg("phi_i_deg", "phi_i", opts.phi_i_deg)?;
-    if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
-        return Err(bad(
-            "n_theta",
-            format!(
-                "{} rings and {} meridians: a 3d wireframe takes 4 to 1024 rings and 4 to 2048 meridians",
-                opts.n_theta, opts.n_phi
-            ),
-        ));
-    }
+    check_request(subjects, common, opts)?;
     let (nt, np) = (opts.n_theta, opts.n_phi);
     let wo: Vec<DVec3> = (0..nt * np)
         .map(|k| direction(rad(theta_o_deg(k / np, nt)), rad(phi_o_deg(k % np, np))))
@@ -204,6 +183,34 @@ pub fn surface3d_data(
     })
 }
 
+/// The options and subjects of a 3d plot, checked before any evaluation.
+fn check_request(subjects: &[Subject], common: &Common, opts: &Surface3dOptions) -> Result<()> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a 3d plot needs at least one model");
+    }
+    if opts.theta_i_deg.is_empty() {
+        return Err(bad(
+            "theta_i_deg",
+            "give at least one incidence angle theta_i".into(),
+        ));
+    }
+    for &t in &opts.theta_i_deg {
+        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
+    }
+    check_finite_deg("phi_i_deg", "phi_i", opts.phi_i_deg)?;
+    if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
+        return Err(bad(
+            "n_theta",
+            format!(
+                "{} rings and {} meridians: a 3d wireframe takes 4 to 1024 rings and 4 to 2048 meridians",
+                opts.n_theta, opts.n_phi
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Evaluates and draws the wireframes into `path` (.png, .svg or .pdf); returns what it drew.
 pub fn plot_surface3d(
     eval: &Evaluator,
@@ -271,95 +278,109 @@ fn draw<DB: DrawingBackend>(
     };
     let n_angles = data.panels.len() / subjects.len();
     let areas = charts.split_evenly((1, n_angles));
-    let e = data.extent;
     for (a, area) in areas.iter().enumerate() {
-        let t = data.panels[a].theta_i_deg;
-        let phi_i = data.panels[a].phi_i_deg;
-        let mut chart = ChartBuilder::on(area)
-            .margin(16)
-            .caption(format!("θi = {}°", fmt_value(t)), (super::FONT, 16))
-            .build_cartesian_3d(-e..e, 0.0..e, -e..e)
-            .drawing("a 3d chart")?;
-        chart.with_projection(|mut pb| {
-            pb.yaw = 0.6;
-            pb.pitch = 0.35;
-            pb.scale = 0.85;
-            pb.into_matrix()
-        });
-        chart
-            .configure_axes()
-            .light_grid_style(BLACK.mix(0.12))
-            .max_light_lines(4)
-            .x_labels(if paper { 3 } else { 10 })
-            .y_labels(if paper { 3 } else { 10 })
-            .z_labels(if paper { 3 } else { 10 })
-            .label_style((super::FONT, 11))
-            .x_formatter(&|v| fmt_value(*v))
-            .y_formatter(&|v| fmt_value(*v))
-            .z_formatter(&|v| fmt_value(*v))
-            .draw()
-            .drawing("the 3d axes")?;
-        // On paper the names of x and y stand above the axes' ends, clear of their tick labels.
-        let (out, name_pos) = match paper {
-            true => (1.15, Pos::new(HPos::Left, VPos::Bottom)),
-            false => (1.1, Pos::new(HPos::Left, VPos::Top)),
-        };
-        let axis_label = |s: &str, p: (f64, f64, f64)| {
-            Text::new(s.to_string(), p, text_style(14, BLACK).pos(name_pos))
-        };
-        chart
-            .draw_series([
-                axis_label("x", (e * out, 0.0, 0.0)),
-                axis_label("y", (0.0, 0.0, e * out)),
-                axis_label("z (normal)", (0.0, e * 1.08, 0.0)),
-            ])
-            .drawing("the axis names")?;
-        for (j, panel) in data
-            .panels
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| k % n_angles == a)
-        {
-            let _ = j;
-            let colour = styles[panel.subject].colour;
-            let (nt, np) = (data.n_theta, data.n_phi);
-            let p = |k: usize, l: usize| {
-                let q = panel.points[k * np + l % np];
-                (q[0], q[1], q[2])
-            };
-            // Rings every other θ, meridians every fourth φ: dense enough to read the shape.
-            for k in (0..nt).step_by(2) {
-                chart
-                    .draw_series(LineSeries::new((0..=np).map(|l| p(k, l)), colour.mix(0.8)))
-                    .drawing("a ring")?;
-            }
-            for l in (0..np).step_by(4) {
-                chart
-                    .draw_series(LineSeries::new((0..nt).map(|k| p(k, l)), colour.mix(0.8)))
-                    .drawing("a meridian")?;
-            }
-        }
-        let wi = direction(rad(t), rad(phi_i)) * e;
-        let mirror = DVec3::new(-wi.x, -wi.y, wi.z);
-        chart
-            .draw_series(LineSeries::new(
-                [(0.0, 0.0, 0.0), (wi.x, wi.z, wi.y)],
-                RED.stroke_width(3),
-            ))
-            .drawing("the light direction")?;
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(0.0, 0.0, 0.0), (mirror.x, mirror.z, mirror.y)],
-                8,
-                5,
-                BLACK.stroke_width(2),
-            ))
-            .drawing("the mirror direction")?;
+        draw_angle(area, data, a, &styles, paper)?;
     }
     match legend_area {
         Some(area) if paper => rows.draw(&area, ink, &entries)?,
         Some(area) => legend(&area, ink, &entries)?,
         None => {}
     }
+    Ok(())
+}
+
+/// The chart of the `a`-th incidence angle: axes, every subject's wireframe at that angle, the
+/// light and the mirror direction.
+fn draw_angle<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    data: &Surface3dData,
+    a: usize,
+    styles: &[SeriesStyle],
+    paper: bool,
+) -> Result<()> {
+    let n_angles = data.panels.len() / styles.len();
+    let e = data.extent;
+    let t = data.panels[a].theta_i_deg;
+    let phi_i = data.panels[a].phi_i_deg;
+    let mut chart = ChartBuilder::on(area)
+        .margin(16)
+        .caption(format!("θi = {}°", fmt_value(t)), (super::FONT, 16))
+        .build_cartesian_3d(-e..e, 0.0..e, -e..e)
+        .drawing("a 3d chart")?;
+    chart.with_projection(|mut pb| {
+        pb.yaw = 0.6;
+        pb.pitch = 0.35;
+        pb.scale = 0.85;
+        pb.into_matrix()
+    });
+    chart
+        .configure_axes()
+        .light_grid_style(BLACK.mix(0.12))
+        .max_light_lines(4)
+        .x_labels(if paper { 3 } else { 10 })
+        .y_labels(if paper { 3 } else { 10 })
+        .z_labels(if paper { 3 } else { 10 })
+        .label_style((super::FONT, 11))
+        .x_formatter(&|v| fmt_value(*v))
+        .y_formatter(&|v| fmt_value(*v))
+        .z_formatter(&|v| fmt_value(*v))
+        .draw()
+        .drawing("the 3d axes")?;
+    // On paper the names of x and y stand above the axes' ends, clear of their tick labels.
+    let (out, name_pos) = match paper {
+        true => (1.15, Pos::new(HPos::Left, VPos::Bottom)),
+        false => (1.1, Pos::new(HPos::Left, VPos::Top)),
+    };
+    let axis_label = |s: &str, p: (f64, f64, f64)| {
+        Text::new(s.to_string(), p, text_style(14, BLACK).pos(name_pos))
+    };
+    chart
+        .draw_series([
+            axis_label("x", (e * out, 0.0, 0.0)),
+            axis_label("y", (0.0, 0.0, e * out)),
+            axis_label("z (normal)", (0.0, e * 1.08, 0.0)),
+        ])
+        .drawing("the axis names")?;
+    for (j, panel) in data
+        .panels
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n_angles == a)
+    {
+        let _ = j;
+        let colour = styles[panel.subject].colour;
+        let (nt, np) = (data.n_theta, data.n_phi);
+        let p = |k: usize, l: usize| {
+            let q = panel.points[k * np + l % np];
+            (q[0], q[1], q[2])
+        };
+        // Rings every other θ, meridians every fourth φ: dense enough to read the shape.
+        for k in (0..nt).step_by(2) {
+            chart
+                .draw_series(LineSeries::new((0..=np).map(|l| p(k, l)), colour.mix(0.8)))
+                .drawing("a ring")?;
+        }
+        for l in (0..np).step_by(4) {
+            chart
+                .draw_series(LineSeries::new((0..nt).map(|k| p(k, l)), colour.mix(0.8)))
+                .drawing("a meridian")?;
+        }
+    }
+    let wi = direction(rad(t), rad(phi_i)) * e;
+    let mirror = DVec3::new(-wi.x, -wi.y, wi.z);
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, 0.0, 0.0), (wi.x, wi.z, wi.y)],
+            RED.stroke_width(3),
+        ))
+        .drawing("the light direction")?;
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(0.0, 0.0, 0.0), (mirror.x, mirror.z, mirror.y)],
+            8,
+            5,
+            BLACK.stroke_width(2),
+        ))
+        .drawing("the mirror direction")?;
     Ok(())
 }

@@ -107,30 +107,7 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     let spare = hf - legend_h - (label_h + r + below);
     let centre = (wf / 2.0, (spare / 2.0).max(0.0) + label_h + r);
     let px = |(x, y): (f64, f64)| (centre.0 + x * r, centre.1 - y * r);
-    let arc = |rho: f64| -> Vec<(f64, f64)> {
-        (0..=360)
-            .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
-            .collect()
-    };
-    let grid = RGBColor(200, 200, 200);
-    for &v in &data.scale.ticks() {
-        let rho = data.scale.unit(v);
-        if rho > 0.0 {
-            ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
-        }
-    }
-    ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
-    for k in -6..=6 {
-        let spoke = [px((0.0, 0.0)), px(at(1.0, 15.0 * k as f64))];
-        ink.line(&spoke, grid, 1.0, Dash::Solid, 1.0);
-    }
-    ink.line(
-        &[px((-1.0, 0.0)), px((1.0, 0.0))],
-        BLACK,
-        1.0,
-        Dash::Solid,
-        1.0,
-    );
+    draw_frame(ink, &px, &data.scale);
     let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
     let incidence_colour = |t: f64| {
         if subjects.len() == 1 {
@@ -145,36 +122,10 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     }
     let curve_points = draw_curves(ink, data, &styles, &opts.theta_i_deg, &px, 60.0);
     let canvas = (0.0, 0.0, wf, hf);
-    // Spoke labels just outside the horizon, at the finest step whose labels stand apart.
-    let spokes = SPOKE_STEPS
-        .iter()
-        .map(|&step| {
-            (-90..=90)
-                .step_by(step as usize)
-                .map(|a| {
-                    let text = format!("{a}°");
-                    Placed::by_circle(text, LABEL_TEXT, centre, r, rad(a as f64), true)
-                })
-                .collect::<Vec<Placed>>()
-        })
-        .find(|all| keep_apart(all.clone(), &[], &[]).len() == all.len())
-        .unwrap_or_default();
-    let spokes: Vec<Placed> = spokes.into_iter().filter(|l| l.inside(canvas)).collect();
+    let spokes = spoke_labels(centre, r, canvas);
     let mut fixed = spokes.clone();
-    // Ring labels under the diameter, from the outermost ring inwards.
-    let mut ticks = data.scale.ticks();
-    ticks.reverse();
     let ring_y = centre.1 + label_h / 2.0;
-    let rings: Vec<Placed> = ticks
-        .iter()
-        .filter(|&&v| data.scale.unit(v) > 0.0)
-        .map(|&v| {
-            let x = centre.0 + data.scale.unit(v) * r;
-            Placed::new(fmt_value(v), LABEL_TEXT, x, ring_y)
-        })
-        .filter(|l| l.inside(canvas))
-        .collect();
-    let rings = keep_apart(rings, &fixed, &[]);
+    let rings = ring_labels(&data.scale, (centre, r), ring_y, canvas, &fixed);
     fixed.extend(rings.iter().cloned());
     let mut cap = Placed::new(caption, CAPTION_TEXT, 0.0, 0.0);
     if own_row {
@@ -214,6 +165,77 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     }
     let legend_area = root.split_vertically((hf - legend_h).round() as i32).1;
     rows.draw(&legend_area, ink, &entries)
+}
+
+/// Rings at the scale's ticks, the horizon circle, spokes every 15° and the diameter, through
+/// `px` (a plane point to canvas pixels).
+fn draw_frame(ink: &mut Ink, px: &dyn Fn((f64, f64)) -> (f64, f64), scale: &Scale) {
+    let arc = |rho: f64| -> Vec<(f64, f64)> {
+        (0..=360)
+            .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
+            .collect()
+    };
+    let grid = RGBColor(200, 200, 200);
+    for &v in &scale.ticks() {
+        let rho = scale.unit(v);
+        if rho > 0.0 {
+            ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
+        }
+    }
+    ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
+    for k in -6..=6 {
+        let spoke = [px((0.0, 0.0)), px(at(1.0, 15.0 * k as f64))];
+        ink.line(&spoke, grid, 1.0, Dash::Solid, 1.0);
+    }
+    ink.line(
+        &[px((-1.0, 0.0)), px((1.0, 0.0))],
+        BLACK,
+        1.0,
+        Dash::Solid,
+        1.0,
+    );
+}
+
+/// Spoke labels just outside the horizon (centre and radius in canvas pixels), at the finest
+/// step whose labels stand apart; those outside `canvas` are left out.
+fn spoke_labels(centre: (f64, f64), r: f64, canvas: (f64, f64, f64, f64)) -> Vec<Placed> {
+    let spokes = SPOKE_STEPS
+        .iter()
+        .map(|&step| {
+            (-90..=90)
+                .step_by(step as usize)
+                .map(|a| {
+                    let text = format!("{a}°");
+                    Placed::by_circle(text, LABEL_TEXT, centre, r, rad(a as f64), true)
+                })
+                .collect::<Vec<Placed>>()
+        })
+        .find(|all| keep_apart(all.clone(), &[], &[]).len() == all.len())
+        .unwrap_or_default();
+    spokes.into_iter().filter(|l| l.inside(canvas)).collect()
+}
+
+/// Ring labels under the diameter at height `ring_y`, from the outermost ring inwards, each
+/// where it stands apart from those before and from the `fixed` labels.
+fn ring_labels(
+    scale: &Scale,
+    (centre, r): ((f64, f64), f64),
+    ring_y: f64,
+    canvas: (f64, f64, f64, f64),
+    fixed: &[Placed],
+) -> Vec<Placed> {
+    let mut ticks = scale.ticks();
+    ticks.reverse();
+    let rings: Vec<Placed> = ticks
+        .iter()
+        .filter(|&&v| scale.unit(v) > 0.0)
+        .map(|&v| {
+            let x = centre.0 + scale.unit(v) * r;
+            Placed::new(fmt_value(v), LABEL_TEXT, x, ring_y)
+        })
+        .filter(|l| l.inside(canvas))
+        .collect();
+    keep_apart(rings, fixed, &[])
 }
 
 /// The delta lobes' arrows, and their albedo labels outside the horizon where they fit.

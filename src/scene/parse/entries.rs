@@ -31,11 +31,95 @@ pub(super) fn table(
     let tf = t.get_ref();
     let material = find_material(loc, materials, &tf.material)?;
     let m = &materials[material];
-    let params = &m.params;
     let n_theta = count(loc, &tf.n_theta, "n_theta")?.unwrap_or(DEFAULT_N_THETA);
     let n_phi = count(loc, &tf.n_phi, "n_phi")?.unwrap_or(DEFAULT_N_PHI);
     let n_dphi = count(loc, &tf.n_dphi, "n_dphi")?;
-    let (kind, kind_span) = match &tf.grid {
+    let choice = grid_choice(loc, t, m)?;
+    let thetas = if choice.halfdiff {
+        "theta_h, theta_d"
+    } else {
+        "theta_i, theta_o"
+    };
+    let theta_text = format!(
+        "{thetas}: {n_theta} cells each over [0, 90 deg] (n_theta = {n_theta}{})",
+        by_default(&tf.n_theta)
+    );
+    let azimuth = azimuth_cells(loc, t, m, &choice, (n_phi, n_dphi))?;
+    let grid = choice.grid(n_theta, azimuth.cells);
+    match grid.cells() {
+        Some(c) if c <= MAX_TABLE_CELLS => {}
+        _ => {
+            let span = tf.n_theta.as_ref().map_or(t.span(), |s| s.span());
+            return Err(loc.at(
+                span,
+                format!(
+                    "the {} table of '{}' would have more than {MAX_TABLE_CELLS} cells (n_theta = {n_theta}, {}); lower the resolution",
+                    grid.name(),
+                    m.name,
+                    azimuth.given
+                ),
+            ));
+        }
+    }
+    Ok(TableJob {
+        material,
+        grid,
+        white_furnace: tf.white_furnace,
+        output: names.claim(loc, &tf.output, "exr", "table")?,
+        resolution: format!(
+            "{} grid since {}; {theta_text}; {}",
+            choice.name, choice.reason, azimuth.text
+        ),
+    })
+}
+
+/// The kind of grid a table gets and why.
+struct GridChoice {
+    halfdiff: bool,
+    isotropic: bool,
+    /// `halfdiff`, `isotropic` or `full`.
+    name: &'static str,
+    /// Why: the `grid` key, and for `auto` and `halfdiff` the material's isotropy.
+    reason: String,
+}
+
+impl GridChoice {
+    fn grid(&self, n_theta: usize, n_azimuth: usize) -> Grid {
+        match (self.halfdiff, self.isotropic) {
+            (true, true) => Grid::HalfDiff {
+                n_theta_h: n_theta,
+                n_theta_d: n_theta,
+                n_phi_d: n_azimuth,
+            },
+            (false, true) => Grid::Isotropic {
+                n_theta_i: n_theta,
+                n_theta_o: n_theta,
+                n_dphi: n_azimuth,
+            },
+            (true, false) => Grid::HalfDiffFull {
+                n_theta_h: n_theta,
+                n_phi_h: n_azimuth,
+                n_theta_d: n_theta,
+                n_phi_d: n_azimuth,
+            },
+            (false, false) => Grid::Full {
+                n_theta_i: n_theta,
+                n_phi_i: n_azimuth,
+                n_theta_o: n_theta,
+                n_phi_o: n_azimuth,
+            },
+        }
+    }
+}
+
+/// The table's `grid` key against the material's isotropy.
+fn grid_choice(
+    loc: &Locator,
+    t: &Spanned<TableFile>,
+    m: &Material,
+) -> Result<GridChoice, SceneError> {
+    let params = &m.params;
+    let (kind, kind_span) = match &t.get_ref().grid {
         None => ("auto", t.span()),
         Some(g) => (g.get_ref().as_str(), g.span()),
     };
@@ -62,7 +146,7 @@ pub(super) fn table(
             ))
         }
     };
-    let grid_name = match (halfdiff, isotropic) {
+    let name = match (halfdiff, isotropic) {
         (true, _) => "halfdiff",
         (false, true) => "isotropic",
         (false, false) => "full",
@@ -79,58 +163,48 @@ pub(super) fn table(
         ),
         _ => format!("grid = \"{kind}\""),
     };
-    let by_default = |v: &Option<Spanned<i64>>| if v.is_none() { " by default" } else { "" };
-    let thetas = if halfdiff {
-        "theta_h, theta_d"
+    Ok(GridChoice {
+        halfdiff,
+        isotropic,
+        name,
+        reason,
+    })
+}
+
+/// How a count that may be left out was set, for the job's resolution text.
+fn by_default(v: &Option<Spanned<i64>>) -> &'static str {
+    if v.is_none() {
+        " by default"
     } else {
-        "theta_i, theta_o"
-    };
-    let theta_text = format!(
-        "{thetas}: {n_theta} cells each over [0, 90 deg] (n_theta = {n_theta}{})",
-        by_default(&tf.n_theta)
-    );
-    // (cells of the azimuth axes, how they follow from the keys, the key to lower if too large)
-    let (n_azimuth, azimuth_text, given) = if isotropic {
-        let axis = if halfdiff { "phi_d" } else { "dphi" };
-        match (&tf.n_phi, n_dphi) {
-            (Some(p), Some(d)) => {
-                return Err(loc.at(
-                    p.span(),
-                    format!(
-                        "n_phi = {n_phi} and n_dphi = {d} both given, but the {grid_name} grid of '{}' ({reason}) has one azimuth axis, {axis} over [0, 180 deg]; keep n_dphi (its cells) or n_phi (cells over [0, 360 deg), of which it takes half)",
-                        m.name
-                    ),
-                ))
-            }
-            (_, Some(d)) => (
-                d,
-                format!("{axis}: {d} cells over [0, 180 deg] (n_dphi = {d})"),
-                format!("n_dphi = {d}"),
-            ),
-            (p, None) => {
-                if n_phi % 2 == 1 {
-                    let span = p.as_ref().map_or(t.span(), |s| s.span());
-                    return Err(loc.at(
-                        span,
-                        format!(
-                            "n_phi = {n_phi} is odd, but the {grid_name} grid of '{}' ({reason}) covers [0, 180 deg] with n_phi / 2 cells of the width n_phi gives over [0, 360 deg); use an even n_phi, or n_dphi = the cells over [0, 180 deg]",
-                            m.name
-                        ),
-                    ));
-                }
-                let d = n_phi / 2;
-                (
-                    d,
-                    format!(
-                        "{axis}: {d} cells over [0, 180 deg], half of n_phi = {n_phi}{} over [0, 360 deg) for the same {} deg step",
-                        by_default(p),
-                        degrees(360.0 / n_phi as f64)
-                    ),
-                    format!("n_phi = {n_phi}"),
-                )
-            }
-        }
-    } else {
+        ""
+    }
+}
+
+/// The cells of a table's azimuth axes.
+struct Azimuth {
+    cells: usize,
+    /// How they follow from the keys.
+    text: String,
+    /// The key to lower if the table is too large.
+    given: String,
+}
+
+/// The azimuth cells from `n_phi` (with its default) or `n_dphi` (see [`table`] for the rule).
+fn azimuth_cells(
+    loc: &Locator,
+    t: &Spanned<TableFile>,
+    m: &Material,
+    choice: &GridChoice,
+    (n_phi, n_dphi): (usize, Option<usize>),
+) -> Result<Azimuth, SceneError> {
+    let tf = t.get_ref();
+    let GridChoice {
+        halfdiff,
+        name: grid_name,
+        reason,
+        ..
+    } = choice;
+    if !choice.isotropic {
         if let Some(d) = &tf.n_dphi {
             return Err(loc.at(
                 d.span(),
@@ -141,65 +215,57 @@ pub(super) fn table(
                 ),
             ));
         }
-        let phis = if halfdiff {
+        let phis = if *halfdiff {
             "phi_h, phi_d"
         } else {
             "phi_i, phi_o"
         };
-        (
-            n_phi,
-            format!(
+        return Ok(Azimuth {
+            cells: n_phi,
+            text: format!(
                 "{phis}: {n_phi} cells each over [0, 360 deg) (n_phi = {n_phi}{})",
                 by_default(&tf.n_phi)
             ),
-            format!("n_phi = {n_phi}"),
-        )
-    };
-    let grid = match (halfdiff, isotropic) {
-        (true, true) => Grid::HalfDiff {
-            n_theta_h: n_theta,
-            n_theta_d: n_theta,
-            n_phi_d: n_azimuth,
-        },
-        (false, true) => Grid::Isotropic {
-            n_theta_i: n_theta,
-            n_theta_o: n_theta,
-            n_dphi: n_azimuth,
-        },
-        (true, false) => Grid::HalfDiffFull {
-            n_theta_h: n_theta,
-            n_phi_h: n_azimuth,
-            n_theta_d: n_theta,
-            n_phi_d: n_azimuth,
-        },
-        (false, false) => Grid::Full {
-            n_theta_i: n_theta,
-            n_phi_i: n_azimuth,
-            n_theta_o: n_theta,
-            n_phi_o: n_azimuth,
-        },
-    };
-    match grid.cells() {
-        Some(c) if c <= MAX_TABLE_CELLS => {}
-        _ => {
-            let span = tf.n_theta.as_ref().map_or(t.span(), |s| s.span());
-            return Err(loc.at(
-                span,
-                format!(
-                    "the {} table of '{}' would have more than {MAX_TABLE_CELLS} cells (n_theta = {n_theta}, {given}); lower the resolution",
-                    grid.name(),
-                    m.name
+            given: format!("n_phi = {n_phi}"),
+        });
+    }
+    let axis = if *halfdiff { "phi_d" } else { "dphi" };
+    match (&tf.n_phi, n_dphi) {
+        (Some(p), Some(d)) => Err(loc.at(
+            p.span(),
+            format!(
+                "n_phi = {n_phi} and n_dphi = {d} both given, but the {grid_name} grid of '{}' ({reason}) has one azimuth axis, {axis} over [0, 180 deg]; keep n_dphi (its cells) or n_phi (cells over [0, 360 deg), of which it takes half)",
+                m.name
+            ),
+        )),
+        (_, Some(d)) => Ok(Azimuth {
+            cells: d,
+            text: format!("{axis}: {d} cells over [0, 180 deg] (n_dphi = {d})"),
+            given: format!("n_dphi = {d}"),
+        }),
+        (p, None) => {
+            if n_phi % 2 == 1 {
+                let span = p.as_ref().map_or(t.span(), |s| s.span());
+                return Err(loc.at(
+                    span,
+                    format!(
+                        "n_phi = {n_phi} is odd, but the {grid_name} grid of '{}' ({reason}) covers [0, 180 deg] with n_phi / 2 cells of the width n_phi gives over [0, 360 deg); use an even n_phi, or n_dphi = the cells over [0, 180 deg]",
+                        m.name
+                    ),
+                ));
+            }
+            let d = n_phi / 2;
+            Ok(Azimuth {
+                cells: d,
+                text: format!(
+                    "{axis}: {d} cells over [0, 180 deg], half of n_phi = {n_phi}{} over [0, 360 deg) for the same {} deg step",
+                    by_default(p),
+                    degrees(360.0 / n_phi as f64)
                 ),
-            ));
+                given: format!("n_phi = {n_phi}"),
+            })
         }
     }
-    Ok(TableJob {
-        material,
-        grid,
-        white_furnace: tf.white_furnace,
-        output: names.claim(loc, &tf.output, "exr", "table")?,
-        resolution: format!("{grid_name} grid since {reason}; {theta_text}; {azimuth_text}"),
-    })
 }
 
 /// One `[[albedos]]` section.
@@ -255,78 +321,13 @@ pub(super) fn preview(
     if rows.is_empty() {
         return Err(loc.at(p.span(), "a preview needs at least one material"));
     }
-    // One column per model name: the header shows the name, and a material whose model has that
-    // name is drawn with its own parameters in it (see `Scene::cell_params`), so two microfacet
-    // materials of different distributions share the one "microfacet" column.
-    let models: Vec<Model> = match &pf.models {
-        None => {
-            let mut v: Vec<Model> = Vec::new();
-            for &r in &rows {
-                let m = materials[r].params.model();
-                if !v.iter().any(|x| x.name() == m.name()) {
-                    v.push(m);
-                }
-            }
-            v
-        }
-        Some(list) => {
-            if list.is_empty() {
-                return Err(loc.at(p.span(), "a preview needs at least one model"));
-            }
-            let mut v: Vec<Model> = Vec::new();
-            for s in list {
-                let m = model_named(loc, s)?;
-                if v.iter().any(|x| x.name() == m.name()) {
-                    return Err(loc.at(
-                        s.span(),
-                        format!(
-                            "model '{}' is listed twice; each model is one column of the sheet",
-                            m.name()
-                        ),
-                    ));
-                }
-                v.push(m);
-            }
-            v
-        }
-    };
-    // A cell of another model than the material's own takes the material's preset for it.
-    for &r in &rows {
-        let m = &materials[r];
-        for &model in &models {
-            if model.name() != m.params.model().name() && m.preset.is_none() {
-                return Err(loc.at(
-                    p.span(),
-                    format!(
-                        "material '{}' has no preset, so it can be previewed only under its own model {}, not {}; give it a preset or list models = [\"{}\"]",
-                        m.name,
-                        m.params.model().name(),
-                        model.name(),
-                        m.params.model().name()
-                    ),
-                ));
-            }
-        }
-    }
+    let models = preview_models(loc, p, materials, &rows)?;
+    check_presets(loc, p, materials, &rows, &models)?;
     let shape = match &pf.shape {
         None => Shape::Sphere,
         Some(s) => Shape::from_name(s.get_ref()).map_err(|e| loc.at(s.span(), e.to_string()))?,
     };
-    let cell = match &pf.cell {
-        None => preview::DEFAULT_CELL,
-        Some(c) => match u32::try_from(*c.get_ref()) {
-            Ok(v) if (1..=MAX_PREVIEW_CELL).contains(&v) => v,
-            _ => {
-                return Err(loc.at(
-                    c.span(),
-                    format!(
-                        "cell = {}: expected a cell size in [1, {MAX_PREVIEW_CELL}] pixels",
-                        c.get_ref()
-                    ),
-                ))
-            }
-        },
-    };
+    let cell = preview_cell(loc, pf)?;
     let pixels = (rows.len() * models.len()) as u64 * u64::from(cell).pow(2);
     if pixels > preview::MAX_SHEET_PIXELS {
         return Err(loc.at(
@@ -357,5 +358,98 @@ pub(super) fn preview(
         cell,
         exposure,
         output: names.claim(loc, &pf.output, "png", "preview")?,
+    })
+}
+
+/// The sheet's columns: the models listed, or those of its materials.
+///
+/// One column per model name: the header shows the name, and a material whose model has that
+/// name is drawn with its own parameters in it (see `Scene::cell_params`), so two microfacet
+/// materials of different distributions share the one "microfacet" column.
+fn preview_models(
+    loc: &Locator,
+    p: &Spanned<PreviewFile>,
+    materials: &[Material],
+    rows: &[usize],
+) -> Result<Vec<Model>, SceneError> {
+    Ok(match &p.get_ref().models {
+        None => {
+            let mut v: Vec<Model> = Vec::new();
+            for &r in rows {
+                let m = materials[r].params.model();
+                if !v.iter().any(|x| x.name() == m.name()) {
+                    v.push(m);
+                }
+            }
+            v
+        }
+        Some(list) => {
+            if list.is_empty() {
+                return Err(loc.at(p.span(), "a preview needs at least one model"));
+            }
+            let mut v: Vec<Model> = Vec::new();
+            for s in list {
+                let m = model_named(loc, s)?;
+                if v.iter().any(|x| x.name() == m.name()) {
+                    return Err(loc.at(
+                        s.span(),
+                        format!(
+                            "model '{}' is listed twice; each model is one column of the sheet",
+                            m.name()
+                        ),
+                    ));
+                }
+                v.push(m);
+            }
+            v
+        }
+    })
+}
+
+/// Refuses a cell whose material has no preset for the column's model.
+fn check_presets(
+    loc: &Locator,
+    p: &Spanned<PreviewFile>,
+    materials: &[Material],
+    rows: &[usize],
+    models: &[Model],
+) -> Result<(), SceneError> {
+    // A cell of another model than the material's own takes the material's preset for it.
+    for &r in rows {
+        let m = &materials[r];
+        for &model in models {
+            if model.name() != m.params.model().name() && m.preset.is_none() {
+                return Err(loc.at(
+                    p.span(),
+                    format!(
+                        "material '{}' has no preset, so it can be previewed only under its own model {}, not {}; give it a preset or list models = [\"{}\"]",
+                        m.name,
+                        m.params.model().name(),
+                        model.name(),
+                        m.params.model().name()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The `cell` key: the side of one cell of the sheet, in pixels.
+fn preview_cell(loc: &Locator, pf: &PreviewFile) -> Result<u32, SceneError> {
+    Ok(match &pf.cell {
+        None => preview::DEFAULT_CELL,
+        Some(c) => match u32::try_from(*c.get_ref()) {
+            Ok(v) if (1..=MAX_PREVIEW_CELL).contains(&v) => v,
+            _ => {
+                return Err(loc.at(
+                    c.span(),
+                    format!(
+                        "cell = {}: expected a cell size in [1, {MAX_PREVIEW_CELL}] pixels",
+                        c.get_ref()
+                    ),
+                ))
+            }
+        },
     })
 }
