@@ -457,6 +457,30 @@ pub(crate) fn check_finite_deg(option: &'static str, name: &str, v: f64) -> Resu
 }
 
 /// A [`BadInput`] tagged `option`, as an error.
+/// The checks a plot of curves per incidence angle makes first: the common options, at least one
+/// model and at least one θi, each in [0°, 90°).
+pub(crate) fn check_curves(
+    subjects: &[Subject],
+    common: &Common,
+    kind: &str,
+    theta_i_deg: &[f64],
+) -> Result<()> {
+    common.check()?;
+    if subjects.is_empty() {
+        bail!("a {kind} plot needs at least one model");
+    }
+    if theta_i_deg.is_empty() {
+        return Err(bad(
+            "theta_i_deg",
+            "give at least one incidence angle theta_i".into(),
+        ));
+    }
+    for &t in theta_i_deg {
+        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
+    }
+    Ok(())
+}
+
 pub(crate) fn bad(option: &'static str, message: String) -> anyhow::Error {
     BadInput::new(option, message).into()
 }

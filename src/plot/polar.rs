@@ -6,13 +6,13 @@
 //! the mirror direction of ωi is s = +θi. A curve is the point at radius ρ(value) along ωo.
 
 use super::{
-    bad, check_deg, fmt_value, header_in, legend, legend_width, palette, pixel_map, rad, render,
+    bad, check_curves, fmt_value, header_in, legend, legend_width, palette, pixel_map, rad, render,
     subject_styles, text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, SeriesStyle,
     Subject,
 };
 use crate::eval::Evaluator;
 use crate::model::Reference;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -231,19 +231,7 @@ pub fn polar_data(
 
 /// The options and subjects of a polar plot, checked before any evaluation.
 fn check_request(subjects: &[Subject], common: &Common, opts: &PolarOptions) -> Result<()> {
-    common.check()?;
-    if subjects.is_empty() {
-        bail!("a polar plot needs at least one model");
-    }
-    if opts.theta_i_deg.is_empty() {
-        return Err(bad(
-            "theta_i_deg",
-            "give at least one incidence angle theta_i".into(),
-        ));
-    }
-    for &t in &opts.theta_i_deg {
-        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
-    }
+    check_curves(subjects, common, "polar", &opts.theta_i_deg)?;
     if !(16..=1 << 20).contains(&opts.samples) {
         return Err(bad(
             "samples",

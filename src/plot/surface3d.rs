@@ -5,13 +5,13 @@
 //! The chart's vertical axis is the surface normal z; its other two axes are x and y.
 
 use super::{
-    bad, check_deg, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
+    bad, check_curves, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
     text_style, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Scale, SeriesStyle,
     Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -185,19 +185,7 @@ pub fn surface3d_data(
 
 /// The options and subjects of a 3d plot, checked before any evaluation.
 fn check_request(subjects: &[Subject], common: &Common, opts: &Surface3dOptions) -> Result<()> {
-    common.check()?;
-    if subjects.is_empty() {
-        bail!("a 3d plot needs at least one model");
-    }
-    if opts.theta_i_deg.is_empty() {
-        return Err(bad(
-            "theta_i_deg",
-            "give at least one incidence angle theta_i".into(),
-        ));
-    }
-    for &t in &opts.theta_i_deg {
-        check_deg("theta_i_deg", "theta_i", t, 0.0, 90.0)?;
-    }
+    check_curves(subjects, common, "3d", &opts.theta_i_deg)?;
     check_finite_deg("phi_i_deg", "phi_i", opts.phi_i_deg)?;
     if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
         return Err(bad(
