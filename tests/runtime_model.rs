@@ -19,8 +19,10 @@ use std::sync::Arc;
 const F32_REL: f64 = 4.0 * f32::EPSILON as f64;
 
 /// A copy of `lambert` under another name, with lambert's kernels and, optionally, a reference.
+/// Its one parameter is what lambert's kernels read from their block, albedo / π (lambert's host
+/// side divides once per parameter set), so f is the parameter itself.
 fn lambert_twin(name: &str, with_reference: bool) -> Model {
-    let params = vec![ParamSpec::rgb("albedo", 0.5, "diffuse reflectance")];
+    let params = vec![ParamSpec::rgb("albedo_over_pi", 0.1, "albedo / π")];
     let mut m = RuntimeModel::new(name, "Lambert, defined at run time", params, true)
         .expect("a valid run-time model");
     for kernel in ["pairs", "table", "albedo", "preview"] {
@@ -29,7 +31,7 @@ fn lambert_twin(name: &str, with_reference: bool) -> Model {
     }
     if with_reference {
         m = m.with_reference(Arc::new(|v: &[f64], _wi: DVec3, _wo: DVec3| {
-            DVec3::new(v[0], v[1], v[2]) * FRAC_1_PI
+            DVec3::new(v[0], v[1], v[2])
         }));
     }
     m.register().expect("a new name")
@@ -44,9 +46,20 @@ fn pairs() -> Vec<(DVec3, DVec3)> {
     ]
 }
 
-fn set(model: Model, albedo: &str) -> ParamSet {
-    let mut p = ParamSet::defaults(model);
+/// The built-in lambert with albedo ρ (the same value in every channel where one is given).
+fn lambert(albedo: &str) -> ParamSet {
+    let mut p = ParamSet::defaults(Model::Lambert);
     p.set_text(&format!("albedo={albedo}")).expect("albedo");
+    p
+}
+
+/// The twin of lambert with albedo `rho`: its parameter is ρ/π, formed in f64 as lambert's host
+/// side forms it.
+fn twin(model: Model, rho: &[f64]) -> ParamSet {
+    let text: Vec<String> = rho.iter().map(|r| format!("{}", r * FRAC_1_PI)).collect();
+    let mut p = ParamSet::defaults(model);
+    p.set_text(&format!("albedo_over_pi={}", text.join(",")))
+        .expect("albedo_over_pi");
     p
 }
 
@@ -55,7 +68,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
     let model = lambert_twin("lambert_gpu_only", false);
     assert_eq!(Model::from_name("lambert_gpu_only").unwrap(), model);
     assert!(!model.has_reference());
-    let p = set(model, "0.2,0.4,0.8");
+    let p = twin(model, &[0.2, 0.4, 0.8]);
 
     let cpu = Session::cpu();
     let e = cpu.eval_pairs(&p, false, &pairs()).unwrap_err();
@@ -103,7 +116,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
 #[test]
 fn a_model_with_reference_runs_on_both_backends() {
     let model = lambert_twin("lambert_with_reference", true);
-    let p = set(model, "0.6");
+    let p = twin(model, &[0.6]);
     let cpu = Session::cpu();
     let f = cpu.eval_pairs(&p, false, &pairs()).expect("cpu");
     assert!(f.iter().all(|v| v[1] == 0.6 * FRAC_1_PI), "{f:?}");
@@ -125,7 +138,7 @@ fn a_model_with_reference_runs_on_both_backends() {
     };
     let twin = cpu.table(&p, false, &grid, 1 << 10).expect("twin table");
     let builtin = cpu
-        .table(&set(Model::Lambert, "0.6"), false, &grid, 1 << 10)
+        .table(&lambert("0.6"), false, &grid, 1 << 10)
         .expect("lambert table");
     assert_eq!(twin, builtin);
 }
