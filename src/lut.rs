@@ -15,7 +15,7 @@
 //! E includes the delta lobe (`smooth_layered`, `coupled`); E_avg is taken at the view azimuth
 //! φo of the spec (it equals the hemispherical albedo for an isotropic model).
 //!
-//! Files, written like lobe tables as one [`FileSet`] (a temporary file beside each destination,
+//! Files, written like lobe tables as one [`FileSet`](crate::output::FileSet) (a temporary file beside each destination,
 //! renamed into place only when all are complete; no partial file on error):
 //! - `PATH.exr`: float32 RGB, layer `E` (Nμ wide, x = j; Np tall, y = k) and layer `E_avg`
 //!   (1 wide, Np tall), with `lobe.*` header attributes;
