@@ -68,13 +68,9 @@ impl Frame {
     }
 }
 
-/// Rings at the scale's ticks, the horizon circle, spokes every 15° and the diameter.
-pub(super) fn draw_rings_and_spokes<DB: DrawingBackend>(
-    pa: &Chart<DB>,
-    ink: &mut Ink,
-    px: &dyn Fn((f64, f64)) -> (f64, f64),
-    scale: &Scale,
-) -> Result<()> {
+/// Rings at the scale's ticks, the horizon circle, spokes every 15° and the diameter, through
+/// `px` (a plane point to canvas pixels).
+pub(super) fn draw_frame(ink: &mut Ink, px: &dyn Fn((f64, f64)) -> (f64, f64), scale: &Scale) {
     let arc = |rho: f64| -> Vec<(f64, f64)> {
         (0..=360)
             .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
@@ -83,33 +79,14 @@ pub(super) fn draw_rings_and_spokes<DB: DrawingBackend>(
     let grid = RGBColor(200, 200, 200);
     for &v in &scale.ticks() {
         let rho = scale.unit(v);
-        if rho <= 0.0 {
-            continue;
+        if rho > 0.0 {
+            ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
         }
-        ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
-        pa.draw(&Text::new(
-            fmt_value(v),
-            (rho, -0.02),
-            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
-        ))
-        .drawing("a ring label")?;
     }
     ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
     for k in -6..=6 {
-        let s = 15.0 * k as f64;
-        ink.line(
-            &[px((0.0, 0.0)), px(at(1.0, s))],
-            grid,
-            1.0,
-            Dash::Solid,
-            1.0,
-        );
-        pa.draw(&Text::new(
-            format!("{}°", k * 15),
-            at(1.05, s),
-            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
-        ))
-        .drawing("a spoke label")?;
+        let spoke = [px((0.0, 0.0)), px(at(1.0, 15.0 * k as f64))];
+        ink.line(&spoke, grid, 1.0, Dash::Solid, 1.0);
     }
     ink.line(
         &[px((-1.0, 0.0)), px((1.0, 0.0))],
@@ -118,6 +95,37 @@ pub(super) fn draw_rings_and_spokes<DB: DrawingBackend>(
         Dash::Solid,
         1.0,
     );
+}
+
+/// [`draw_frame`] with its labels: each ring's value under it and each spoke's angle beyond the
+/// horizon, in the plane's coordinates of `pa`.
+pub(super) fn draw_rings_and_spokes<DB: DrawingBackend>(
+    pa: &Chart<DB>,
+    ink: &mut Ink,
+    px: &dyn Fn((f64, f64)) -> (f64, f64),
+    scale: &Scale,
+) -> Result<()> {
+    draw_frame(ink, px, scale);
+    for &v in &scale.ticks() {
+        let rho = scale.unit(v);
+        if rho <= 0.0 {
+            continue;
+        }
+        pa.draw(&Text::new(
+            fmt_value(v),
+            (rho, -0.02),
+            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .drawing("a ring label")?;
+    }
+    for k in -6..=6 {
+        pa.draw(&Text::new(
+            format!("{}°", k * 15),
+            at(1.05, 15.0 * k as f64),
+            text_style(12, BLACK).pos(Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .drawing("a spoke label")?;
+    }
     Ok(())
 }
 

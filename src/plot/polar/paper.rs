@@ -107,7 +107,7 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     let spare = hf - legend_h - (label_h + r + below);
     let centre = (wf / 2.0, (spare / 2.0).max(0.0) + label_h + r);
     let px = |(x, y): (f64, f64)| (centre.0 + x * r, centre.1 - y * r);
-    draw_frame(ink, &px, &data.scale);
+    super::frame::draw_frame(ink, &px, &data.scale);
     let angle_index = |t: f64| opts.theta_i_deg.iter().position(|&a| a == t).unwrap_or(0);
     let incidence_colour = |t: f64| {
         if subjects.len() == 1 {
@@ -165,35 +165,6 @@ pub(super) fn draw_paper<DB: DrawingBackend>(
     }
     let legend_area = root.split_vertically((hf - legend_h).round() as i32).1;
     rows.draw(&legend_area, ink, &entries)
-}
-
-/// Rings at the scale's ticks, the horizon circle, spokes every 15° and the diameter, through
-/// `px` (a plane point to canvas pixels).
-fn draw_frame(ink: &mut Ink, px: &dyn Fn((f64, f64)) -> (f64, f64), scale: &Scale) {
-    let arc = |rho: f64| -> Vec<(f64, f64)> {
-        (0..=360)
-            .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
-            .collect()
-    };
-    let grid = RGBColor(200, 200, 200);
-    for &v in &scale.ticks() {
-        let rho = scale.unit(v);
-        if rho > 0.0 {
-            ink.line(&arc(rho), grid, 1.0, Dash::Solid, 1.0);
-        }
-    }
-    ink.line(&arc(1.0), BLACK, 1.0, Dash::Solid, 1.0);
-    for k in -6..=6 {
-        let spoke = [px((0.0, 0.0)), px(at(1.0, 15.0 * k as f64))];
-        ink.line(&spoke, grid, 1.0, Dash::Solid, 1.0);
-    }
-    ink.line(
-        &[px((-1.0, 0.0)), px((1.0, 0.0))],
-        BLACK,
-        1.0,
-        Dash::Solid,
-        1.0,
-    );
 }
 
 /// Spoke labels just outside the horizon (centre and radius in canvas pixels), at the finest
