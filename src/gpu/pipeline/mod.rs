@@ -1,0 +1,346 @@
+//! Compute pipelines, one per (kernel, model, white furnace), specialised at creation:
+//! constant 0 = WHITE_FURNACE, 1 = workgroup size, 2 = evaluations per invocation.
+//! A pipeline carries exactly one model; nothing is built until a command needs it.
+
+mod dispatch;
+
+pub use dispatch::Dispatcher;
+
+use super::buffer::Buffer;
+use super::device::Device;
+use super::error::{Context, GpuError, Result};
+use super::CHUNK_TIMEOUT;
+use crate::model::kernels::KernelSource;
+use ash::vk;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Which kernel of `glsl/kernels/`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out, 4 and 5
+    /// wi and wo as texel buffers).
+    Table,
+    /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
+    Pairs,
+    /// `lobe preview`: one shaded pixel per evaluation (bindings 0 params, 1 scene, 2 objects,
+    /// 3 out); see glsl/kernels/preview.comp.
+    Preview,
+    /// Directional albedo as a workgroup reduction over quadrature nodes (bindings 0 params,
+    /// 1 nodes, 2 entries, 3 partial sums, 4 the nodes as a texel buffer); see
+    /// glsl/kernels/albedo.comp and src/gpu/albedo.rs.
+    Albedo,
+}
+
+impl Kernel {
+    /// The kernel's file name in `glsl/kernels/` without its extension, as SPIR-V is looked up.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Table => "table",
+            Kernel::Pairs => "pairs",
+            Kernel::Preview => "preview",
+            Kernel::Albedo => "albedo",
+        }
+    }
+
+    /// The kernel's bindings, in the order its buffers are given to [`Dispatcher::new`].
+    pub(crate) fn bindings(self) -> &'static [(u32, vk::DescriptorType)] {
+        const S: vk::DescriptorType = vk::DescriptorType::STORAGE_BUFFER;
+        const T: vk::DescriptorType = vk::DescriptorType::UNIFORM_TEXEL_BUFFER;
+        match self {
+            // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
+            Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T)],
+            Kernel::Pairs => &[(0, S), (1, S), (3, S)],
+            Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
+            // 4: the nodes again, as a texel buffer (TEXEL_NODES).
+            Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
+        }
+    }
+}
+
+/// The binding of a model's data table (a measured BRDF's bins, read-only storage buffer) in
+/// every kernel of a model that has one ([`crate::model::Model::data`]): a measured BRDF's bins, the
+/// microfacet model's Kulla–Conty table. The pipelines of models without one do not have this
+/// binding.
+pub const MODEL_DATA_BINDING: u32 = 7;
+
+/// A model's data table on the device, with the device it lives on.
+struct ModelData {
+    /// Declared before `_dev`, so dropped first.
+    buffer: Buffer<'static>,
+    _dev: Arc<Device>,
+}
+
+// SAFETY: the buffer's mapping is written once, in `ModelData::new`, before the value is shared;
+// afterwards only kernels read the buffer, and the `Device` is `Send + Sync`.
+unsafe impl Send for ModelData {}
+// SAFETY: as for `Send`: no method writes through a shared `ModelData`.
+unsafe impl Sync for ModelData {}
+
+impl ModelData {
+    /// Uploads `bytes` to a new buffer on `dev`.
+    fn new(dev: &Arc<Device>, model: &str, bytes: &[u8]) -> Result<ModelData> {
+        let range = dev.limits.max_storage_buffer_range as u64;
+        if bytes.len() as u64 > range {
+            return Err(GpuError::Limit(format!(
+                "the data table of model {model} takes {} bytes, over this device's storage buffer range of {range}",
+                bytes.len()
+            )));
+        }
+        let mut buffer = Buffer::new(dev, bytes.len() as u64, "model data")?;
+        buffer.write(bytes)?;
+        // SAFETY: a `Buffer` uses its `&Device` only to reach the device (in `Drop`); the `Arc`
+        // kept beside it holds that `Device` at the same address until after `buffer` is
+        // dropped (fields drop in declaration order).
+        let buffer = unsafe { std::mem::transmute::<Buffer<'_>, Buffer<'static>>(buffer) };
+        Ok(ModelData {
+            buffer,
+            _dev: dev.clone(),
+        })
+    }
+}
+
+/// Specialization constant id of FAST_POW (glsl/common.glsl).
+pub const FAST_POW_ID: u32 = 10;
+
+/// Specialization constant id of TEXEL_DIRECTIONS (glsl/kernels/table.comp) and TEXEL_NODES
+/// (glsl/kernels/albedo.comp): read a list through a texel buffer.
+pub const TEXEL_DIRECTIONS_ID: u32 = 20;
+
+/// Specialization constant id of LANE_PARTIALS (glsl/kernels/albedo.comp): every invocation
+/// writes its own partial sum, no workgroup tree.
+pub const LANE_PARTIALS_ID: u32 = 21;
+
+/// Whether the albedo kernel writes one partial sum per invocation (LANE_PARTIALS) rather than
+/// one per workgroup. On a CPU driver a barrier switches between the workgroup's SIMD slices,
+/// and the tree's seven barriers per workgroup cost more than storing 64 partials and adding
+/// them on the host; on a GPU the tree is cheap and keeps the read-back small.
+pub fn albedo_lane_partials(cpu_driver: bool) -> bool {
+    cpu_driver
+}
+
+/// The format of a direction list read as a texel buffer: one vec4 per direction.
+pub const TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// Workgroup size. 64 suits lavapipe and is a multiple of every GPU's wave width.
+pub const LOCAL_SIZE: u32 = 64;
+
+/// Evaluations one invocation of `kernel` makes (specialization constant 2). On a CPU driver
+/// several per invocation amortise the invocation overhead: 8 for the table kernel, 4 for the
+/// others. On a GPU one per invocation keeps every lane busy, except in the table kernel, which
+/// writes 4 cells as 3 vec4 stores and so makes a multiple of 4.
+pub fn evals_per_invocation(kernel: Kernel, cpu_driver: bool) -> u32 {
+    match (kernel, cpu_driver) {
+        (Kernel::Table, true) => 8,
+        (Kernel::Table, false) => 4,
+        (_, true) => 4,
+        (_, false) => 1,
+    }
+}
+
+/// Push constants: see `Chunk` in `glsl/kernels/eval.glsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ChunkPush {
+    /// Index of the chunk's first element in the whole job.
+    pub first: u32,
+    /// Number of elements in this chunk.
+    pub count: u32,
+    /// Length of the wo list (the table kernel only; 0 elsewhere).
+    pub n_wo: u32,
+    /// Length of the wi list (the table kernel only; 0 elsewhere).
+    pub n_wi: u32,
+}
+
+/// One compute pipeline: a kernel specialised for one model, white furnace on or off, and
+/// fast-pow on or off, with its descriptor layout and its running GPU time.
+pub struct Pipeline {
+    dev: Arc<Device>,
+    /// The kernel it runs.
+    pub kernel: Kernel,
+    module: vk::ShaderModule,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    /// Evaluations one invocation makes (specialization constant 2): see
+    /// [`evals_per_invocation`].
+    pub evals_per_invocation: u32,
+    /// Whether the table kernel reads its direction lists as texel buffers
+    /// (TEXEL_DIRECTIONS).
+    pub texel_directions: bool,
+    /// How long creating the pipeline took (the driver compiles the shader here).
+    pub build_time: Duration,
+    /// `kernel/model-label`, with " (white furnace)" where it applies; used in logs and errors.
+    pub label: String,
+    /// GPU time of every dispatch so far, from timestamp queries (nanoseconds).
+    pub gpu_ns: AtomicU64,
+    /// The model's own bound on each chunk's wait, if it has one (else [`CHUNK_TIMEOUT`]).
+    pub model_timeout: Option<Duration>,
+    /// The model's data table, bound at [`MODEL_DATA_BINDING`] by every dispatcher.
+    data: Option<ModelData>,
+}
+
+impl Pipeline {
+    /// Builds the pipeline of `kernel` from a model's `source`, specialised for
+    /// `white_furnace` and `fast_pow`, and times the build.
+    pub fn new(
+        dev: &Arc<Device>,
+        kernel: Kernel,
+        source: &KernelSource,
+        white_furnace: bool,
+        fast_pow: bool,
+        texel_directions: bool,
+    ) -> Result<Pipeline> {
+        let start = Instant::now();
+        let model = source.model;
+        let bytes = source.spirv;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
+            GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
+        })?;
+        let evals_per_invocation = evals_per_invocation(kernel, dev.cpu_kernels());
+        let label = format!(
+            "{}/{}{}",
+            kernel.name(),
+            source.label,
+            if white_furnace {
+                " (white furnace)"
+            } else {
+                ""
+            }
+        );
+        let d = &dev.device;
+        let mut p = Pipeline {
+            dev: dev.clone(),
+            kernel,
+            module: vk::ShaderModule::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            pipeline: vk::Pipeline::null(),
+            evals_per_invocation,
+            texel_directions,
+            build_time: Duration::ZERO,
+            label,
+            gpu_ns: AtomicU64::new(0),
+            model_timeout: source.timeout,
+            data: None,
+        };
+        if let Some(bytes) = source.data {
+            p.data = Some(ModelData::new(dev, model, bytes)?);
+        }
+        // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
+        unsafe {
+            p.module = d
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+                .ctx("creating a shader module")?;
+            let bindings: Vec<_> = p
+                .bindings()
+                .iter()
+                .map(|&(b, ty)| {
+                    vk::DescriptorSetLayoutBinding::default()
+                        .binding(b)
+                        .descriptor_type(ty)
+                        .descriptor_count(1)
+                        .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                })
+                .collect();
+            p.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .ctx("creating a descriptor set layout")?;
+            let push = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                .offset(0)
+                .size(std::mem::size_of::<ChunkPush>() as u32)];
+            let set_layouts = [p.set_layout];
+            p.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&push),
+                    None,
+                )
+                .ctx("creating a pipeline layout")?;
+            // Constants 0-2 and FAST_POW_ID are every kernel's; 3.. are the model's component
+            // choices (glsl/common.glsl, glsl/brdf/<model>.glsl).
+            let mut ids: Vec<u32> = vec![0, 1, 2, FAST_POW_ID];
+            let mut spec_data: Vec<u32> = vec![
+                white_furnace as u32,
+                LOCAL_SIZE,
+                evals_per_invocation,
+                fast_pow as u32,
+            ];
+            if matches!(kernel, Kernel::Table | Kernel::Albedo) {
+                ids.push(TEXEL_DIRECTIONS_ID);
+                spec_data.push(texel_directions as u32);
+            }
+            if kernel == Kernel::Albedo {
+                ids.push(LANE_PARTIALS_ID);
+                spec_data.push(albedo_lane_partials(dev.cpu_kernels()) as u32);
+            }
+            for (k, &v) in source.spec_constants.iter().enumerate() {
+                ids.push(3 + k as u32);
+                spec_data.push(v);
+            }
+            let entries: Vec<_> = ids
+                .iter()
+                .enumerate()
+                .map(|(k, &id)| vk::SpecializationMapEntry {
+                    constant_id: id,
+                    offset: 4 * k as u32,
+                    size: 4,
+                })
+                .collect();
+            let spec = vk::SpecializationInfo::default()
+                .map_entries(&entries)
+                .data(bytemuck::cast_slice(&spec_data));
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(p.module)
+                .name(c"main")
+                .specialization_info(&spec);
+            let info = [vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(p.layout)];
+            p.pipeline = d
+                .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+                .map_err(|(_, r)| r)
+                .ctx(&format!("creating the compute pipeline {}", p.label))?[0];
+        }
+        p.build_time = start.elapsed();
+        Ok(p)
+    }
+
+    /// The kernel's bindings, and [`MODEL_DATA_BINDING`] where the model has a data table.
+    fn bindings(&self) -> Vec<(u32, vk::DescriptorType)> {
+        let data = self
+            .data
+            .as_ref()
+            .map(|_| (MODEL_DATA_BINDING, vk::DescriptorType::STORAGE_BUFFER));
+        self.kernel.bindings().iter().copied().chain(data).collect()
+    }
+
+    /// Runs the kernel once per chunk over bound buffers (in binding order), waiting for each.
+    pub fn dispatch(&self, buffers: &[&Buffer<'_>], chunks: &[ChunkPush]) -> Result<()> {
+        Dispatcher::new(self, buffers)?.run(chunks)
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        if self.dev.is_hung() {
+            // A timed-out submission may still run this pipeline: leak it.
+            return;
+        }
+        let d = &self.dev.device;
+        // SAFETY: the device is idle after every dispatch; release in reverse order of creation.
+        unsafe {
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+            d.destroy_shader_module(self.module, None);
+        }
+    }
+}
