@@ -4,6 +4,8 @@
 
 #[path = "explore/cdp.rs"]
 mod cdp;
+#[path = "explore/downloads.rs"]
+mod downloads;
 #[path = "explore/server.rs"]
 mod server;
 

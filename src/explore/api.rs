@@ -2,6 +2,7 @@
 //! with what a [`Session`](crate::Session) computes (binary little-endian f32 RGB for the
 //! views, JSON for the albedo and the model list).
 
+use super::download;
 use super::guard::{self, query_value, refuse};
 use super::limits::*;
 use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
@@ -19,7 +20,7 @@ use glam::DVec3;
 use serde_json::json;
 use std::sync::Arc;
 
-type Shared = axum::extract::State<Arc<State>>;
+pub(super) type Shared = axum::extract::State<Arc<State>>;
 
 pub(crate) fn router(state: Arc<State>) -> Router {
     Router::new()
@@ -44,6 +45,8 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
         .route("/api/brdf", post(upload))
+        .route("/api/table", post(download::table))
+        .route("/api/plot", post(download::polar_svg))
         .fallback(|r: Request| async move {
             refuse(
                 StatusCode::NOT_FOUND,
@@ -106,9 +109,9 @@ struct ViewRequest {
 }
 
 /// A request that cannot be answered: the status and the sentence the page shows.
-type Refusal = (StatusCode, String);
+pub(super) type Refusal = (StatusCode, String);
 
-fn bad(message: String) -> Refusal {
+pub(super) fn bad(message: String) -> Refusal {
     (StatusCode::UNPROCESSABLE_ENTITY, message)
 }
 
@@ -141,7 +144,7 @@ fn parse_view(body: &[u8], max: usize, what: &str) -> Result<(ViewRequest, Param
 
 /// Runs `job` on a blocking thread (evaluation holds a core) and turns its failure into a
 /// refusal: a parameter the model refuses is the request's fault, anything else the server's.
-async fn blocking<T: Send + 'static>(
+pub(super) async fn blocking<T: Send + 'static>(
     job: impl FnOnce() -> crate::Result<T> + Send + 'static,
 ) -> Result<T, Refusal> {
     match tokio::task::spawn_blocking(job).await {
@@ -194,7 +197,7 @@ fn ascii_json(v: &serde_json::Value) -> String {
         .collect()
 }
 
-fn answer(r: Result<Response, Refusal>) -> Response {
+pub(super) fn answer(r: Result<Response, Refusal>) -> Response {
     r.unwrap_or_else(|(status, message)| refuse(status, message))
 }
 
@@ -465,6 +468,7 @@ async fn models(state: Shared) -> Response {
             "albedo_points": MAX_ALBEDO_POINTS,
             "brdf_bytes": MAX_BRDF_BYTES,
         },
+        "table": {"grid": download::TABLE_GRID, "res": download::TABLE_RES},
     }))
 }
 

@@ -9,6 +9,7 @@
 //! binary; the page needs no network.
 
 mod api;
+mod download;
 mod guard;
 mod limits;
 

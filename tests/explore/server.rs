@@ -84,6 +84,21 @@ impl Server {
     }
 }
 
+impl Server {
+    /// A GET with the token, answered 200 with JSON.
+    pub fn get_json(&self, path: &str) -> Value {
+        let r = http(
+            &self.addr,
+            "GET",
+            path,
+            &[("x-lobe-token", &self.token)],
+            b"",
+        );
+        assert_eq!(r.status, 200, "GET {path}: {}", r.text());
+        serde_json::from_slice(&r.body).unwrap()
+    }
+}
+
 impl Drop for Server {
     fn drop(&mut self) {
         let _ = self.child.kill();

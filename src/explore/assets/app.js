@@ -14,7 +14,7 @@ const DASHES = [[], [8, 4], [2, 3], [10, 3, 2, 3]];
 
 // What tests and benchmarks read: the last values drawn and the input-to-frame latencies.
 const probe = window.lobeExplore = {
-  ready: false, frames: 0, polar: [], angles: [], params: [], latencies: [], errors: [], albedo: [],
+  ready: false, frames: 0, polar: [], angles: [], params: [], latencies: [], errors: [], albedo: [], downloads: [],
 };
 
 let catalog = null;
@@ -92,14 +92,15 @@ function commandLines() {
   const lines = [];
   if (shared !== null) {
     const models = state.m.map((e) => ` --model ${quote(spec(e))}`).join('');
-    lines.push(`lobe plot --kind polar -o polar.png${models}${shared ? ` --material ${shared}` : ''}${wf}` +
+    lines.push(`lobe plot --kind polar -o polar.svg${models}${shared ? ` --material ${shared}` : ''}${wf}` +
       ` --theta-i-deg ${state.ti}${state.cos ? ' --cos' : ''} ${state.log ? '--log' : '--linear'}`);
   } else {
-    state.m.forEach((e, i) => lines.push(`lobe plot --kind polar -o polar-${i + 1}.png --model ${quote(spec(e))}${mat(e)}${wf}` +
+    state.m.forEach((e, i) => lines.push(`lobe plot --kind polar -o polar-${i + 1}.svg --model ${quote(spec(e))}${mat(e)}${wf}` +
       ` --theta-i-deg ${state.ti}${state.cos ? ' --cos' : ''} ${state.log ? '--log' : '--linear'}`));
   }
   state.m.forEach((e) => lines.push(`lobe albedo --model ${quote(spec(e))}${mat(e)}${wf}`));
-  state.m.forEach((e, i) => lines.push(`lobe table --model ${quote(spec(e))}${mat(e)}${wf} -o table-${i + 1}.exr`));
+  const grid = catalog ? ` --grid ${catalog.table.grid} --res ${catalog.table.res}` : '';
+  state.m.forEach((e, i) => lines.push(`lobe table --model ${quote(spec(e))}${mat(e)}${wf}${grid} -o table-${i + 1}.exr`));
   return lines;
 }
 
@@ -408,6 +409,35 @@ function download(name, url) {
   document.body.append(a); a.click(); a.remove();
 }
 
+// A file lobe's own writers make on the server (the one the command line beside it writes).
+async function downloadFile(path, body, name) {
+  $('status').textContent = `writing ${name}…`;
+  try {
+    const blob = await (await call(path, body)).blob();
+    const url = URL.createObjectURL(blob);
+    download(name, url);
+    setTimeout(() => URL.revokeObjectURL(url), 60000);
+    probe.downloads.push({ name, bytes: blob.size });
+  } catch (e) {
+    showError(`${name}: ${e.message}`);
+  } finally {
+    $('status').textContent = '';
+  }
+}
+
+// Each model's table, named as the "lobe table" lines name them.
+async function downloadTables(format) {
+  for (const [i, e] of state.m.entries()) {
+    const { model, material, sets, white_furnace } = request(e, 1);
+    await downloadFile('/api/table', { model, material, sets, white_furnace, format }, `table-${i + 1}.${format}`);
+  }
+}
+
+function downloadSvg() {
+  const models = state.m.map((e) => { const { model, material, sets } = request(e, 1); return { model, material, sets }; });
+  return downloadFile('/api/plot', { models, white_furnace: state.wf, theta_i_deg: state.ti, cos: state.cos, log: state.log }, 'polar.svg');
+}
+
 // ---- start -----------------------------------------------------------------------------------
 
 async function start() {
@@ -431,6 +461,9 @@ async function start() {
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openBrdf(ev.target.files[0]); ev.target.value = ''; });
   $('copy').addEventListener('click', () => navigator.clipboard.writeText(commandLines().join('\n')).catch((e) => showError(`copy: ${e.message}`)));
   $('download-png').addEventListener('click', () => download('polar.png', $('polar').toDataURL('image/png')));
+  $('download-svg').addEventListener('click', downloadSvg);
+  $('download-npy').addEventListener('click', () => downloadTables('npy'));
+  $('download-exr').addEventListener('click', () => downloadTables('exr'));
   $('download-json').addEventListener('click', () => {
     const json = JSON.stringify({ theta_i_deg: state.ti, white_furnace: state.wf, models: state.m.map((e, i) => ({ model: e.model, material: e.material || null, parameters: probe.params[i] })) }, null, 2);
     download('parameters.json', URL.createObjectURL(new Blob([json], { type: 'application/json' })));
