@@ -2,6 +2,8 @@
 //! socket, so that the tests can send what a browser would not: no token, a foreign Host), and
 //! the page in headless Chromium over the DevTools protocol.
 
+#[path = "explore/busy.rs"]
+mod busy;
 #[path = "explore/cdp.rs"]
 mod cdp;
 #[path = "explore/downloads.rs"]

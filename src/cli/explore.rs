@@ -1,7 +1,10 @@
 //! `lobe explore`: the models on a local web page ([`lobe::explore`]), served until Ctrl-C or
 //! SIGTERM.
 
-use super::{cancel_token, open_session, resolve_all, split_specs, BackendArgs};
+use super::{
+    cancel_token, open_session, resolve_all, session_options, spec_options, split_specs,
+    BackendArgs,
+};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::net::IpAddr;
@@ -63,6 +66,8 @@ pub fn run(a: ExploreArgs) -> Result<()> {
         models,
         material: a.material.clone(),
         token: lobe::explore::new_token()?,
+        shader_session: Some(session_options(&a.backend)),
+        brdf: spec_options()?.brdf,
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

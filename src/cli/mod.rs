@@ -108,7 +108,7 @@ pub fn resolve_all(
 
 /// How the command line loads model files: a `.brdf` model's time limit per chunk of GPU work
 /// from `LOBE_BRDF_TIMEOUT=SECONDS` (default [`lobe::brdf::DEFAULT_CHUNK_TIMEOUT`]).
-fn spec_options() -> Result<lobe::resolve::SpecOptions> {
+pub fn spec_options() -> Result<lobe::resolve::SpecOptions> {
     let mut options = lobe::resolve::SpecOptions::default();
     if let Ok(text) = std::env::var("LOBE_BRDF_TIMEOUT") {
         match text.trim().parse::<f64>() {
@@ -225,11 +225,17 @@ pub fn install_ctrl_c() -> Result<()> {
 /// (every GPU buffer staged through device-local memory, as on a discrete GPU), `LOBE_LOG=1`
 /// (each pipeline built, on stderr).
 pub fn open_session(b: &BackendArgs) -> Result<Session> {
+    Ok(Session::open(session_options(b))?)
+}
+
+/// The session options `--backend`, `--device` and the environment (`LOBE_VALIDATION`,
+/// `LOBE_INJECT_DEVICE_LOST`, `LOBE_STAGING`, `LOBE_LOG`) ask for.
+pub fn session_options(b: &BackendArgs) -> SessionOptions {
     let env_on = |name: &str| std::env::var(name).is_ok_and(|v| v == "1");
     let log: Option<lobe::gpu::LogSink> = std::env::var("LOBE_LOG")
         .is_ok_and(|v| v != "0")
         .then(|| std::sync::Arc::new(|line: &str| eprintln!("lobe: {line}")) as _);
-    let opts = SessionOptions {
+    SessionOptions {
         backend: b.backend.into(),
         device: b.device.clone(),
         validation: env_on("LOBE_VALIDATION"),
@@ -237,8 +243,7 @@ pub fn open_session(b: &BackendArgs) -> Result<Session> {
         staging: env_on("LOBE_STAGING"),
         log,
         cancel: cancel_token().clone(),
-    };
-    Ok(Session::open(opts)?)
+    }
 }
 
 /// The session for an albedo job: the adaptive reference runs on the CPU whatever the backend,

@@ -143,19 +143,43 @@ fn parse_view(body: &[u8], max: usize, what: &str) -> Result<(ViewRequest, Param
 }
 
 /// Runs `job` on a blocking thread (evaluation holds a core) and turns its failure into a
-/// refusal: a parameter the model refuses is the request's fault, anything else the server's.
+/// refusal: a parameter the model refuses, or a shader of its own that runs past its time limit,
+/// is the request's fault, anything else the server's.
 pub(super) async fn blocking<T: Send + 'static>(
     job: impl FnOnce() -> crate::Result<T> + Send + 'static,
 ) -> Result<T, Refusal> {
     match tokio::task::spawn_blocking(job).await {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e @ crate::Error::Param(_))) => Err(bad(e.to_string())),
+        // The model's own shader did not finish within its limit: the model's fault.
+        Ok(Err(e @ crate::Error::Gpu(crate::gpu::GpuError::ModelTimeout { .. }))) => {
+            Err(bad(e.to_string()))
+        }
         Ok(Err(e)) => Err((StatusCode::INTERNAL_SERVER_ERROR, e.to_string())),
         Err(e) => Err((
             StatusCode::INTERNAL_SERVER_ERROR,
             format!("evaluation failed: {e}"),
         )),
     }
+}
+
+/// Runs `job` on a blocking thread on the session that evaluates `model`
+/// ([`State::session_for`]); a shader that timed out retires its session.
+pub(super) async fn evaluate<T: Send + 'static>(
+    state: &Arc<State>,
+    model: Model,
+    job: impl FnOnce(&crate::Session) -> crate::Result<T> + Send + 'static,
+) -> Result<T, Refusal> {
+    let state = state.clone();
+    blocking(move || {
+        let session = state.session_for(model)?;
+        let result = job(&session);
+        if let Err(e) = &result {
+            state.retire_if_hung(&session, e);
+        }
+        result
+    })
+    .await
 }
 
 /// f32 RGB values as little-endian bytes, with the count of invalid values (NaN, ±Inf,
@@ -220,10 +244,11 @@ async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
         .into_iter()
         .map(|s| (wi, view_direction(s.to_radians())))
         .collect();
-    let session = state.session.clone();
     let p = params.clone();
-    let (f, count) =
-        blocking(move || session.eval_pairs_counting(&p, req.white_furnace, &pairs)).await?;
+    let (f, count) = evaluate(&state, params.model(), move |session| {
+        session.eval_pairs_counting(&p, req.white_furnace, &pairs)
+    })
+    .await?;
     Ok(binary(&f, count.invalid, &params))
 }
 
@@ -315,10 +340,11 @@ async fn image(state: Arc<State>, body: Bytes, cell: Cell) -> Result<Response, R
             pairs.extend(c.map(|(wi, wo, _)| (wi, wo)));
         }
     }
-    let session = state.session.clone();
     let p = params.clone();
-    let (f, count) =
-        blocking(move || session.eval_pairs_counting(&p, req.white_furnace, &pairs)).await?;
+    let (f, count) = evaluate(&state, params.model(), move |session| {
+        session.eval_pairs_counting(&p, req.white_furnace, &pairs)
+    })
+    .await?;
     let mut values = f.into_iter();
     let image: Vec<[f64; 3]> = cells
         .iter()
@@ -349,8 +375,7 @@ async fn albedo_values(state: Arc<State>, body: Bytes) -> Result<Response, Refus
     };
     let mus = albedo_mus(req.samples);
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, 0.0)).collect();
-    let session = state.session.clone();
-    let (e, hemi) = blocking(move || {
+    let (e, hemi) = evaluate(&state, params.model(), move |session| {
         let e = session.directional_albedo(&params, &settings, &points)?;
         let hemi = session.hemispherical_albedo(&params, &settings, 0.0)?;
         Ok((e, hemi))
@@ -526,17 +551,16 @@ async fn load_brdf(state: Arc<State>, name: &str, body: Bytes) -> Result<Respons
     })?;
     let shown = path.display().to_string();
     let label = format!("{stem}.brdf");
-    let loaded = tokio::task::spawn_blocking(move || {
-        crate::brdf::load(&path, &crate::brdf::LoadOptions::default())
-    })
-    .await
-    .map_err(|e| {
-        (
-            StatusCode::INTERNAL_SERVER_ERROR,
-            format!("compiling {label}: {e}"),
-        )
-    })?
-    .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
+    let options = state.brdf.clone();
+    let loaded = tokio::task::spawn_blocking(move || crate::brdf::load(&path, &options))
+        .await
+        .map_err(|e| {
+            (
+                StatusCode::INTERNAL_SERVER_ERROR,
+                format!("compiling {label}: {e}"),
+            )
+        })?
+        .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
     if let Ok(mut list) = state.uploaded.lock() {
         list.push((loaded.model, label.clone(), shown.clone()));
     }

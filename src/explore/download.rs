@@ -3,7 +3,7 @@
 //! written into a folder of its own inside the server's temporary folder, read back and removed,
 //! so a download is byte for byte the file of the command line the page shows beside it.
 
-use super::api::{answer, bad, blocking, Refusal, Shared};
+use super::api::{answer, bad, evaluate, Refusal, Shared};
 use super::limits::MAX_ASSIGNMENTS;
 use super::State;
 use crate::error::IntoLobe;
@@ -102,8 +102,7 @@ async fn table_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
     };
     let grid = Grid::parse(TABLE_GRID, TABLE_RES).map_err(|e| bad(format!("grid: {e}")))?;
     let folder = scratch(&state)?;
-    let session = state.session.clone();
-    let bytes = blocking(move || {
+    let bytes = evaluate(&state, params.model(), move |session| {
         let exr = folder.path().join("table.exr");
         session.write_table(
             &params,
@@ -181,9 +180,14 @@ async fn polar_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
             polar::Radius::Linear
         },
     });
+    // One session draws them all: the shader session where any model is compiled at run time.
+    let model = subjects
+        .iter()
+        .map(|s| s.params.model())
+        .find(|m| m.chunk_timeout().is_some())
+        .unwrap_or(subjects[0].params.model());
     let folder = scratch(&state)?;
-    let session = state.session.clone();
-    let bytes = blocking(move || {
+    let bytes = evaluate(&state, model, move |session| {
         let svg = folder.path().join("polar.svg");
         plot::plot(&session.evaluator(), &subjects, &common, &request, &svg).lobe()?;
         read_back(&svg)

@@ -16,7 +16,7 @@ mod limits;
 pub use limits::*;
 
 use crate::model::ParamSet;
-use crate::Session;
+use crate::{Session, SessionOptions};
 use std::net::{IpAddr, SocketAddr};
 use std::sync::{Arc, Mutex};
 
@@ -39,6 +39,13 @@ pub struct ExploreOptions {
     pub material: Option<String>,
     /// The session token; [`new_token`] makes one.
     pub token: String,
+    /// How a session of its own is opened for models compiled at run time (`.brdf` files), so
+    /// that a shader that never returns hangs only that session: the next such request opens a
+    /// fresh one, and built-in models never wait on it. None: every model runs on the server's
+    /// one session.
+    pub shader_session: Option<SessionOptions>,
+    /// How `.brdf` files opened from the page are loaded (their time limit per chunk of work).
+    pub brdf: crate::brdf::LoadOptions,
 }
 
 /// A token of 128 random bits from the operating system, as 32 hexadecimal digits.
@@ -71,6 +78,51 @@ pub(crate) struct State {
     pub uploaded: Mutex<Vec<(crate::Model, String, String)>>,
     /// The folder uploaded files are compiled from; removed when the server ends.
     pub uploads: tempfile::TempDir,
+    /// See [`ExploreOptions::shader_session`].
+    pub shader_options: Option<SessionOptions>,
+    /// The session models compiled at run time are evaluated on, once one was needed.
+    pub shaders: Mutex<Option<Arc<Session>>>,
+    pub brdf: crate::brdf::LoadOptions,
+}
+
+impl State {
+    /// The session that evaluates `model`: the shader session for a model compiled at run time
+    /// (opened on first use, and again after one hung), else the server's own.
+    pub fn session_for(&self, model: crate::Model) -> crate::Result<Arc<Session>> {
+        let Some(options) = &self.shader_options else {
+            return Ok(self.session.clone());
+        };
+        if model.chunk_timeout().is_none() {
+            return Ok(self.session.clone());
+        }
+        let mut shaders = self.shaders.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(s) = shaders.as_ref() {
+            return Ok(s.clone());
+        }
+        let opened = Arc::new(Session::open(options.clone())?);
+        *shaders = Some(opened.clone());
+        Ok(opened)
+    }
+
+    /// Lets go of `session` when `error` says its device may still run a shader that never
+    /// returns (it is leaked, not freed under that work) so that the next request opens a fresh
+    /// one; the server's own session is never replaced.
+    pub fn retire_if_hung(&self, session: &Arc<Session>, error: &crate::Error) {
+        use crate::gpu::GpuError;
+        let hung = matches!(
+            error,
+            crate::Error::Gpu(
+                GpuError::ModelTimeout { .. } | GpuError::Timeout { .. } | GpuError::Hung
+            )
+        );
+        if !hung || Arc::ptr_eq(session, &self.session) {
+            return;
+        }
+        let mut shaders = self.shaders.lock().unwrap_or_else(|e| e.into_inner());
+        if shaders.as_ref().is_some_and(|s| Arc::ptr_eq(s, session)) {
+            *shaders = None;
+        }
+    }
 }
 
 impl Server {
@@ -105,6 +157,9 @@ impl Server {
             material: opts.material,
             uploaded: Mutex::new(Vec::new()),
             uploads,
+            shader_options: opts.shader_session,
+            shaders: Mutex::new(None),
+            brdf: opts.brdf,
         });
         Ok(Server {
             listener,

@@ -26,10 +26,16 @@ pub struct Server {
 
 impl Server {
     pub fn start(args: &[&str]) -> Server {
+        Server::start_with_env(args, &[])
+    }
+
+    /// [`Server::start`] with environment variables set for the server.
+    pub fn start_with_env(args: &[&str], env: &[(&str, &str)]) -> Server {
         let tmp = tempfile::tempdir().unwrap();
         let mut child = Command::new(env!("CARGO_BIN_EXE_lobe"))
             .args(["explore", "--no-browser"])
             .args(args)
+            .envs(env.iter().copied())
             .current_dir(manifest())
             // The server's own temporary folder goes here, so that a test can see it removed.
             .env("TMPDIR", tmp.path())
