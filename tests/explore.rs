@@ -8,6 +8,8 @@ mod busy;
 mod cdp;
 #[path = "explore/downloads.rs"]
 mod downloads;
+#[path = "explore/merl.rs"]
+mod merl;
 #[path = "explore/server.rs"]
 mod server;
 

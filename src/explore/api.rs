@@ -3,8 +3,9 @@
 //! views, JSON for the albedo and the model list).
 
 use super::download;
-use super::guard::{self, query_value, refuse};
+use super::guard::{self, refuse};
 use super::limits::*;
+use super::upload::{self, renamed};
 use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
 use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamKind, ParamSet, Value};
@@ -44,7 +45,8 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/sphere", post(sphere))
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
-        .route("/api/brdf", post(upload))
+        .route("/api/brdf", post(upload::brdf))
+        .route("/api/merl", post(upload::merl))
         .route("/api/table", post(download::table))
         .route("/api/plot", post(download::polar_svg))
         .fallback(|r: Request| async move {
@@ -393,7 +395,7 @@ async fn albedo_values(state: Arc<State>, body: Bytes) -> Result<Response, Refus
     Ok(json_response(&body))
 }
 
-fn json_response(v: &serde_json::Value) -> Response {
+pub(super) fn json_response(v: &serde_json::Value) -> Response {
     (
         [
             (header::CONTENT_TYPE, "application/json"),
@@ -406,7 +408,7 @@ fn json_response(v: &serde_json::Value) -> Response {
 
 /// A model's parameter table as the page builds its controls from it; `source` is the file a
 /// model defined at run time came from, as the command line names it.
-fn model_json(model: Model, source: Option<&str>) -> serde_json::Value {
+pub(super) fn model_json(model: Model, source: Option<&str>) -> serde_json::Value {
     let finite = |x: f64| if x.is_finite() { json!(x) } else { json!(null) };
     let params: Vec<serde_json::Value> = model
         .params()
@@ -492,100 +494,10 @@ async fn models(state: Shared) -> Response {
             "hemisphere_res": MAX_IMAGE_RES,
             "albedo_points": MAX_ALBEDO_POINTS,
             "brdf_bytes": MAX_BRDF_BYTES,
+            "merl_bytes": MAX_MERL_BYTES,
         },
         "table": {"grid": download::TABLE_GRID, "res": download::TABLE_RES},
     }))
-}
-
-async fn upload(state: Shared, request: Request) -> Response {
-    let name = query_value(request.uri().query().unwrap_or(""), "name").unwrap_or_default();
-    let body = match axum::body::to_bytes(request.into_body(), MAX_BRDF_BYTES).await {
-        Ok(b) => b,
-        Err(_) => {
-            return refuse(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                format!("a .brdf file may be at most {MAX_BRDF_BYTES} bytes"),
-            )
-        }
-    };
-    answer(load_brdf(state.0, &name, body).await)
-}
-
-/// Compiles an opened `.brdf` file with the same code as `--model PATH` ([`crate::brdf::load`]):
-/// the file is written into the server's own folder under a name made of its stem's letters,
-/// digits, `-` and `_`, and messages name it as the page gave it.
-async fn load_brdf(state: Arc<State>, name: &str, body: Bytes) -> Result<Response, Refusal> {
-    let stem: String = name
-        .strip_suffix(".brdf")
-        .unwrap_or(name)
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .take(64)
-        .collect();
-    let stem = if stem.is_empty() {
-        "uploaded".to_string()
-    } else {
-        stem
-    };
-    if std::str::from_utf8(&body).is_err() {
-        return Err(bad(format!("{stem}.brdf: not a text file (not UTF-8)")));
-    }
-    let mut path = state.uploads.path().join(format!("{stem}.brdf"));
-    for k in 2.. {
-        if !path.exists() {
-            break;
-        }
-        path = state.uploads.path().join(format!("{stem}-{k}.brdf"));
-    }
-    std::fs::write(&path, &body).map_err(|e| {
-        (
-            StatusCode::INTERNAL_SERVER_ERROR,
-            format!("keeping {stem}.brdf: {e}"),
-        )
-    })?;
-    let shown = path.display().to_string();
-    let label = format!("{stem}.brdf");
-    let options = state.brdf.clone();
-    let loaded = tokio::task::spawn_blocking(move || crate::brdf::load(&path, &options))
-        .await
-        .map_err(|e| {
-            (
-                StatusCode::INTERNAL_SERVER_ERROR,
-                format!("compiling {label}: {e}"),
-            )
-        })?
-        .map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
-    if let Ok(mut list) = state.uploaded.lock() {
-        list.push((loaded.model, label.clone(), shown.clone()));
-    }
-    let mut v = model_json(loaded.model, Some(&label));
-    v["notes"] = json!(loaded.notes);
-    Ok(json_response(&renamed(v, &shown, &label)))
-}
-
-/// `v` with every mention of the folder path `from` in its strings replaced by the name `to`.
-fn renamed(v: serde_json::Value, from: &str, to: &str) -> serde_json::Value {
-    match v {
-        serde_json::Value::String(text) => json!(text.replace(from, to)),
-        serde_json::Value::Array(items) => {
-            json!(items
-                .into_iter()
-                .map(|x| renamed(x, from, to))
-                .collect::<Vec<_>>())
-        }
-        serde_json::Value::Object(map) => serde_json::Value::Object(
-            map.into_iter()
-                .map(|(k, x)| (k, renamed(x, from, to)))
-                .collect(),
-        ),
-        other => other,
-    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! What every request passes before a handler sees it: the session token, a `Host` header that
 //! names the bound address, no foreign `Origin`, and a bounded target and body.
 
-use super::limits::{MAX_BODY_BYTES, MAX_BRDF_BYTES, MAX_URI_BYTES};
+use super::limits::{MAX_BODY_BYTES, MAX_BRDF_BYTES, MAX_MERL_BYTES, MAX_URI_BYTES};
 use super::State;
 use axum::extract::Request;
 use axum::http::{header, StatusCode};
@@ -85,10 +85,10 @@ fn check(state: &State, request: &Request) -> Result<(), (StatusCode, String)> {
             "missing or wrong session token: open the URL that `lobe explore` printed, with its ?token=".to_string(),
         ));
     }
-    let limit = if uri.path() == "/api/brdf" {
-        MAX_BRDF_BYTES
-    } else {
-        MAX_BODY_BYTES
+    let limit = match uri.path() {
+        "/api/brdf" => MAX_BRDF_BYTES,
+        "/api/merl" => MAX_MERL_BYTES,
+        _ => MAX_BODY_BYTES,
     };
     let length = request
         .headers()

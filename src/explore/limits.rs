@@ -11,6 +11,14 @@ pub const MAX_BODY_BYTES: usize = 64 * 1024;
 /// it are under 10 KiB.
 pub const MAX_BRDF_BYTES: usize = 1024 * 1024;
 
+/// A MERL file opened from the page: the format's one size, 34,992,012 bytes (90 × 90 × 180 bins
+/// × 3 channels of f64, and a 12-byte header).
+pub const MAX_MERL_BYTES: usize = crate::merl::FILE_BYTES;
+
+/// Files the page may open in one server's life: each stays loaded (a MERL table is 17 MB as
+/// f32 on the device and 35 MB as f64 for the reference), so their number is bounded.
+pub const MAX_UPLOADS: usize = 32;
+
 /// View angles of one polar curve: 4096 puts a point every 0.044°.
 pub const MAX_POLAR_SAMPLES: usize = 4096;
 

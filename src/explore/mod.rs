@@ -12,6 +12,7 @@ mod api;
 mod download;
 mod guard;
 mod limits;
+mod upload;
 
 pub use limits::*;
 

@@ -175,6 +175,7 @@ function paramRow(i, p) {
     row.append(box, document.createElement('span'));
   } else {
     const select = document.createElement('select');
+    select.dataset.key = p.key;
     const options = p.kind === 'choice' ? p.options : ['false', 'true'];
     const now = p.kind === 'flag' ? (Number(value) ? 'true' : 'false') : value;
     options.forEach((o) => select.add(new Option(o, o, false, o === now)));
@@ -382,15 +383,20 @@ function readout(curves) {
 
 // ---- files -----------------------------------------------------------------------------------
 
-async function openBrdf(file) {
-  if (file.size > catalog.limits.brdf_bytes) {
-    showError(`${file.name}: ${file.size} bytes; a .brdf file may be at most ${catalog.limits.brdf_bytes}`);
+// A model file opened from the page: a BRDF Explorer shader (compiled) or a MERL table (read).
+async function openFile(file) {
+  const merl = file.name.endsWith('.binary');
+  const limit = merl ? catalog.limits.merl_bytes : catalog.limits.brdf_bytes;
+  if (file.size > limit) {
+    showError(`${file.name}: ${file.size} bytes; a ${merl ? 'MERL' : '.brdf'} file may be at most ${limit}`);
     return;
   }
-  $('status').textContent = `compiling ${file.name}…`;
+  $('status').textContent = `${merl ? 'reading' : 'compiling'} ${file.name}…`;
   try {
-    const r = await fetch(`/api/brdf?name=${encodeURIComponent(file.name)}`, {
-      method: 'POST', headers: { 'x-lobe-token': TOKEN, 'content-type': 'text/plain' }, body: await file.text(),
+    const r = await fetch(`/api/${merl ? 'merl' : 'brdf'}?name=${encodeURIComponent(file.name)}`, {
+      method: 'POST',
+      headers: { 'x-lobe-token': TOKEN, 'content-type': merl ? 'application/octet-stream' : 'text/plain' },
+      body: merl ? file : await file.text(),
     });
     if (!r.ok) throw new Error(await r.text());
     const model = await r.json();
@@ -458,7 +464,7 @@ async function start() {
   dragLobe();
   $('white-furnace').addEventListener('change', () => { state.wf = $('white-furnace').checked; changed(false); });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
-  $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openBrdf(ev.target.files[0]); ev.target.value = ''; });
+  $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
   $('copy').addEventListener('click', () => navigator.clipboard.writeText(commandLines().join('\n')).catch((e) => showError(`copy: ${e.message}`)));
   $('download-png').addEventListener('click', () => download('polar.png', $('polar').toDataURL('image/png')));
   $('download-svg').addEventListener('click', downloadSvg);
