@@ -43,6 +43,8 @@
 
 mod exr_header;
 
+#[cfg(test)]
+mod artifact_tests;
 mod artifacts;
 mod commit;
 pub mod npy;
