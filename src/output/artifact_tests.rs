@@ -119,9 +119,10 @@ fn a_set_dropped_before_its_sidecar_changes_nothing() -> Result<()> {
 }
 
 /// A member that cannot be written is refused when the set is created, naming it, before any
-/// work; a sidecar field that the provenance also gives is refused and nothing is written.
+/// work; an array that does not fill its shape, and a sidecar field that the provenance also
+/// gives, are refused, and nothing is written.
 #[test]
-fn a_member_in_the_way_or_a_field_given_twice_is_refused() -> Result<()> {
+fn a_member_in_the_way_a_short_array_or_a_field_given_twice_is_refused() -> Result<()> {
     let dir = tempfile::tempdir()?;
     let exr = dir.path().join("a.exr");
     std::fs::create_dir(dir.path().join("a.h"))?;
@@ -134,6 +135,12 @@ fn a_member_in_the_way_or_a_field_given_twice_is_refused() -> Result<()> {
     std::fs::remove_dir(dir.path().join("a.h"))?;
 
     let files = ArtifactSet::create(TABLE_SET, &exr, &[""], &[])?;
+    let err = files.npy(0, &[2, 3], &[0.0; 5]).err();
+    let text = err.map(|e| format!("{e:#}")).unwrap_or_default();
+    assert!(
+        text.contains("5 values do not fill the shape [2, 3]"),
+        "{text}"
+    );
     let err = files
         .finish(&provenance(), json!({ "model": "phong" }))
         .err();

@@ -170,11 +170,6 @@ impl<S: BorrowMut<FileSet>> ArtifactSet<S> {
         &self.exr
     }
 
-    /// The `k`th text file's destination.
-    pub fn text_path(&self, k: usize) -> &Path {
-        &self.text[k]
-    }
-
     /// The sidecar's destination.
     pub fn json_path(&self) -> &Path {
         &self.json
@@ -197,6 +192,13 @@ impl<S: BorrowMut<FileSet>> ArtifactSet<S> {
 
     /// Writes the `k`th `.npy` file whole: `values`, row-major over `shape`.
     pub fn npy(&self, k: usize, shape: &[usize], values: &[f32]) -> Result<()> {
+        if shape.iter().product::<usize>() != values.len() {
+            bail!(
+                "{}: {} values do not fill the shape {shape:?}",
+                self.npy[k].display(),
+                values.len()
+            );
+        }
         let mut s = self.npy_stream(k, shape)?;
         s.write(values)?;
         s.finish()
