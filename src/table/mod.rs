@@ -19,9 +19,9 @@ use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 pub use crate::output::{exr_text, npy};
-use std::sync::Mutex;
 
 /// The most a table's JSON sidecar may hold when it is read back (one is a few KiB: axes,
 /// model, parameters).
