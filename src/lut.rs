@@ -15,8 +15,8 @@
 //! E includes the delta lobe (`smooth_layered`, `coupled`); E_avg is taken at the view azimuth
 //! φo of the spec (it equals the hemispherical albedo for an isotropic model).
 //!
-//! Files, written like lobe tables as one [`FileSet`](crate::output::FileSet) (a temporary file beside each destination,
-//! renamed into place only when all are complete; no partial file on error):
+//! Files, written like lobe tables as one [`ArtifactSet`](crate::output::ArtifactSet) (a temporary file beside each
+//! destination, renamed into place only when all are complete; no partial file on error):
 //! - `PATH.exr`: float32 RGB, layer `E` (Nμ wide, x = j; Np tall, y = k) and layer `E_avg`
 //!   (1 wide, Np tall), with `lobe.*` header attributes;
 //! - `PATH.npy`: E, shape (Np, Nμ, 3); `PATH_avg.npy`: E_avg, shape (Np, 3);
@@ -39,7 +39,7 @@ mod files;
 
 pub use crate::axis::Mapping;
 pub use estimate::{large_error_warning, largest_entry, ErrorEntry};
-use files::{exr_channels_layer, file_name, write_npy};
+use files::{check_path, AVG};
 pub use files::{read_exr, read_npy, sibling_paths, write, LutData};
 
 /// The parameter axis a model's LUT sweeps by default, as the model states it

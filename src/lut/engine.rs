@@ -20,23 +20,19 @@
 //! roughness r_k = (k + ½)/Nr over [0, 1] with α = r² ([`Mapping::Perceptual`]), `eon` to
 //! r_k = (k + ½)/Nr linear (its roughness is already perceptual).
 //!
-//! Files beside `PATH.exr`, written as one [`FileSet`] (nothing on error or when
+//! Files beside `PATH.exr`, written as one [`ArtifactSet`] (nothing on error or when
 //! `--max-error` refuses the table): `PATH.exr` (float32, layer `DFG` with channels R, G, or
 //! layers `E` and `E_avg` with channel R), `PATH.npy` (Nr × Nμ × 2 for DFG, Nr × Nμ else),
 //! `PATH_avg.npy` (Nr, not for DFG), `PATH.h` (a C/C++ header: the table as IEEE half floats in
 //! R16F/RG16F texel order and as floats, its axes, centring and source in its comment) and
 //! `PATH.json` (the sidecar).
 
-use super::{
-    check_max_error, compute, exr_channels_layer, file_name, sibling_paths, write_npy, LutSpec,
-    LutSummary, Mapping,
-};
+use super::{check_max_error, check_path, compute, LutSpec, LutSummary, Mapping, AVG};
 use crate::eval::Evaluator;
 use crate::model::Value;
-use crate::output::FileSet;
-use crate::table::exr_text;
-use anyhow::{Context, Result};
-use exr::prelude::*;
+use crate::output::{file_name, sibling, ArtifactSet, ExrLayer, Provenance};
+use anyhow::Result;
+use exr::prelude::f16;
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -293,9 +289,12 @@ pub fn compute_engine(
     })
 }
 
+/// The extension of the C header.
+const HEADER: &str = "h";
+
 /// The header beside `exr_path`: `PATH.h`.
 pub fn header_path(exr_path: &Path) -> PathBuf {
-    exr_path.with_extension("h")
+    sibling(exr_path, "", HEADER)
 }
 
 /// Computes the table and writes its files (see the module's documentation); `--max-error`
@@ -306,57 +305,55 @@ pub fn write_engine(
     exr_path: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<EngineTable> {
-    let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
-    let h_path = header_path(exr_path);
-    let mut dests: Vec<&Path> = vec![&npy_path];
-    if spec.kind.has_avg() {
-        dests.push(&avg_path);
-    }
-    dests.extend([exr_path, h_path.as_path(), json_path.as_path()]);
-    let set = FileSet::new_set(crate::output::ENGINE_LUT_SET, &dests, dests.len() - 1)?;
+    check_path(exr_path)?;
+    let avg: &[&str] = if spec.kind.has_avg() { &[AVG] } else { &[] };
+    let npy = [&[""], avg].concat();
+    let files = ArtifactSet::create(crate::output::ENGINE_LUT_SET, exr_path, &npy, &[HEADER])?;
     let mut table = compute_engine(eval, spec, progress)?;
     check_max_error(table.max_error, spec.lut.max_error)?;
     let (n_mu, n_p, c) = (spec.lut.n_mu, spec.lut.n_p, table.channels);
-    let f32s = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
     let shape: Vec<usize> = if c == 1 {
         vec![n_p, n_mu]
     } else {
         vec![n_p, n_mu, c]
     };
-    write_npy(&set[0], &shape, &f32s(&table.values), &npy_path)?;
-    let mut next = 1;
+    let (values, avg) = (f32s(&table.values), f32s(&table.avg));
+    files.npy(0, &shape, &values)?;
     if spec.kind.has_avg() {
-        write_npy(&set[1], &[n_p], &f32s(&table.avg), &avg_path)?;
-        next = 2;
+        files.npy(1, &[n_p], &avg)?;
     }
-    write_engine_exr(&set[next], spec, &table)?;
-    let header = c_header(spec, &table, eval, exr_path);
-    std::fs::write(set[next + 1].path(), header)
-        .with_context(|| format!("writing {}", h_path.display()))?;
-    let sidecar = engine_sidecar(spec, &table, eval, &dests);
-    std::fs::write(
-        set[next + 2].path(),
-        serde_json::to_string_pretty(&sidecar)? + "\n",
-    )
-    .with_context(|| format!("writing {}", json_path.display()))?;
-    set.commit()?;
-    table.files = dests.iter().map(|p| p.to_path_buf()).collect();
+    write_engine_exr(&files, spec, &table, &values, &avg)?;
+    files.text(0, &c_header(spec, &table, eval, exr_path))?;
+    let paths: Vec<PathBuf> = files.paths().into_iter().map(Path::to_path_buf).collect();
+    let s = &spec.lut;
+    let provenance = Provenance {
+        model: s.params.model().name(),
+        parameters: s.params.to_json(),
+        white_furnace: s.white_furnace,
+        backend: &eval.name(),
+    };
+    files.commit(&provenance, engine_sidecar(spec, &table, &paths))?;
+    table.files = paths;
     Ok(table)
+}
+
+fn f32s(v: &[f64]) -> Vec<f32> {
+    v.iter().map(|&x| x as f32).collect()
 }
 
 const CHANNEL_NAMES: [&str; 2] = ["R", "G"];
 
+/// Layer `DFG` (R, G) or `E` (R) with the `lobe.*` attributes, and `E_avg` (R) where the table
+/// has one; `values` and `avg` are the table's as float32.
 fn write_engine_exr(
-    out: &crate::output::Pending,
+    files: &ArtifactSet,
     spec: &EngineSpec,
     t: &EngineTable,
+    values: &[f32],
+    avg: &[f32],
 ) -> Result<()> {
     let (n_mu, n_p) = (spec.lut.n_mu, spec.lut.n_p);
-    let names = &CHANNEL_NAMES[..t.channels];
-    let values: Vec<f32> = t.values.iter().map(|&v| v as f32).collect();
-    let layer_name = if t.channels == 2 { "DFG" } else { "E" };
-    let mut main = exr_channels_layer(layer_name, n_mu, n_p, names, &values);
-    let attrs = [
+    let attributes = [
         ("lobe.engine", spec.kind.name().to_string()),
         ("lobe.model", spec.lut.params.model().name().to_string()),
         ("lobe.parameters", spec.lut.params.to_text()),
@@ -367,19 +364,25 @@ fn write_engine_exr(
         ("lobe.channels", spec.kind.meaning().join("; ")),
         ("lobe.method", spec.lut.method.name().to_string()),
     ];
-    for (k, v) in attrs {
-        main.attributes
-            .other
-            .insert(Text::new_or_panic(k), exr_text(&v));
-    }
-    let mut layers = vec![main];
+    let mut layers = vec![ExrLayer {
+        name: if t.channels == 2 { "DFG" } else { "E" },
+        width: n_mu,
+        height: n_p,
+        channels: &CHANNEL_NAMES[..t.channels],
+        values,
+        attributes: &attributes,
+    }];
     if !t.avg.is_empty() {
-        let avg: Vec<f32> = t.avg.iter().map(|&v| v as f32).collect();
-        layers.push(exr_channels_layer("E_avg", 1, n_p, &["R"], &avg));
+        layers.push(ExrLayer {
+            name: "E_avg",
+            width: 1,
+            height: n_p,
+            channels: &["R"],
+            values: avg,
+            attributes: &[],
+        });
     }
-    let bounds = IntegerBounds::from_dimensions((n_mu, n_p));
-    let image = Image::from_layers(ImageAttributes::new(bounds), Layers::from_vec(layers));
-    crate::output::write_exr(out, |w| image.write().to_buffered(w))
+    files.exr(&layers)
 }
 
 /// The axes' centring, in words (ASCII: the EXR attribute, the header and the sidecar).
@@ -529,19 +532,12 @@ pub fn c_header(spec: &EngineSpec, t: &EngineTable, eval: &Evaluator, exr_path: 
     out
 }
 
-fn engine_sidecar(
-    spec: &EngineSpec,
-    t: &EngineTable,
-    eval: &Evaluator,
-    files: &[&Path],
-) -> serde_json::Value {
+/// The sidecar's own fields (the [`Provenance`] fields come with every set).
+fn engine_sidecar(spec: &EngineSpec, t: &EngineTable, files: &[PathBuf]) -> serde_json::Value {
     let s = &spec.lut;
     json!({
         "kind": "engine look-up table",
         "engine": spec.kind.name(),
-        "model": s.params.model().name(),
-        "parameters": s.params.to_json(),
-        "white_furnace": s.white_furnace,
         "channels": spec.kind.meaning(),
         "use": spec.kind.usage(),
         "mu_axis": {
@@ -565,7 +561,6 @@ fn engine_sidecar(
         "method": s.method.name(),
         "samples": s.samples,
         "max_error_estimate": t.max_error,
-        "backend": eval.name(),
         "seconds": t.seconds,
         "files": files.iter().map(|p| file_name(p)).collect::<Vec<_>>(),
         "layout": "npy: (rows, mu, channels), channels dropped when 1; exr: layer DFG (R, G) or layers E and E_avg (R), width = mu count, height = row count; header: see its comment",

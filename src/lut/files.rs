@@ -4,17 +4,19 @@
 use super::{check_max_error, compute, LutSpec, LutSummary};
 use crate::eval::Evaluator;
 use crate::input::BadInput;
-use crate::output::{FileSet, Pending};
-use crate::table::{exr_rgb, exr_text, npy};
+use crate::output::{file_name, npy, sibling, ArtifactSet, ExrLayer, Provenance};
+use crate::table::exr_rgb;
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use glam::DVec3;
 use serde_json::json;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The three files beside `exr_path` (which must end in `.exr`): (npy of E, npy of E_avg, json).
-pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
+/// The suffix of the E_avg array's `.npy` (`PATH_avg.npy`).
+pub(super) const AVG: &str = "_avg";
+
+/// Refuses a LUT path that does not end in `.exr` (a [`BadInput`] tagged `path`).
+pub(super) fn check_path(exr_path: &Path) -> Result<()> {
     if exr_path.extension().and_then(|e| e.to_str()) != Some("exr") {
         return Err(BadInput::new(
             "path",
@@ -25,14 +27,16 @@ pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
         )
         .into());
     }
-    let stem = exr_path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    Ok(())
+}
+
+/// The three files beside `exr_path` (which must end in `.exr`): (npy of E, npy of E_avg, json).
+pub fn sibling_paths(exr_path: &Path) -> Result<(PathBuf, PathBuf, PathBuf)> {
+    check_path(exr_path)?;
     Ok((
-        exr_path.with_extension("npy"),
-        exr_path.with_file_name(format!("{stem}_avg.npy")),
-        exr_path.with_extension("json"),
+        sibling(exr_path, "", "npy"),
+        sibling(exr_path, AVG, "npy"),
+        sibling(exr_path, "", "json"),
     ))
 }
 
@@ -44,100 +48,55 @@ pub fn write(
     exr_path: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<LutSummary> {
-    let (npy_path, avg_path, json_path) = sibling_paths(exr_path)?;
-    // Checked and created before anything is computed; the data first, the sidecar last.
-    let members = [npy_path.as_path(), &avg_path, exr_path, &json_path];
-    let set = FileSet::new_set(crate::output::LUT_SET, &members, 3)?;
-    let (npy_tmp, avg_tmp, exr_tmp, json_tmp) = (&set[0], &set[1], &set[2], &set[3]);
+    check_path(exr_path)?;
+    // Checked and created before anything is computed.
+    let files = ArtifactSet::create(crate::output::LUT_SET, exr_path, &["", AVG], &[])?;
+    let paths = [
+        files.exr_path(),
+        files.npy_path(0),
+        files.npy_path(1),
+        files.json_path(),
+    ];
+    let paths: Vec<PathBuf> = paths.into_iter().map(Path::to_path_buf).collect();
     let mut lut = compute(eval, spec, progress)?;
     check_max_error(lut.max_error, spec.max_error)?;
-    let flat = |v: &[DVec3]| -> Vec<f32> {
-        v.iter()
-            .flat_map(|c| [c.x as f32, c.y as f32, c.z as f32])
-            .collect()
+    files.npy(0, &[spec.n_p, spec.n_mu, 3], &rgb(&lut.e))?;
+    files.npy(1, &[spec.n_p, 3], &rgb(&lut.e_avg))?;
+    write_exr(&files, spec, &lut)?;
+    let provenance = Provenance {
+        model: spec.params.model().name(),
+        parameters: fixed_parameters(spec),
+        white_furnace: spec.white_furnace,
+        backend: &eval.name(),
     };
-    write_npy(npy_tmp, &[spec.n_p, spec.n_mu, 3], &flat(&lut.e), &npy_path)?;
-    write_npy(avg_tmp, &[spec.n_p, 3], &flat(&lut.e_avg), &avg_path)?;
-    write_exr(exr_tmp, spec, &lut)?;
-    let sidecar = sidecar_json(spec, &lut, eval, exr_path, &npy_path, &avg_path);
-    let mut w = json_tmp.writer();
-    w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
-        .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
-    w.finish()?;
-    set.commit()?;
-    lut.files = vec![exr_path.to_path_buf(), npy_path, avg_path, json_path];
+    let fields = sidecar_fields(spec, &lut, &files);
+    files.commit(&provenance, fields)?;
+    lut.files = paths;
     Ok(lut)
 }
 
-/// One EXR layer of float32 channels named `names`, each `width × height` values taken from
-/// `values` (interleaved, `names.len()` per texel).
-pub(super) fn exr_channels_layer(
-    name: &str,
-    width: usize,
-    height: usize,
-    names: &[&str],
-    values: &[f32],
-) -> Layer<AnyChannels<FlatSamples>> {
-    let n = names.len();
-    let channels = names
-        .iter()
-        .enumerate()
-        .map(|(c, &ch)| {
-            AnyChannel::new(
-                ch,
-                FlatSamples::F32(values.iter().skip(c).step_by(n).copied().collect()),
-            )
-        })
-        .collect();
-    Layer::new(
-        (width, height),
-        LayerAttributes::named(name),
-        crate::output::EXR_ENCODING,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    )
+/// RGB values as interleaved float32.
+fn rgb(v: &[DVec3]) -> Vec<f32> {
+    v.iter()
+        .flat_map(|c| [c.x as f32, c.y as f32, c.z as f32])
+        .collect()
 }
 
-/// Writes `values` as an f32 `.npy` of `shape` to `file` (the pending file of `dest`).
-pub(super) fn write_npy(
-    file: &Pending,
-    shape: &[usize],
-    values: &[f32],
-    dest: &Path,
-) -> Result<()> {
-    let mut w = file.writer();
-    w.write_all(&npy::header(shape))
-        .and_then(|_| npy::write_f32(&mut w, values))
-        .map_err(|e| crate::output::encoder_error(dest, "npy", e))?;
-    w.finish()
-}
-
-/// The last component of `p`, as the sidecars name their files.
-pub(super) fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-fn sidecar_json(
-    spec: &LutSpec,
-    lut: &LutSummary,
-    eval: &Evaluator,
-    exr_path: &Path,
-    npy_path: &Path,
-    avg_path: &Path,
-) -> serde_json::Value {
-    // The fixed parameters: every entry but the axis keys.
+/// The parameters the table keeps fixed: every entry but the axis keys.
+fn fixed_parameters(spec: &LutSpec) -> serde_json::Value {
     let mut fixed = spec.params.to_json();
     if let Some(map) = fixed.as_object_mut() {
         for k in &spec.keys {
             map.remove(k);
         }
     }
+    fixed
+}
+
+/// The sidecar's own fields (the [`Provenance`] fields come with every set).
+fn sidecar_fields(spec: &LutSpec, lut: &LutSummary, files: &ArtifactSet) -> serde_json::Value {
     json!({
         "kind": "albedo look-up table",
-        "model": spec.params.model().name(),
-        "parameters": fixed,
-        "white_furnace": spec.white_furnace,
         "values": "E(mu, p): directional albedo, delta lobe included; E_avg(p) = 2 * integral of E(mu, p) mu dmu over [0, 1]; linear RGB, dimensionless",
         "mu_axis": {
             "name": "mu = cos(theta_o)",
@@ -159,37 +118,22 @@ fn sidecar_json(
         "method": spec.method.name(),
         "samples": spec.samples,
         "max_error_estimate": lut.max_error,
-        "backend": eval.name(),
         "seconds": lut.seconds,
         "files": {
-            "exr": file_name(exr_path),
+            "exr": file_name(files.exr_path()),
             "exr_layout": "layer E: width = mu count (x = j), height = parameter count (y = k); layer E_avg: width 1, height = parameter count; channels R, G, B float32",
-            "npy": file_name(npy_path),
+            "npy": file_name(files.npy_path(0)),
             "npy_shape": [spec.n_p, spec.n_mu, 3],
-            "npy_avg": file_name(avg_path),
+            "npy_avg": file_name(files.npy_path(1)),
             "npy_avg_shape": [spec.n_p, 3],
             "dtype": "float32",
         },
     })
 }
 
-fn exr_layer(
-    name: &str,
-    width: usize,
-    height: usize,
-    values: &[DVec3],
-) -> Layer<AnyChannels<FlatSamples>> {
-    let flat: Vec<f32> = values
-        .iter()
-        .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
-        .collect();
-    exr_channels_layer(name, width, height, &["R", "G", "B"], &flat)
-}
-
-fn write_exr(out: &Pending, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
-    let mut e = exr_layer("E", spec.n_mu, spec.n_p, &lut.e);
-    let text = |s: String| exr_text(&s);
-    let attrs = [
+/// Layer `E` (Nμ × Np, with the `lobe.*` attributes) and layer `E_avg` (1 × Np), RGB.
+fn write_exr(files: &ArtifactSet, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
+    let attributes = [
         ("lobe.model", spec.params.model().name().to_string()),
         ("lobe.parameters", spec.params.to_text()),
         ("lobe.white_furnace", spec.white_furnace.to_string()),
@@ -202,15 +146,26 @@ fn write_exr(out: &Pending, spec: &LutSpec, lut: &LutSummary) -> Result<()> {
         ),
         ("lobe.method", spec.method.name().to_string()),
     ];
-    for (k, v) in attrs {
-        e.attributes.other.insert(Text::new_or_panic(k), text(v));
-    }
-    let avg = exr_layer("E_avg", 1, spec.n_p, &lut.e_avg);
-    let bounds = IntegerBounds::from_dimensions((spec.n_mu, spec.n_p));
-    let image = Image::empty(ImageAttributes::new(bounds))
-        .with_layer(e)
-        .with_layer(avg);
-    crate::output::write_exr(out, |w| image.write().to_buffered(w))
+    let (e, avg) = (rgb(&lut.e), rgb(&lut.e_avg));
+    let channels = &["R", "G", "B"];
+    files.exr(&[
+        ExrLayer {
+            name: "E",
+            width: spec.n_mu,
+            height: spec.n_p,
+            channels,
+            values: &e,
+            attributes: &attributes,
+        },
+        ExrLayer {
+            name: "E_avg",
+            width: 1,
+            height: spec.n_p,
+            channels,
+            values: &avg,
+            attributes: &[],
+        },
+    ])
 }
 
 /// A LUT read back: E as (Np, Nμ) rows of RGB and E_avg per row, from either file kind.

@@ -24,6 +24,9 @@
 //!
 //!   Names a file system cannot hold are found earlier: each temporary name is as long as its
 //!   destination's, so a name that is too long fails when the set is created, before any work.
+//! - [`ArtifactSet`]: the files of one computed array (a table, a LUT) in one set: `.npy` files,
+//!   an EXR, text files and a JSON sidecar beside the EXR, with their encodings
+//!   (`output/artifacts.rs`; `.npy` in [`npy`]).
 //! - [`StagingFolder`]: a whole folder of output, built beside its destination and moved into it
 //!   once every file is there, by the same transaction.
 //!
@@ -40,7 +43,11 @@
 
 mod exr_header;
 
+#[cfg(test)]
+mod artifact_tests;
+mod artifacts;
 mod commit;
+pub mod npy;
 mod owner;
 mod pending;
 mod set;
@@ -57,6 +64,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
+pub use artifacts::{exr_text, file_name, sibling, ArtifactSet, ExrLayer, NpyStream, Provenance};
 pub use exr_header::sort_attributes as sort_exr_attributes;
 pub use owner::{replace_sets, set_json, ENGINE_LUT_SET, LUT_SET, TABLE_SET};
 pub use pending::{write_atomic, write_exr, OutputWriter, Pending};

@@ -49,9 +49,6 @@ impl FileSet {
     /// [`FileSet::new`] for the members of one set of `kind` whose record (its JSON sidecar) is
     /// `dests[record]`: see [`FileSet::add_set`].
     pub fn new_set(kind: &str, dests: &[&Path], record: usize) -> Result<FileSet> {
-        for dest in dests {
-            check_replaceable(dest)?;
-        }
         let mut set = FileSet::empty();
         set.add_set(kind, dests, record)?;
         Ok(set)
@@ -80,8 +77,12 @@ impl FileSet {
     /// (`output/owner.rs`) when a destination belongs to another set or (an existing file) to
     /// none, unless sets are replaced ([`super::replace_sets`]); the commit removes the members
     /// of this set's earlier version that it no longer has. The record must hold a JSON object;
-    /// the commit adds [`super::set_json`] of the members to it as `"set"`.
+    /// the commit adds [`super::set_json`] of the members to it as `"set"`. Every destination is
+    /// checked (a folder in the way, a read-only file) before the first file is created.
     pub fn add_set(&mut self, kind: &str, dests: &[&Path], record: usize) -> Result<usize> {
+        for dest in dests {
+            check_replaceable(dest)?;
+        }
         self.add_group(Some(kind), dests, record)
     }
 

@@ -1,7 +1,6 @@
 //! Lobe tables on disk: NumPy `.npy` (shape = the grid's axes, then 3) with a JSON sidecar, and an
-//! OpenEXR mosaic of 2D slices, one per light direction. Every file is written to a temporary file
-//! in the destination's folder and renamed into place only when complete, so a failed run leaves
-//! no partial file and never replaces a good one.
+//! OpenEXR mosaic of 2D slices, one per light direction: one [`ArtifactSet`], so a failed run
+//! leaves no partial file and never replaces a good one.
 //!
 //! EXR mosaic layout (also written into the EXR header as `lobe.layout`):
 //! - full grid: a slice per (θi, φi) is NPHI_O pixels wide (φo) and NTHETA_O tall (θo); slices
@@ -10,20 +9,19 @@
 //! - isotropic grid: a slice per θi is NDPHI wide (Δφ) and NTHETA_O tall (θo); slices sit side by
 //!   side. Pixel (x, y) holds θi = x / NDPHI, Δφ = x % NDPHI, θo = y.
 
-pub mod npy;
-
 use crate::eval::Evaluator;
 use crate::finite::InvalidCount;
 use crate::grid::Grid;
 use crate::input::BadInput;
 use crate::model::ParamSet;
-use crate::output::{FileSet, Pending};
+use crate::output::{sibling, ArtifactSet, FileSet, Provenance};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use serde_json::json;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+
+pub use crate::output::{exr_text, npy};
 
 /// The most a table's JSON sidecar may hold when it is read back (one is a few KiB: axes,
 /// model, parameters).
@@ -115,10 +113,7 @@ pub struct TableMeta<'a> {
 
 /// The npy and JSON siblings of a table written at `exr_path` (the three files share a stem).
 pub fn sibling_paths(exr_path: &Path) -> (PathBuf, PathBuf) {
-    (
-        exr_path.with_extension("npy"),
-        exr_path.with_extension("json"),
-    )
+    (sibling(exr_path, "", "npy"), sibling(exr_path, "", "json"))
 }
 
 /// Maps pixel (x, y) of the EXR mosaic to its npy cell index.
@@ -240,18 +235,12 @@ pub fn stage_table_with(
 ) -> Result<InvalidCount> {
     let tally = Mutex::new(InvalidCount::default());
     let eval = &eval.counting_invalid(&tally);
-    let (npy_path, json_path) = sibling_paths(exr_path);
     let cells = meta.grid.cells().context("the grid has too many cells")?;
     let mut shape = meta.grid.shape();
     shape.push(3);
-    // The npy first: the EXR is written from it; the sidecar last.
-    let members = [npy_path.as_path(), exr_path, &json_path];
-    let first = set.add_set(crate::output::TABLE_SET, &members, 2)?;
-    let (npy_tmp, exr_tmp, json_tmp) = (&set[first], &set[first + 1], &set[first + 2]);
+    let files = ArtifactSet::stage(set, crate::output::TABLE_SET, exr_path, &[""], &[])?;
     {
-        let mut w = npy_tmp.writer();
-        w.write_all(&npy::header(&shape))
-            .with_context(|| format!("writing {}", npy_path.display()))?;
+        let mut w = files.npy_stream(0, &shape)?;
         eval.eval_table(
             meta.params,
             meta.white_furnace,
@@ -260,8 +249,7 @@ pub fn stage_table_with(
                 // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
                 // way out and nothing is renamed into place.
                 eval.check_cancelled()?;
-                npy::write_f32(&mut w, values)
-                    .map_err(|e| crate::output::encoder_error(&npy_path, "npy", e))?;
+                w.write(values)?;
                 progress(first + values.len() as u64 / 3, cells);
                 Ok(())
             },
@@ -272,10 +260,7 @@ pub fn stage_table_with(
         .into_inner()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     if !count.is_clean() && !replace_invalid {
-        if let Some(old) = [exr_path, &npy_path, &json_path]
-            .into_iter()
-            .find(|p| p.exists())
-        {
+        if let Some(old) = files.existing() {
             return Err(BadInput::new(
                 "allow_invalid",
                 format!(
@@ -287,20 +272,22 @@ pub fn stage_table_with(
             .into());
         }
     }
-    write_exr_from_npy(npy_tmp.path(), meta, exr_tmp)?;
-    let sidecar = sidecar_json(meta, exr_path, &count);
-    let mut w = json_tmp.writer();
-    w.write_all((serde_json::to_string_pretty(&sidecar)? + "\n").as_bytes())
-        .map_err(|e| crate::output::encoder_error(&json_path, "JSON", e))?;
-    w.finish()?;
+    // The EXR from the finished npy; the sidecar last.
+    let (w, h, index) = mosaic(&meta.grid);
+    files.exr_rgb_from_npy(0, "lobe", (w, h), &index, &exr_attributes(meta))?;
+    let provenance = Provenance {
+        model: meta.params.model().name(),
+        parameters: meta.params.to_json(),
+        white_furnace: meta.white_furnace,
+        backend: &meta.backend,
+    };
+    files.finish(&provenance, sidecar_fields(meta, exr_path, &count))?;
     Ok(count)
 }
 
-fn sidecar_json(meta: &TableMeta, exr_path: &Path, invalid: &InvalidCount) -> serde_json::Value {
+/// The sidecar's own fields (the [`Provenance`] fields come with every set).
+fn sidecar_fields(meta: &TableMeta, exr_path: &Path, invalid: &InvalidCount) -> serde_json::Value {
     json!({
-        "model": meta.params.model().name(),
-        "parameters": meta.params.to_json(),
-        "white_furnace": meta.white_furnace,
         "grid": meta.grid.name(),
         "shape": meta.grid.shape().into_iter().chain([3]).collect::<Vec<_>>(),
         "axes": meta.grid.axes_json(),
@@ -308,36 +295,15 @@ fn sidecar_json(meta: &TableMeta, exr_path: &Path, invalid: &InvalidCount) -> se
         "values": "f(wi, wo) in 1/sr, linear RGB, without the cosine; delta lobes are not included",
         "units": "1/sr",
         "dtype": "float32",
-        "backend": meta.backend,
         "exr": exr_path.file_name().map(|n| n.to_string_lossy().into_owned()),
         "exr_layout": layout_text(&meta.grid),
         "invalid_values": invalid.to_json(),
     })
 }
 
-fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &Pending) -> Result<()> {
-    let file = std::fs::File::open(npy_path)?;
-    // SAFETY: the temporary file is ours alone and is not modified while mapped.
-    let map = unsafe { memmap2::Mmap::map(&file)? };
-    let (_, offset) = npy::parse_header(&map)?;
-    let data: &[u8] = &map[offset..];
-    let (w, h, index) = mosaic(&meta.grid);
-    let value = |cell: usize, c: usize| {
-        let b = &data[(cell * 3 + c) * 4..(cell * 3 + c) * 4 + 4];
-        f32::from_le_bytes([b[0], b[1], b[2], b[3]])
-    };
-    let channels = SpecificChannels::rgb(|Vec2(x, y)| {
-        let cell = index(x, y);
-        (value(cell, 0), value(cell, 1), value(cell, 2))
-    });
-    let mut layer = Layer::new(
-        (w, h),
-        LayerAttributes::named("lobe"),
-        crate::output::EXR_ENCODING,
-        channels,
-    );
-    let text = |s: &str| exr_text(s);
-    let attrs = [
+/// The EXR header's `lobe.*` attributes.
+fn exr_attributes(meta: &TableMeta) -> [(&'static str, String); 7] {
+    [
         ("lobe.model", meta.params.model().name().to_string()),
         ("lobe.parameters", meta.params.to_text()),
         ("lobe.white_furnace", meta.white_furnace.to_string()),
@@ -356,14 +322,7 @@ fn write_exr_from_npy(npy_path: &Path, meta: &TableMeta, out: &Pending) -> Resul
             "lobe.units",
             "1/sr, linear RGB, without the cosine".to_string(),
         ),
-    ];
-    for (k, v) in attrs {
-        layer
-            .attributes
-            .other
-            .insert(Text::new_or_panic(k), text(&v));
-    }
-    crate::output::write_exr(out, |w| Image::from_layer(layer).write().to_buffered(w))
+    ]
 }
 
 /// A table read back from disk, in npy order (cells × rgb).
@@ -384,13 +343,6 @@ pub fn read_npy(npy_path: &Path) -> Result<TableData> {
         values,
         attributes: Vec::new(),
     })
-}
-
-/// An EXR text attribute; characters outside ASCII (which OpenEXR text cannot hold) become '?'.
-pub fn exr_text(s: &str) -> AttributeValue {
-    AttributeValue::Text(
-        Text::new_or_none(s.replace(|c: char| !c.is_ascii(), "?")).unwrap_or_default(),
-    )
 }
 
 /// The R, G and B channels of an EXR layer, pixel by pixel in row-major order.

@@ -1,5 +1,6 @@
 //! NumPy `.npy` version 1.0, little-endian float32, C order: a streaming writer (the header is
-//! known before the data, so a table of any size goes to disk chunk by chunk) and a reader.
+//! known before the data, so a table of any size goes to disk chunk by chunk; artifact sets,
+//! [`super::ArtifactSet`], write through it) and a reader.
 //! Format: <https://numpy.org/doc/stable/reference/generated/numpy.lib.format.html>.
 
 use anyhow::{bail, Context, Result};
