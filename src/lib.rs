@@ -59,5 +59,7 @@ pub use glam;
 pub use interrupt::CancelToken;
 pub use model::{Model, ParamSet, Reference};
 pub use resolve::{resolve_spec, resolve_specs, SpecOptions};
-pub use session::{AlbedoSettings, BackendKind, Session, SessionOptions};
+pub use session::{
+    AlbedoSettings, BackendKind, EnergyOptions, Session, SessionOptions, Table, TableAxis,
+};
 pub use spec::resolve_params;

@@ -1,0 +1,260 @@
+//! Lobe tables: in memory as a [`Table`] (values with their grid), or written as files.
+
+use super::Session;
+use crate::error::{Error, IntoLobe, Result};
+use crate::finite::InvalidCount;
+use crate::grid::{dphi_cell, phi_cell, theta_cell, Grid};
+use crate::model::ParamSet;
+use crate::table::TableMeta;
+use std::path::Path;
+
+/// A lobe table in memory: f32 RGB per cell of its grid, in 1/sr, cells in the grid's row-major
+/// order (the last axis fastest, as in the `.npy` file [`Session::write_table`] writes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    grid: Grid,
+    data: Vec<f32>,
+}
+
+/// One axis of a [`Table`]: its name as the table's JSON sidecar spells it, its unit and the
+/// angle at the centre of each of its cells (docs/design.md §4).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TableAxis {
+    /// `theta_i`, `phi_i`, `theta_o`, `phi_o`, `delta_phi`, `theta_h`, `phi_h`, `theta_d` or
+    /// `phi_d`.
+    pub name: &'static str,
+    /// The unit of `values`: always `rad`.
+    pub unit: &'static str,
+    /// The cell centres, one per cell of the axis, increasing.
+    pub values: Vec<f64>,
+}
+
+/// The angle spans a grid axis covers: θ over [0, π/2], φ over [0, 2π), Δφ or φd over [0, π].
+#[derive(Clone, Copy)]
+enum Span {
+    Theta,
+    Phi,
+    HalfTurn,
+}
+
+impl TableAxis {
+    fn new(name: &'static str, span: Span, n: usize) -> TableAxis {
+        let centre = match span {
+            Span::Theta => theta_cell,
+            Span::Phi => phi_cell,
+            Span::HalfTurn => dphi_cell,
+        };
+        TableAxis {
+            name,
+            unit: "rad",
+            values: (0..n).map(|k| centre(k, n)).collect(),
+        }
+    }
+}
+
+impl Table {
+    /// The grid the table samples.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Cells per axis, in the grid's order (without the RGB axis).
+    pub fn shape(&self) -> Vec<usize> {
+        self.grid.shape()
+    }
+
+    /// The grid's axes, in the order of [`Table::shape`].
+    pub fn axes(&self) -> Vec<TableAxis> {
+        use Span::*;
+        let axis = TableAxis::new;
+        match self.grid {
+            Grid::Full {
+                n_theta_i,
+                n_phi_i,
+                n_theta_o,
+                n_phi_o,
+            } => vec![
+                axis("theta_i", Theta, n_theta_i),
+                axis("phi_i", Phi, n_phi_i),
+                axis("theta_o", Theta, n_theta_o),
+                axis("phi_o", Phi, n_phi_o),
+            ],
+            Grid::Isotropic {
+                n_theta_i,
+                n_theta_o,
+                n_dphi,
+            } => vec![
+                axis("theta_i", Theta, n_theta_i),
+                axis("theta_o", Theta, n_theta_o),
+                axis("delta_phi", HalfTurn, n_dphi),
+            ],
+            Grid::HalfDiff {
+                n_theta_h,
+                n_theta_d,
+                n_phi_d,
+            } => vec![
+                axis("theta_h", Theta, n_theta_h),
+                axis("theta_d", Theta, n_theta_d),
+                axis("phi_d", HalfTurn, n_phi_d),
+            ],
+            Grid::HalfDiffFull {
+                n_theta_h,
+                n_phi_h,
+                n_theta_d,
+                n_phi_d,
+            } => vec![
+                axis("theta_h", Theta, n_theta_h),
+                axis("phi_h", Phi, n_phi_h),
+                axis("theta_d", Theta, n_theta_d),
+                axis("phi_d", Phi, n_phi_d),
+            ],
+        }
+    }
+
+    /// The number of cells.
+    pub fn cells(&self) -> usize {
+        self.data.len() / 3
+    }
+
+    /// The RGB value of the cell at multi-index `index` (one index per axis, in the order of
+    /// [`Table::shape`]), or None when an index is out of its axis's range or the count of
+    /// indices is not the count of axes.
+    pub fn get(&self, index: &[usize]) -> Option<[f32; 3]> {
+        let shape = self.grid.shape();
+        if index.len() != shape.len() || index.iter().zip(&shape).any(|(i, n)| i >= n) {
+            return None;
+        }
+        let cell = index.iter().zip(&shape).fold(0, |acc, (i, n)| acc * n + i);
+        let v = &self.data[cell * 3..cell * 3 + 3];
+        Some([v[0], v[1], v[2]])
+    }
+
+    /// The RGB value of the cell at multi-index `index`, as [`Table::get`].
+    ///
+    /// # Panics
+    /// When [`Table::get`] gives None, as a slice index out of range does.
+    pub fn at(&self, index: &[usize]) -> [f32; 3] {
+        self.get(index).unwrap_or_else(|| {
+            panic!(
+                "cell index {index:?} is outside the table's shape {:?}",
+                self.grid.shape()
+            )
+        })
+    }
+
+    /// The values, RGB per cell in row-major order: `shape` + `[3]` flattened.
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// The values without a copy ([`Table::data`]'s order).
+    pub fn into_data(self) -> Vec<f32> {
+        self.data
+    }
+}
+
+impl Session {
+    /// The lobe table on `grid` in memory. Refuses tables over `max_cells` cells (a bound on
+    /// memory: 12 bytes a cell), and an anisotropic set on a grid that holds only the isotropic
+    /// half of the angles.
+    ///
+    /// ```
+    /// use lobe::grid::Grid;
+    /// let session = lobe::Session::cpu();
+    /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
+    /// let grid = Grid::Isotropic { n_theta_i: 2, n_theta_o: 3, n_dphi: 4 };
+    /// let t = session.table(&lambert, false, &grid, 1 << 10)?;
+    /// assert_eq!(t.shape(), [2, 3, 4]);
+    /// assert_eq!(t.axes()[2].name, "delta_phi");
+    /// let f = t.at(&[1, 2, 3]);
+    /// assert!((f[0] - 0.5 / std::f32::consts::PI).abs() < 1e-6);
+    /// assert_eq!(t.data().len(), 2 * 3 * 4 * 3);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn table(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        max_cells: u64,
+    ) -> Result<Table> {
+        let cells = grid.cells().filter(|&c| c <= max_cells).ok_or_else(|| {
+            Error::Invalid(format!(
+                "a table of shape {:?} has more than the {max_cells} cells allowed in memory",
+                grid.shape()
+            ))
+        })?;
+        let mut data = Vec::with_capacity(cells as usize * 3);
+        let ev = self.evaluator();
+        ev.eval_table(params, white_furnace, grid, &mut |_, v| {
+            ev.check_cancelled()?;
+            data.extend_from_slice(v);
+            Ok(())
+        })
+        .lobe()?;
+        Ok(Table { grid: *grid, data })
+    }
+
+    /// Writes the table set `PATH.exr`, `PATH.npy`, `PATH.json` (all or nothing), streaming
+    /// chunk by chunk; `progress` gets (cells done, cells). Returns the count of invalid values
+    /// (NaN, ±Inf, negative), which the table keeps; a table with any replaces an existing set
+    /// only with `replace_invalid` ([`crate::table::stage_table_with`]).
+    ///
+    /// ```
+    /// use lobe::grid::Grid;
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let path = dir.path().join("lambert.exr");
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let grid = Grid::Isotropic { n_theta_i: 2, n_theta_o: 2, n_dphi: 2 };
+    /// let invalid = lobe::Session::cpu()
+    ///     .write_table(&lambert, false, grid, &path, false, &mut |_, _| {})?;
+    /// assert!(invalid.is_clean());
+    /// assert!(path.exists() && dir.path().join("lambert.npy").exists());
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn write_table(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: Grid,
+        exr_path: &Path,
+        replace_invalid: bool,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<InvalidCount> {
+        crate::table::check_request(params, &grid, exr_path).lobe()?;
+        let meta = TableMeta {
+            params,
+            white_furnace,
+            grid,
+            backend: self.backend_name(),
+        };
+        crate::table::write_table_with(
+            &self.evaluator(),
+            &meta,
+            exr_path,
+            replace_invalid,
+            progress,
+        )
+        .lobe()
+    }
+
+    /// Writes `params` as a MERL file at `path` ([`crate::merl::write`]); `progress` receives
+    /// (bins done, bins in all).
+    ///
+    /// ```
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let gold = lobe::ParamSet::preset("gold", "cook_torrance")?;
+    /// lobe::Session::cpu()
+    ///     .write_merl(&gold, false, &dir.path().join("gold.binary"), &mut |_, _| {})?;
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn write_merl(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<()> {
+        crate::merl::write::write(&self.evaluator(), params, white_furnace, path, progress).lobe()
+    }
+}
