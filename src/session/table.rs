@@ -258,3 +258,154 @@ impl Session {
         crate::merl::write::write(&self.evaluator(), params, white_furnace, path, progress).lobe()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The table stores f32; the CPU reference computes in f64, so a cell and the same pair
+    /// evaluated alone agree to f32 rounding (half an ulp, relative 2^-24, with margin).
+    const F32_ROUNDING: f64 = 1e-7;
+
+    /// Every cell of `grid` read through `at` is f at that cell's pair, and its axes' values are
+    /// the grid's angles for that index.
+    fn check_indexing(params: &ParamSet, grid: Grid) {
+        let s = Session::cpu();
+        let t = s.table(params, false, &grid, 1 << 12).unwrap();
+        assert_eq!(t.shape(), grid.shape());
+        assert_eq!(t.cells() as u64, grid.cells().unwrap());
+        let axes = t.axes();
+        assert_eq!(axes.len(), grid.shape().len());
+        for cell in 0..grid.cells().unwrap() {
+            let idx = grid.index(cell);
+            let want = s.eval_pairs(params, false, &[grid.pair(&idx)]).unwrap()[0];
+            let got = t.at(&idx);
+            for c in 0..3 {
+                let tol = F32_ROUNDING * want[c].abs().max(1e-30);
+                assert!(
+                    (got[c] as f64 - want[c]).abs() <= tol,
+                    "{grid:?} cell {idx:?} channel {c}: table {} vs pair {}",
+                    got[c],
+                    want[c]
+                );
+            }
+            // Each axis's value at the index is the angle the grid puts there (the isotropic
+            // and 3-axis half/difference grids fix φi or φh = 0 and carry no axis for it).
+            let angles = grid.angles(&idx);
+            let on_axes: Vec<f64> = match grid.shape().len() {
+                4 => angles.to_vec(),
+                _ => vec![angles[0], angles[2], angles[3]],
+            };
+            for (k, a) in axes.iter().enumerate() {
+                assert_eq!(a.values[idx[k]], on_axes[k], "{} at {idx:?}", a.name);
+            }
+        }
+    }
+
+    #[test]
+    fn at_reads_the_cell_of_each_index_on_every_grid() {
+        let aniso = crate::resolve_params(
+            "ashikhmin_shirley",
+            None,
+            &["nu=10".into(), "nv=200".into()],
+        )
+        .unwrap();
+        let gold = crate::resolve_params("cook_torrance", Some("gold"), &[]).unwrap();
+        let full = Grid::Full {
+            n_theta_i: 2,
+            n_phi_i: 3,
+            n_theta_o: 4,
+            n_phi_o: 5,
+        };
+        check_indexing(&aniso, full);
+        let iso = Grid::Isotropic {
+            n_theta_i: 3,
+            n_theta_o: 4,
+            n_dphi: 5,
+        };
+        check_indexing(&gold, iso);
+        let hd = Grid::HalfDiff {
+            n_theta_h: 3,
+            n_theta_d: 4,
+            n_phi_d: 5,
+        };
+        check_indexing(&gold, hd);
+        let hd_full = Grid::HalfDiffFull {
+            n_theta_h: 2,
+            n_phi_h: 3,
+            n_theta_d: 4,
+            n_phi_d: 3,
+        };
+        check_indexing(&aniso, hd_full);
+    }
+
+    #[test]
+    fn axes_are_named_as_the_sidecar_names_them() {
+        let gold = crate::resolve_params("cook_torrance", Some("gold"), &[]).unwrap();
+        for grid in [
+            Grid::Full {
+                n_theta_i: 1,
+                n_phi_i: 2,
+                n_theta_o: 1,
+                n_phi_o: 2,
+            },
+            Grid::Isotropic {
+                n_theta_i: 1,
+                n_theta_o: 1,
+                n_dphi: 2,
+            },
+            Grid::HalfDiff {
+                n_theta_h: 1,
+                n_theta_d: 1,
+                n_phi_d: 2,
+            },
+            Grid::HalfDiffFull {
+                n_theta_h: 1,
+                n_phi_h: 2,
+                n_theta_d: 1,
+                n_phi_d: 2,
+            },
+        ] {
+            let t = Session::cpu().table(&gold, false, &grid, 64).unwrap();
+            let json = grid.axes_json();
+            let sidecar: Vec<&str> = json
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|a| a["name"].as_str().unwrap())
+                .filter(|&n| n != "rgb")
+                .collect();
+            let names: Vec<&str> = t.axes().iter().map(|a| a.name).collect();
+            assert_eq!(names, sidecar, "{grid:?}");
+            assert!(t.axes().iter().all(|a| a.unit == "rad"));
+        }
+    }
+
+    #[test]
+    fn an_index_outside_the_shape_is_none_and_at_panics() {
+        let lambert = crate::resolve_params("lambert", None, &[]).unwrap();
+        let grid = Grid::Isotropic {
+            n_theta_i: 2,
+            n_theta_o: 3,
+            n_dphi: 4,
+        };
+        let t = Session::cpu().table(&lambert, false, &grid, 64).unwrap();
+        assert!(t.get(&[1, 2, 3]).is_some());
+        for bad in [
+            &[2, 0, 0][..],
+            &[0, 3, 0],
+            &[0, 0, 4],
+            &[0, 0],
+            &[0, 0, 0, 0],
+        ] {
+            assert_eq!(t.get(bad), None, "{bad:?}");
+        }
+        let e = std::panic::catch_unwind(|| t.at(&[0, 3, 0])).unwrap_err();
+        let message = e.downcast_ref::<String>().unwrap();
+        assert!(
+            message.contains("[0, 3, 0]") && message.contains("[2, 3, 4]"),
+            "{message}"
+        );
+        assert_eq!(t.clone().into_data(), t.data());
+    }
+}
