@@ -186,3 +186,56 @@ impl Session {
         crate::fit::fit(&self.evaluator(), target, space, opts, progress).lobe()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lambert_only() -> EnergyOptions {
+        EnergyOptions {
+            series: vec![Series::Model(Model::from_name("lambert").unwrap())],
+            sweep: 2,
+            method: Method::Gauss,
+            samples: 64,
+        }
+    }
+
+    #[test]
+    fn energy_hands_each_row_over_as_it_is_known() {
+        let mut seen = Vec::new();
+        let rows = Session::cpu()
+            .energy(&lambert_only(), &mut |row, done, total| {
+                seen.push((row.case.clone(), done, total));
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(seen.len(), rows.len());
+        let total = rows.len() as u64;
+        for (k, (case, done, all)) in seen.iter().enumerate() {
+            assert_eq!((*done, *all), (k as u64 + 1, total));
+            assert_eq!(case, &rows[k].case);
+        }
+    }
+
+    #[test]
+    fn an_error_from_on_row_stops_the_report_and_comes_back_unchanged() {
+        let mut calls = 0;
+        let e = Session::cpu()
+            .energy(&lambert_only(), &mut |_, _, _| {
+                calls += 1;
+                Err(Error::Io {
+                    what: "writing rows".into(),
+                    source: std::io::Error::new(std::io::ErrorKind::StorageFull, "disk full"),
+                })
+            })
+            .unwrap_err();
+        assert_eq!(calls, 1, "the report went on after its reader failed");
+        match e {
+            Error::Io { what, source } => {
+                assert_eq!(what, "writing rows");
+                assert_eq!(source.kind(), std::io::ErrorKind::StorageFull);
+            }
+            other => panic!("expected the reader's own error, got {other:?}"),
+        }
+    }
+}
