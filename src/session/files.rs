@@ -43,18 +43,32 @@ impl Session {
     /// of the built-in materials under every model, written to the folder `dir` with its
     /// `index.html`; `progress` hears each step begin, advance and end.
     ///
-    /// ```no_run
-    /// // Every model and material at the quick sizes: seconds on a GPU, longer on the CPU.
+    /// ```
+    /// use lobe::demo::{Settings, Step};
+    /// use lobe::grid::Grid;
     /// struct Quiet;
     /// impl lobe::demo::Progress for Quiet {
     ///     fn begin(&mut self, _: &str, _: u64) {}
     ///     fn advance(&mut self, _: u64) {}
-    ///     fn end(&mut self, _: &lobe::demo::Step) {}
+    ///     fn end(&mut self, _: &Step) {}
     /// }
+    /// // Every model and material, at sizes far below even `lobe demo --quick`'s.
+    /// let tiny = Settings {
+    ///     table_full: Grid::Full { n_theta_i: 2, n_phi_i: 2, n_theta_o: 2, n_phi_o: 4 },
+    ///     table_isotropic: Grid::Isotropic { n_theta_i: 2, n_theta_o: 2, n_dphi: 4 },
+    ///     albedo_samples: 64,
+    ///     curve_mu: 4,
+    ///     curve_samples: 64,
+    ///     polar_samples: 36,
+    ///     hemisphere_res: 8,
+    ///     preview_cell: 8,
+    ///     lut_res: (2, 2),
+    ///     lut_samples: 64,
+    ///     ..Settings::quick()
+    /// };
     /// let dir = tempfile::tempdir().unwrap();
     /// let out = dir.path().join("demo");
-    /// let session = lobe::Session::cpu();
-    /// let report = session.demo(&out, &lobe::demo::Settings::quick(), &mut Quiet)?;
+    /// let report = lobe::Session::cpu().demo(&out, &tiny, &mut Quiet)?;
     /// assert!(out.join("index.html").exists() && !report.steps.is_empty());
     /// # Ok::<(), lobe::Error>(())
     /// ```
