@@ -437,3 +437,31 @@ pub fn models_or_all(names: &[String]) -> Result<Vec<lobe::Model>> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    /// Every computation of a command goes through a `Session` method: no command file takes the
+    /// session's evaluator to call a job function one level down, nor reaches for its GPU runner.
+    #[test]
+    fn the_commands_compute_only_through_session_methods() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/cli");
+        // Spelled in parts so that this test's own file does not match them.
+        let needles = [[".", "evaluator()"].concat(), [".", "gpu()"].concat()];
+        let mut found = Vec::new();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                let code = line.split("//").next().unwrap_or("");
+                if needles.iter().any(|n| code.contains(n.as_str())) {
+                    found.push(format!("{}:{}: {}", path.display(), n + 1, line.trim()));
+                }
+            }
+        }
+        assert!(
+            found.is_empty(),
+            "calls around Session:\n{}",
+            found.join("\n")
+        );
+    }
+}
