@@ -20,12 +20,13 @@ fn main() -> lobe::Result<()> {
         n_theta_o: 16,
         n_dphi: 32,
     };
-    let f = session.table(&gold, false, &grid, 1 << 20)?;
-    let peak = f.chunks(3).map(|c| c[0]).fold(0.0, f32::max);
+    let table = session.table(&gold, false, &grid, 1 << 20)?;
+    let peak = table.data().chunks(3).map(|c| c[0]).fold(0.0, f32::max);
     println!(
-        "{}: {} cells, peak f (red) {peak:.3}/sr",
+        "{}: {} cells, peak f (red) {peak:.3}/sr, f at the first cell {:?}",
         session.backend_name(),
-        f.len() / 3
+        table.cells(),
+        table.at(&[0, 0, 0])
     );
     let points = [(0.5, 0.0), (1.0, 0.0)];
     for e in session.directional_albedo(&gold, &AlbedoSettings::default(), &points)? {

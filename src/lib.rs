@@ -4,12 +4,24 @@
 //!
 //! Start at [`Session`]: it opens the backend (a Vulkan device or the f64 CPU reference), owns
 //! the pipeline cache and runs every job the command line runs — f at direction pairs, lobe tables
-//! in memory or as files, directional and hemispherical albedo, look-up tables, previews, the
-//! stability sweep, benchmarks — returning [`Error`]. Parameter sets are built with
-//! [`ParamSet::for_model`], [`ParamSet::preset`] and [`ParamSet::with`]; models are data
-//! ([`model::ModelInfo`]), and a model defined at run time joins them through
-//! [`model::runtime::RuntimeModel`]. The job modules below are the same functions one level down,
-//! taking a session's [`Evaluator`].
+//! in memory ([`Table`]) or as files, directional and hemispherical albedo, look-up tables, the
+//! energy, stability and trade-off reports, comparisons and fits, plots, previews, scenes, the
+//! demo, benchmarks — each a method taking an options value and returning a typed result or
+//! [`Error`]. Parameter sets are built with [`ParamSet::for_model`], [`ParamSet::preset`] and
+//! [`ParamSet::with`]; models are data ([`model::ModelInfo`]), and a model defined at run time
+//! joins them through [`model::runtime::RuntimeModel`]. The job modules below are the same
+//! functions one level down, taking a session's [`Evaluator`].
+//!
+//! ```
+//! use lobe::{grid::Grid, ParamSet, Session};
+//! let session = Session::cpu(); // or Session::open(SessionOptions::default()) for the GPU
+//! let gold = ParamSet::preset("gold", "cook_torrance")?.with("roughness", 0.2)?;
+//! let grid = Grid::Isotropic { n_theta_i: 4, n_theta_o: 4, n_dphi: 8 };
+//! let table = session.table(&gold, false, &grid, 1 << 10)?;
+//! let [r, g, b] = table.at(&[1, 1, 0]); // f at (θi, θo, Δφ) cell (1, 1, 0), in 1/sr
+//! assert!(r > b && g > b); // gold reflects red and green more than blue
+//! # Ok::<(), lobe::Error>(())
+//! ```
 //!
 //! Conventions (docs/design.md §2): local frame n = +z, t = +x, b = +y;
 //! ω = (sinθ cosφ, sinθ sinφ, cosθ); ωi points to the light, ωo to the viewer; f is in 1/sr,
@@ -59,5 +71,7 @@ pub use glam;
 pub use interrupt::CancelToken;
 pub use model::{Model, ParamSet, Reference};
 pub use resolve::{resolve_spec, resolve_specs, SpecOptions};
-pub use session::{AlbedoSettings, BackendKind, Session, SessionOptions};
+pub use session::{
+    AlbedoSettings, BackendKind, EnergyOptions, Session, SessionOptions, Table, TableAxis,
+};
 pub use spec::resolve_params;

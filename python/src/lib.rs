@@ -60,33 +60,6 @@ pub(crate) fn settings(
     })
 }
 
-/// Each table axis (the RGB axis aside) with its cell-centred angles in radians, in the order of
-/// the array's axes (docs/design.md §4).
-fn axes<'py>(py: Python<'py>, grid: &Grid) -> PyResult<Vec<(String, Bound<'py, PyArray1<f64>>)>> {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    let mut out = Vec::new();
-    let json = grid.axes_json();
-    for axis in json.as_array().into_iter().flatten() {
-        let (Some(name), Some(size)) = (axis["name"].as_str(), axis["size"].as_u64()) else {
-            continue;
-        };
-        let Some(hi) = axis["range_rad"][1].as_f64() else {
-            continue;
-        };
-        let n = size as usize;
-        let cell: fn(usize, usize) -> f64 = if hi == FRAC_PI_2 {
-            lobe::grid::theta_cell
-        } else if hi == PI {
-            lobe::grid::dphi_cell
-        } else {
-            lobe::grid::phi_cell
-        };
-        let angles: Vec<f64> = (0..n).map(|k| cell(k, n)).collect();
-        out.push((name.to_string(), PyArray1::from_vec(py, angles)));
-    }
-    Ok(out)
-}
-
 pub(crate) fn grid_of(grid: &str, res: &[usize]) -> PyResult<Grid> {
     let text: Vec<String> = res.iter().map(usize::to_string).collect();
     Grid::parse(grid, &text.join(",")).map_err(|e| invalid("res", e))
@@ -160,10 +133,15 @@ impl PySession {
         let grid = grid_of(grid, &res)?;
         lobe::table::check_grid(&params, &grid).map_err(|e| errors::from_anyhow("grid", e))?;
         let s = &self.inner;
-        let values = job::run(py, s, || s.table(&params, white_furnace, &grid, max_cells))?;
-        let mut shape = grid.shape();
+        let table = job::run(py, s, || s.table(&params, white_furnace, &grid, max_cells))?;
+        let axes = table
+            .axes()
+            .into_iter()
+            .map(|a| (a.name.to_string(), PyArray1::from_vec(py, a.values)))
+            .collect();
+        let mut shape = table.shape();
         shape.push(3);
-        Ok((array(py, values, shape)?, axes(py, &grid)?))
+        Ok((array(py, table.into_data(), shape)?, axes))
     }
 
     /// Writes PATH.exr, .npy and .json; returns the count of invalid values kept.

@@ -85,8 +85,8 @@ pub fn plot(
     };
     common.check().map_err(|e| from_anyhow("plot", e))?;
     let s = &session.get().inner;
-    // Pictures are a front of their own (layer 6, beside the CLI), so the job is the one
-    // `lobe plot` runs, on this session's evaluator.
+    // The job `lobe plot` runs (`Session::plot`), called one level down so that its errors are
+    // sorted as this package has always sorted a picture's: refusals are `ValueError`s.
     let plotted = job::run(py, s, || {
         lobe::plot::plot(&s.evaluator(), &subjects, &common, &request, &path)
             .map_err(crate::errors::from_job)

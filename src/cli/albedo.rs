@@ -2,11 +2,13 @@
 //! of a scene.
 
 use super::run::run_scene;
-use super::{open_albedo_session, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat};
+use super::{
+    open_albedo_session, session_error, with_flag, BackendArgs, MethodArg, ModelArgs, TableFormat,
+};
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::integrate::{AlbedoReport, Method, Settings};
-use lobe::lut::engine::{self, EngineKind, EngineSpec};
+use lobe::lut::engine::{EngineKind, EngineSpec};
 use lobe::lut::{self, LutSpec, Mapping};
 use lobe::{ParamSet, Session};
 use std::io::Write;
@@ -283,9 +285,9 @@ fn lut_flag(spec: &LutSpec, option: &str) -> Option<String> {
 fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> Result<()> {
     let progress = indicatif::ProgressBar::new(spec.n_p as u64);
     let summary = with_flag(
-        lut::write(&session.evaluator(), spec, path, &mut |done, _| {
-            progress.set_position(done)
-        }),
+        session
+            .write_albedo_lut(spec, path, &mut |done, _| progress.set_position(done))
+            .map_err(session_error),
         |o| lut_flag(spec, o),
     )?;
     progress.finish_and_clear();
@@ -347,9 +349,9 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
     let rows = (spec.lut.n_p * if kind.channels() == 2 { 2 } else { 1 }) as u64;
     let progress = indicatif::ProgressBar::new(rows);
     let table = with_flag(
-        engine::write_engine(&session.evaluator(), &spec, path, &mut |done, _| {
-            progress.set_position(done)
-        }),
+        session
+            .write_engine_lut(&spec, path, &mut |done, _| progress.set_position(done))
+            .map_err(session_error),
         |o| lut_flag(&spec.lut, o),
     )?;
     progress.finish_and_clear();

@@ -2,7 +2,9 @@
 //! pictures of both and of their difference.
 
 use super::table::GridArg;
-use super::{bar, open_session, resolve_all, with_flag, BackendArg, BackendArgs, MethodArg};
+use super::{
+    bar, open_session, resolve_all, session_error, with_flag, BackendArg, BackendArgs, MethodArg,
+};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::compare::{self, Bins, Comparison, Options, Side, CHANNELS};
@@ -175,18 +177,14 @@ pub fn run(a: CompareArgs) -> Result<()> {
     progress.set_message(format!("comparing on {}", bins.describe()));
     let started = std::time::Instant::now();
     let report = with_flag(
-        compare::compare(
-            &session.evaluator(),
-            &side_a,
-            &side_b,
-            &opts,
-            &mut |done, all| {
+        session
+            .compare(&side_a, &side_b, &opts, &mut |done, all| {
                 progress.set_position(done);
                 if done == all && !a.no_albedo {
                     progress.set_message("albedo of A and B");
                 }
-            },
-        ),
+            })
+            .map_err(session_error),
         compare_flag,
     );
     progress.finish_and_clear();
@@ -427,7 +425,9 @@ fn write_plots(
         params: pb.clone(),
     };
     let plots = with_flag(
-        difference::write_plots(&session.evaluator(), &sa, &sb, &plot_opts, prefix, format),
+        session
+            .plot_difference(&sa, &sb, &plot_opts, prefix, format)
+            .map_err(session_error),
         compare_flag,
     )?;
     eprintln!(

@@ -33,12 +33,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
         session.backend_name(),
         a.output.display()
     );
-    let report = lobe::demo::run(
-        &session.evaluator(),
-        &a.output,
-        &settings,
-        &mut DemoBars { bar: None },
-    )?;
+    let report = session
+        .demo(&a.output, &settings, &mut DemoBars { bar: None })
+        .map_err(super::session_error)?;
     println!("{}", report.summary());
     Ok(())
 }

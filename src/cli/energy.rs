@@ -72,23 +72,20 @@ pub fn run(a: EnergyArgs) -> Result<()> {
     }
     out.flush()?;
     let mut last_model = String::new();
-    let rows = energy::report_series_each(
-        &session.evaluator(),
-        &series,
-        a.sweep,
+    let opts = lobe::EnergyOptions {
+        series,
+        sweep: a.sweep,
         method,
         samples,
-        &mut |row, done, total| {
+    };
+    let rows = session
+        .energy(&opts, &mut |row, done, total| {
             bar.set_length(total);
             bar.set_position(done);
-            match a.format {
-                TableFormat::Table => {
-                    bar.suspend(|| write!(out, "{}", energy::table_line(row, width)))?
-                }
-                TableFormat::Csv => bar.suspend(|| write!(out, "{}", energy::csv_line(row)))?,
-                TableFormat::Json => {}
-            }
-            out.flush()?;
+            write_row(&mut out, &bar, a.format, row, width).map_err(|e| lobe::Error::Io {
+                what: e.to_string(),
+                source: e,
+            })?;
             if plain && (row.model != last_model || done == total) {
                 eprintln!(
                     "lobe energy: {done}/{total} cases ({}), {:.1} s",
@@ -98,8 +95,8 @@ pub fn run(a: EnergyArgs) -> Result<()> {
                 last_model = row.model.clone();
             }
             Ok(())
-        },
-    )?;
+        })
+        .map_err(super::session_error)?;
     bar.finish_and_clear();
     match a.format {
         TableFormat::Table => {
@@ -125,6 +122,22 @@ pub fn run(a: EnergyArgs) -> Result<()> {
         )?,
     }
     Ok(())
+}
+
+/// Writes a table or CSV line as soon as its row is known (JSON is written whole at the end).
+fn write_row(
+    out: &mut super::Stdout,
+    bar: &indicatif::ProgressBar,
+    format: TableFormat,
+    row: &energy::EnergyRow,
+    width: usize,
+) -> std::io::Result<()> {
+    match format {
+        TableFormat::Table => bar.suspend(|| write!(out, "{}", energy::table_line(row, width)))?,
+        TableFormat::Csv => bar.suspend(|| write!(out, "{}", energy::csv_line(row)))?,
+        TableFormat::Json => {}
+    }
+    out.flush()
 }
 
 /// What is reported: every model at its presets, or the models and parameters asked for.

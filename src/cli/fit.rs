@@ -1,6 +1,8 @@
 //! `lobe fit`: fits the free parameters of a model to a target ([`lobe::fit`]).
 
-use super::{bar, open_session, resolve, split_spec, stdout, with_flag, BackendArgs};
+use super::{
+    bar, open_session, resolve, session_error, split_spec, stdout, with_flag, BackendArgs,
+};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::fit::{FitOptions, FitReport, Space, Target};
@@ -114,7 +116,9 @@ pub fn run(a: FitArgs) -> Result<()> {
             progress.set_message(format!("round {}, best loss {:.4e}", p.rounds, p.best_loss));
         };
         with_flag(
-            lobe::fit::fit(&session.evaluator(), &target, &space, &opts, &update),
+            session
+                .fit(&target, &space, &opts, &update)
+                .map_err(session_error),
             |o| match o {
                 "target" => Some(format!("--target {}", a.target)),
                 "starts" => Some("--starts".into()),
@@ -144,14 +148,15 @@ pub fn run(a: FitArgs) -> Result<()> {
             label: format!("fit: {}", report.params.model().name()),
             params: report.params.clone(),
         };
-        let plots = lobe::plot::difference::write_plots(
-            &session.evaluator(),
-            &target_subject,
-            &fit_subject,
-            &lobe::plot::difference::PlotOptions::default(),
-            prefix,
-            Format::Png,
-        )?;
+        let plots = session
+            .plot_difference(
+                &target_subject,
+                &fit_subject,
+                &lobe::plot::difference::PlotOptions::default(),
+                prefix,
+                Format::Png,
+            )
+            .map_err(session_error)?;
         eprintln!(
             "lobe: wrote {} and {}",
             plots.polar_path.display(),

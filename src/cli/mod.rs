@@ -263,10 +263,33 @@ pub fn open_albedo_session(b: &BackendArgs, method: Method) -> Result<Session> {
 /// refusal's option tag ([`lobe::input::BadInput`]) to this command's flag, with its value where
 /// that helps. Other errors pass unchanged.
 pub fn with_flag<T>(r: anyhow::Result<T>, flag_of: impl Fn(&str) -> Option<String>) -> Result<T> {
-    r.map_err(|e| match lobe::input::option_of(&e).and_then(flag_of) {
+    r.map_err(|e| match option_tag(&e).and_then(flag_of) {
         Some(flag) => e.context(flag),
         None => e,
     })
+}
+
+/// The option a refusal in `e`'s chain came from: a job's [`lobe::input::BadInput`], or a
+/// [`Session`] call's [`lobe::Error::Input`].
+fn option_tag(e: &anyhow::Error) -> Option<&'static str> {
+    lobe::input::option_of(e).or_else(|| {
+        e.chain()
+            .find_map(|c| match c.downcast_ref::<lobe::Error>() {
+                Some(lobe::Error::Input { input, .. }) => Some(input.option),
+                _ => None,
+            })
+    })
+}
+
+/// A [`Session`] call's error as the command reports it. A file error becomes the I/O error it
+/// was, its message the job's whole chain (what was being read or written, then why), as the
+/// job gave it; the others keep their variant, which [`option_tag`], [`gpu_hint`] and the exit
+/// status read.
+pub fn session_error(e: lobe::Error) -> anyhow::Error {
+    match e {
+        lobe::Error::Io { what, source } => std::io::Error::new(source.kind(), what).into(),
+        e => e.into(),
+    }
 }
 
 /// Says on stderr how many of `model`'s values were NaN, ±Inf or negative and where the first
@@ -418,4 +441,32 @@ pub fn models_or_all(names: &[String]) -> Result<Vec<lobe::Model>> {
                 .with_context(|| format!("--models {m}"))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    /// Every computation of a command goes through a `Session` method: no command file takes the
+    /// session's evaluator to call a job function one level down, nor reaches for its GPU runner.
+    #[test]
+    fn the_commands_compute_only_through_session_methods() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/cli");
+        // Spelled in parts so that this test's own file does not match them.
+        let needles = [[".", "evaluator()"].concat(), [".", "gpu()"].concat()];
+        let mut found = Vec::new();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                let code = line.split("//").next().unwrap_or("");
+                if needles.iter().any(|n| code.contains(n.as_str())) {
+                    found.push(format!("{}:{}: {}", path.display(), n + 1, line.trim()));
+                }
+            }
+        }
+        assert!(
+            found.is_empty(),
+            "calls around Session:\n{}",
+            found.join("\n")
+        );
+    }
 }

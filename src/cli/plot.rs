@@ -1,8 +1,8 @@
 //! `lobe plot`: pictures of one or more models (polar, hemisphere, slice, 3d, albedo curves).
 
 use super::{
-    open_albedo_session, open_session, parse_size, resolve_all, split_specs, with_flag,
-    BackendArgs, MethodArg,
+    open_albedo_session, open_session, parse_size, resolve_all, session_error, split_specs,
+    with_flag, BackendArgs, MethodArg,
 };
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
@@ -271,13 +271,9 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
     };
     let start = std::time::Instant::now();
     let plotted = with_flag(
-        plot::plot(
-            &session.evaluator(),
-            &subjects,
-            &common,
-            &request,
-            &a.output,
-        ),
+        session
+            .plot(&subjects, &common, &request, &a.output)
+            .map_err(session_error),
         plot_flag,
     )?;
     plot::write_params_json(&a.output, &subjects, &plotted)?;

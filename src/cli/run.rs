@@ -47,15 +47,14 @@ pub fn run_scene(path: &Path, out_dir: &Path, backend: &BackendArgs, what: Outpu
     );
     let mut log = |line: &str| println!("wrote {line}");
     let session = open_session(backend)?;
-    let result = scene.run(&session.evaluator(), out_dir, what, &mut log);
-    if let Some(gpu) = session.gpu() {
-        let built = gpu.built_pipelines();
+    let result = session.run_scene(&scene, out_dir, what, &mut log);
+    if let Some(built) = session.built_kernels() {
         println!("pipelines built: {}", built.len());
         for (label, time) in &built {
             println!("  {label}: {:.1} ms", time.as_secs_f64() * 1e3);
         }
     }
-    let summary = result?;
+    let summary = result.map_err(super::session_error)?;
     println!("lobe: {} files written", summary.written.len());
     Ok(())
 }

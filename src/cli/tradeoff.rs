@@ -1,7 +1,9 @@
 //! `lobe tradeoff`: cost and error of each speed-for-accuracy variant of a model, with a Pareto
 //! plot.
 
-use super::{bar, open_session, parse_size, with_flag, BackendArgs, ModelArgs, TableFormat};
+use super::{
+    bar, open_session, parse_size, session_error, with_flag, BackendArgs, ModelArgs, TableFormat,
+};
 use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
 use lobe::grid::Grid;
@@ -165,7 +167,9 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
     };
     let session = open_session(&a.backend)?;
     let report = with_flag(
-        lobe::tradeoff::run(&session.evaluator(), &params, material, &opts, &mut step),
+        session
+            .tradeoff(&params, material, &opts, &mut step)
+            .map_err(session_error),
         tradeoff_flag,
     )?;
     progress.finish_and_clear();

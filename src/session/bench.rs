@@ -1,0 +1,84 @@
+//! Throughput of the commands' kernels on this session's backend (`lobe bench`).
+
+use super::Session;
+use crate::bench::Throughput;
+use crate::error::{IntoLobe, Result};
+use crate::grid::Grid;
+use crate::model::ParamSet;
+
+impl Session {
+    /// Throughput of a lobe table on `grid` on this session's backend (median of `repeats`).
+    ///
+    /// ```
+    /// use lobe::grid::Grid;
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let grid = Grid::Isotropic { n_theta_i: 4, n_theta_o: 4, n_dphi: 4 };
+    /// let t = lobe::Session::cpu().bench_table(&lambert, &grid, 1)?;
+    /// assert_eq!(t.evaluations, 64);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn bench_table(
+        &self,
+        params: &ParamSet,
+        grid: &Grid,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        crate::bench::measure(&self.evaluator(), params, grid, repeats).lobe()
+    }
+
+    /// [`Session::bench_table`], optionally under the white furnace.
+    ///
+    /// ```
+    /// use lobe::grid::Grid;
+    /// let gold = lobe::ParamSet::preset("gold", "cook_torrance")?;
+    /// let grid = Grid::Isotropic { n_theta_i: 4, n_theta_o: 4, n_dphi: 4 };
+    /// let t = lobe::Session::cpu().bench_table_with(&gold, true, &grid, 1)?;
+    /// assert_eq!(t.evaluations, 64);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn bench_table_with(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        crate::bench::measure_table(&self.evaluator(), params, white_furnace, grid, repeats).lobe()
+    }
+
+    /// Throughput of directional-albedo integration on this session's backend
+    /// ([`crate::bench::measure_albedo`]).
+    ///
+    /// ```
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let t = lobe::Session::cpu().bench_albedo(&lambert, false, 1)?;
+    /// assert_eq!(t.task, "albedo");
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn bench_albedo(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        crate::bench::measure_albedo(&self.evaluator(), params, white_furnace, repeats).lobe()
+    }
+
+    /// Throughput of an albedo look-up table ([`crate::bench::lut_spec`]) on this session's
+    /// backend.
+    ///
+    /// ```
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let t = lobe::Session::cpu().bench_lut(&lambert, false, 1)?;
+    /// assert!(t.evaluations > 0);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn bench_lut(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        crate::bench::measure_lut(&self.evaluator(), params, white_furnace, repeats).lobe()
+    }
+}
