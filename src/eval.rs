@@ -23,6 +23,9 @@ pub struct Evaluator<'a> {
     backend: &'a dyn Backend,
     cancel: Option<&'a CancelToken>,
     fast_pow: bool,
+    /// Tables treat the model as reciprocal though it does not declare it
+    /// ([`Evaluator::assuming_reciprocity`]).
+    assume_reciprocal: bool,
     /// Where invalid values are counted instead of refused ([`Evaluator::counting_invalid`]).
     tally: Option<&'a Mutex<InvalidCount>>,
 }
@@ -34,6 +37,7 @@ impl<'a> Evaluator<'a> {
             backend,
             cancel: None,
             fast_pow: false,
+            assume_reciprocal: false,
             tally: None,
         }
     }
@@ -49,6 +53,7 @@ impl<'a> Evaluator<'a> {
             backend: &CpuBackend,
             cancel: None,
             fast_pow: false,
+            assume_reciprocal: false,
             tally: None,
         }
     }
@@ -66,6 +71,17 @@ impl<'a> Evaluator<'a> {
     /// `lobe tradeoff` measures. The CPU reference ignores it.
     pub fn with_fast_pow(self, fast_pow: bool) -> Evaluator<'a> {
         Evaluator { fast_pow, ..self }
+    }
+
+    /// The same backend, with [`Evaluator::eval_table_runs`] treating the model as reciprocal
+    /// where `reciprocal` is set, even when it does not declare itself so
+    /// ([`Model::is_reciprocal`]): the user's word for a `.brdf` file. Where f is not
+    /// reciprocal, such a table holds f(θi, θo, Δφ) with θi ≤ θo in both of its cells.
+    pub fn assuming_reciprocity(self, reciprocal: bool) -> Evaluator<'a> {
+        Evaluator {
+            assume_reciprocal: reciprocal,
+            ..self
+        }
     }
 
     /// The same backend, counting NaN, ±Inf and negative values into `tally` and handing them
@@ -211,6 +227,43 @@ impl<'a> Evaluator<'a> {
             Query::one(params, white_furnace),
             &wi,
             &wo,
+            self.fast_pow,
+            self.cancel,
+            sink,
+        )
+    }
+
+    /// The lobe table on `grid`, handed to `sink` as runs of cells (first cell, f32 rgb values)
+    /// in any order, each cell once; returns the BRDF evaluations made. On the isotropic grid
+    /// with NTHETA_I = NTHETA_O and a reciprocal model ([`Model::is_reciprocal`], or
+    /// [`Evaluator::assuming_reciprocity`]) the backend may evaluate only the cells with θi
+    /// index ≤ θo index and copy each into its mirror cell (docs/design.md §4.5); otherwise
+    /// this is [`Evaluator::eval_table`], every cell evaluated, in order.
+    pub fn eval_table_runs(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<u64> {
+        let square =
+            matches!(grid, Grid::Isotropic { n_theta_i, n_theta_o, .. } if n_theta_i == n_theta_o);
+        if !(square && (self.assume_reciprocal || params.model().is_reciprocal())) {
+            self.eval_table(params, white_furnace, grid, sink)?;
+            return grid
+                .cells()
+                .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"));
+        }
+        let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
+            let mut count = InvalidCount::default();
+            count.add_f32(first, values, |cell| grid.pair_at(cell));
+            self.check_invalid(params, count, "evaluating a table")?;
+            sink(first, values)
+        };
+        self.backend.table_reciprocal(
+            Query::one(params, white_furnace),
+            &grid.wi_list(),
+            &grid.wo_list(),
             self.fast_pow,
             self.cancel,
             sink,

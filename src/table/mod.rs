@@ -21,7 +21,7 @@ use crate::output::{FileSet, Pending};
 use anyhow::{bail, Context, Result};
 use exr::prelude::*;
 use serde_json::json;
-use std::io::Write;
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -212,8 +212,10 @@ pub fn write_table_with(
 }
 
 /// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json` into `set`,
-/// which commits them (with whatever else it holds). The npy is streamed chunk by chunk; the EXR
-/// is then written from a memory map of the npy, so no step holds the whole table in memory.
+/// which commits them (with whatever else it holds). The npy is streamed run by run, each run
+/// written at its cells' place (a reciprocal table's mirror cells arrive out of order,
+/// [`Evaluator::eval_table_runs`]); the EXR is then written from a memory map of the npy, so no
+/// step holds the whole table in memory.
 /// `progress` receives (cells done, cells in all).
 pub fn stage_table(
     eval: &Evaluator,
@@ -250,9 +252,11 @@ pub fn stage_table_with(
     let (npy_tmp, exr_tmp, json_tmp) = (&set[first], &set[first + 1], &set[first + 2]);
     {
         let mut w = npy_tmp.writer();
-        w.write_all(&npy::header(&shape))
+        let header = npy::header(&shape);
+        w.write_all(&header)
             .with_context(|| format!("writing {}", npy_path.display()))?;
-        eval.eval_table(
+        let (mut at, mut done) = (header.len() as u64, 0);
+        eval.eval_table_runs(
             meta.params,
             meta.white_furnace,
             &meta.grid,
@@ -260,9 +264,15 @@ pub fn stage_table_with(
                 // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
                 // way out and nothing is renamed into place.
                 eval.check_cancelled()?;
-                npy::write_f32(&mut w, values)
-                    .map_err(|e| crate::output::encoder_error(&npy_path, "npy", e))?;
-                progress(first + values.len() as u64 / 3, cells);
+                let encoder_error = |e| crate::output::encoder_error(&npy_path, "npy", e);
+                let place = header.len() as u64 + first * 12;
+                if at != place {
+                    w.seek(SeekFrom::Start(place)).map_err(encoder_error)?;
+                }
+                npy::write_f32(&mut w, values).map_err(encoder_error)?;
+                at = place + values.len() as u64 * 4;
+                done += values.len() as u64 / 3;
+                progress(done, cells);
                 Ok(())
             },
         )?;
