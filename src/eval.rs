@@ -248,7 +248,9 @@ impl<'a> Evaluator<'a> {
     ) -> Result<u64> {
         let square =
             matches!(grid, Grid::Isotropic { n_theta_i, n_theta_o, .. } if n_theta_i == n_theta_o);
-        if !(square && (self.assume_reciprocal || params.model().is_reciprocal())) {
+        let reciprocal = self.assume_reciprocal || params.model().is_reciprocal();
+        // The mirror takes isotropy too (f even in Δφ; the isotropic grid refuses other sets).
+        if !(square && reciprocal && params.is_isotropic()) {
             self.eval_table(params, white_furnace, grid, sink)?;
             return grid
                 .cells()

@@ -83,7 +83,7 @@ pub struct TableArgs {
     /// NTHETA_O only the cells with theta_i <= theta_o are evaluated and each is copied into
     /// its mirror cell, so for a model that is not reciprocal both cells hold f at
     /// theta_i <= theta_o. Other grids are unaffected.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "scene")]
     reciprocal: bool,
 }
 

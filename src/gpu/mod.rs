@@ -253,30 +253,7 @@ impl Gpu {
             fast_pow,
             upper_triangle,
         } = switches;
-        let product = wi.len() as u64 * wo.len() as u64;
-        let cells = if upper_triangle {
-            let n_dphi = wo.len().checked_div(wi.len()).unwrap_or(0);
-            if n_dphi * wi.len() != wo.len() {
-                return Err(GpuError::Limit(format!(
-                    "an upper-triangle table needs a view list of NTHETA x NDPHI directions; \
-                     {} is not a multiple of the {} light directions",
-                    wo.len(),
-                    wi.len()
-                ))
-                .into());
-            }
-            crate::backend::UpperTriangle::new(wi.len() as u64, n_dphi as u64).cells()
-        } else {
-            product
-        };
-        // The kernel's cell indices, and n(n + 1) in its upper-triangle start, are 32-bit.
-        if product > u32::MAX as u64 {
-            return Err(GpuError::Limit(format!(
-                "a table of {product} cells exceeds the GPU kernel's 32-bit cell index (at most {})",
-                u32::MAX
-            ))
-            .into());
-        }
+        let cells = table_cells(wi.len() as u64, wo.len() as u64, upper_triangle)?;
         if wi.is_empty() || wo.is_empty() {
             return Ok(());
         }
@@ -350,6 +327,31 @@ impl Gpu {
         }
         Ok(())
     }
+}
+
+/// The cells the table kernel makes for lists of `n_wi` and `n_wo` directions: every cell, or
+/// with `upper_triangle` the packed cells of [`crate::backend::UpperTriangle`]. Refuses a table
+/// whose cell index does not fit the kernel's 32 bits (nor then n(n + 1) in its upper-triangle
+/// start), and an upper triangle whose view list is not NTHETA × NDPHI directions.
+fn table_cells(n_wi: u64, n_wo: u64, upper_triangle: bool) -> Result<u64> {
+    let product = n_wi * n_wo;
+    if product > u32::MAX as u64 {
+        return Err(GpuError::Limit(format!(
+            "a table of {product} cells exceeds the GPU kernel's 32-bit cell index (at most {})",
+            u32::MAX
+        )));
+    }
+    if !upper_triangle {
+        return Ok(product);
+    }
+    let n_dphi = n_wo.checked_div(n_wi).unwrap_or(0);
+    if n_dphi * n_wi != n_wo {
+        return Err(GpuError::Limit(format!(
+            "an upper-triangle table needs a view list of NTHETA x NDPHI directions; {n_wo} is \
+             not a multiple of the {n_wi} light directions"
+        )));
+    }
+    Ok(crate::backend::UpperTriangle::new(n_wi, n_dphi).cells())
 }
 
 /// How the table kernel runs on a device: the host's choices, made once per job.
