@@ -404,3 +404,26 @@ fn lobe_table_writes_the_mirrored_table_and_takes_reciprocal_for_brdf_files() {
     assert!(asymmetric_cells(&plain, &grid) > 0);
     assert_upper_triangle_reflected("--reciprocal", &mirrored, &plain, &grid);
 }
+
+/// A MERL table is reciprocal by construction (it is looked up by half and difference angles,
+/// which swapping ωi and ωo leaves as they are up to φd → φd + π, folded into [0, π)): its
+/// table is mirrored without being asked.
+#[test]
+fn a_merl_table_is_mirrored() {
+    common::on_gpu("a_merl_table_is_mirrored", false, |gpu| {
+        // Stored values that differ from bin to bin, so that a cell shows which bin it read.
+        let values = (0..3 * lobe::merl::BINS)
+            .map(|k| 0.01 + (k % 977) as f64 * 1e-3)
+            .collect();
+        let table = lobe::merl::MerlTable { values, missing: 0 };
+        let model = lobe::merl::model::register("symmetry_test_merl", "bins", table).unwrap();
+        assert!(model.is_reciprocal());
+        let params = ParamSet::defaults(model);
+        let grid = Grid::parse("isotropic", "8,8,6").unwrap();
+        let eval = Evaluator::gpu(gpu);
+        let before = plain(&eval, &params, &grid);
+        let (after, evaluations) = runs(&eval, &params, &grid);
+        assert_eq!(evaluations, promised_evaluations(&grid));
+        assert_upper_triangle_reflected("merl", &after, &before, &grid);
+    });
+}
