@@ -427,3 +427,101 @@ fn a_merl_table_is_mirrored() {
         assert_upper_triangle_reflected("merl", &after, &before, &grid);
     });
 }
+
+/// n_θh · n_θd rows of NPHI_D cells, and NPHI_D of a three-axis half/difference grid.
+fn halfdiff_rows(grid: &Grid) -> (usize, usize) {
+    match *grid {
+        Grid::HalfDiff {
+            n_theta_h,
+            n_theta_d,
+            n_phi_d,
+        } => (n_theta_h * n_theta_d, n_phi_d),
+        _ => panic!("a three-axis halfdiff grid"),
+    }
+}
+
+/// Asserts that every cell (row, k) of `mirrored` holds the bits of `plain`'s cell
+/// (row, min(k, NPHI_D − 1 − k)).
+fn assert_phi_d_reflected(label: &str, mirrored: &[f32], plain: &[f32], grid: &Grid) {
+    let (rows, n) = halfdiff_rows(grid);
+    for r in 0..rows {
+        for k in 0..n {
+            let (cell, from) = ((r * n + k) * 3, (r * n + k.min(n - 1 - k)) * 3);
+            let want: Vec<u32> = plain[from..from + 3].iter().map(|x| x.to_bits()).collect();
+            let got: Vec<u32> = mirrored[cell..cell + 3]
+                .iter()
+                .map(|x| x.to_bits())
+                .collect();
+            assert_eq!(got, want, "{label} on {grid:?}: row {r}, φd cell {k}");
+        }
+    }
+}
+
+/// f(θh, θd, φd) = f(θh, θd, π − φd) (reciprocity: φd → φd + π; isotropy: φd → −φd): the
+/// cells k ≤ NPHI_D − 1 − k are evaluated, each copied to NPHI_D − 1 − k, and every copy is
+/// within the parity tolerance of the reference at its own directions.
+#[test]
+fn a_reciprocal_halfdiff_table_mirrors_phi_d() {
+    common::on_gpu("a_reciprocal_halfdiff_table_mirrors_phi_d", false, |gpu| {
+        let eval = Evaluator::gpu(gpu);
+        for grid in ["5,4,7", "3,3,6", "2,2,1"] {
+            let grid = Grid::parse("halfdiff", grid).unwrap();
+            let (rows, n) = halfdiff_rows(&grid);
+            for params in sets() {
+                let label = format!("{} {}", params.model().name(), params.to_text());
+                let before = plain(&eval, &params, &grid);
+                let (after, evaluations) = runs(&eval, &params, &grid);
+                assert_eq!(evaluations, (rows * n.div_ceil(2)) as u64, "{label}");
+                assert_phi_d_reflected(&label, &after, &before, &grid);
+                let p32 = params.rounded_to_f32();
+                let reference = Reference::new(&p32, false);
+                let f32_round =
+                    |v: DVec3| DVec3::new(v.x as f32 as f64, v.y as f32 as f64, v.z as f32 as f64);
+                for cell in 0..grid.cells().unwrap() {
+                    let (wi, wo) = grid.pair_at(cell);
+                    let (wi, wo) = (f32_round(wi), f32_round(wo));
+                    let c = reference.eval(wi, wo);
+                    let allowed = tolerance::parity_tolerance(&p32, &reference, wi, wo, c);
+                    for ch in 0..3 {
+                        let got = after[cell as usize * 3 + ch] as f64;
+                        assert!(
+                            (got - c[ch]).abs() <= allowed[ch],
+                            "{label}: cell {cell} channel {ch}: table {got:e}, reference {:e}, \
+                             allowed {:e}",
+                            c[ch],
+                            allowed[ch]
+                        );
+                    }
+                }
+            }
+        }
+    });
+}
+
+#[test]
+fn a_halfdiff_table_of_a_brdf_file_or_on_the_cpu_evaluates_every_cell() {
+    let grid = Grid::parse("halfdiff", "3,4,5").unwrap();
+    let params = lobe::resolve_params("cook_torrance", None, &[]).unwrap();
+    let (after, evaluations) = runs(&Evaluator::cpu(), &params, &grid);
+    assert_eq!(evaluations, grid.cells().unwrap());
+    assert_eq!(after, plain(&Evaluator::cpu(), &params, &grid));
+    common::on_gpu(
+        "a_halfdiff_table_of_a_brdf_file_evaluates_every_cell",
+        false,
+        |gpu| {
+            let dir = tempfile::tempdir().unwrap();
+            let model = brdf::load(&not_reciprocal_file(dir.path()), &LoadOptions::default())
+                .unwrap()
+                .model;
+            let params = ParamSet::defaults(model);
+            let eval = Evaluator::gpu(gpu);
+            let before = plain(&eval, &params, &grid);
+            let (undeclared, evaluations) = runs(&eval, &params, &grid);
+            assert_eq!(evaluations, grid.cells().unwrap());
+            assert_eq!(undeclared, before);
+            let (mirrored, evaluations) = runs(&eval.assuming_reciprocity(true), &params, &grid);
+            assert_eq!(evaluations, 3 * 4 * 3);
+            assert_phi_d_reflected("not_reciprocal.brdf", &mirrored, &before, &grid);
+        },
+    );
+}
