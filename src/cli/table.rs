@@ -82,7 +82,8 @@ pub struct TableArgs {
     /// .brdf file; built-in models and MERL files are): on the isotropic grid with NTHETA_I =
     /// NTHETA_O only the cells with theta_i <= theta_o are evaluated and each is copied into
     /// its mirror cell, so for a model that is not reciprocal both cells hold f at
-    /// theta_i <= theta_o. Other grids are unaffected.
+    /// theta_i <= theta_o; on the three-number halfdiff grid likewise phi_d <= 90 deg is copied
+    /// to 180 deg - phi_d. Other grids are unaffected.
     #[arg(long, conflicts_with = "scene")]
     reciprocal: bool,
 }
