@@ -1,5 +1,6 @@
 //! Throughput of each model on this machine: evaluations per second of a lobe table and of an
-//! albedo integration, on the GPU (kernel time from timestamp queries, and wall time including
+//! albedo integration (and, for a table, cells written per second, which exceeds evaluations
+//! per second where a reciprocal table copies mirror cells, docs/design.md §4.5), on the GPU (kernel time from timestamp queries, and wall time including
 //! upload and read-back) and on the CPU reference (wall time, all cores). The two backends never
 //! run at the same time: on lavapipe both would compete for the same cores.
 
@@ -24,12 +25,17 @@ pub struct Throughput {
     pub backend: String,
     /// The GPU's driver and its version ([`Evaluator::driver`]); None on the CPU.
     pub driver: Option<String>,
-    /// Integrand evaluations in one run.
+    /// BRDF (integrand) evaluations in one run, as the backend reports them.
     pub evaluations: u64,
     /// Evaluations per second by wall clock, read-back included.
     pub wall_per_s: f64,
     /// Evaluations per second of kernel time (GPU timestamp queries), where available.
     pub kernel_per_s: Option<f64>,
+    /// Table cells handed on in one run (the table task only): evaluated cells and copied
+    /// mirror cells.
+    pub cells: Option<u64>,
+    /// Cells per second by wall clock (the table task only).
+    pub cells_wall_per_s: Option<f64>,
 }
 
 /// The median of `v` (the upper one of an even count); `v` must not be empty.
@@ -38,31 +44,31 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Times `repeats` runs of `work` (`evaluations` integrand evaluations each) after one warm-up
-/// run, which also builds the pipeline; wall time always, kernel time from the GPU's timestamp
-/// queries when `eval` is the GPU.
+/// Times `repeats` runs of `work`, which returns the integrand evaluations it made, after one
+/// warm-up run, which also builds the pipeline; wall time always, kernel time from the GPU's
+/// timestamp queries when `eval` is the GPU.
 fn time_task(
     eval: &Evaluator,
     params: &ParamSet,
     task: &'static str,
-    evaluations: u64,
     repeats: usize,
-    work: impl Fn() -> Result<()>,
+    work: impl Fn() -> Result<u64>,
 ) -> Result<Throughput> {
-    let run = || -> Result<(f64, Option<f64>)> {
+    let run = || -> Result<(u64, f64, Option<f64>)> {
         eval.check_cancelled()?;
         eval.take_device_time();
         let t = Instant::now();
-        work()?;
+        let evaluations = work()?;
         let wall = t.elapsed().as_secs_f64();
         let kernel = eval.take_device_time().map(|d| d.as_secs_f64());
-        Ok((wall, kernel))
+        Ok((evaluations, wall, kernel))
     };
-    run()?;
+    let mut evaluations = run()?.0;
     let mut walls = Vec::new();
     let mut kernels = Vec::new();
     for _ in 0..repeats.max(1) {
-        let (w, k) = run()?;
+        let (e, w, k) = run()?;
+        evaluations = e;
         walls.push(evaluations as f64 / w);
         if let Some(k) = k.filter(|k| *k > 0.0) {
             kernels.push(evaluations as f64 / k);
@@ -76,6 +82,8 @@ fn time_task(
         evaluations,
         wall_per_s: median(walls),
         kernel_per_s: (!kernels.is_empty()).then(|| median(kernels)),
+        cells: None,
+        cells_wall_per_s: None,
     })
 }
 
@@ -89,7 +97,10 @@ pub fn measure(
     measure_table(eval, params, false, grid, repeats)
 }
 
-/// [`measure`], optionally under the white furnace (docs/design.md §3).
+/// [`measure`], optionally under the white furnace (docs/design.md §3). The table is made as
+/// `lobe table` makes it ([`Evaluator::eval_table_runs`]: a reciprocal model's isotropic table
+/// with equal θ axes evaluates about half its cells), so evaluations and cells are counted
+/// apart.
 pub fn measure_table(
     eval: &Evaluator,
     params: &ParamSet,
@@ -98,12 +109,16 @@ pub fn measure_table(
     repeats: usize,
 ) -> Result<Throughput> {
     let cells = grid.cells().unwrap_or(0);
-    time_task(eval, params, "table", cells, repeats, || {
-        eval.eval_table(params, white_furnace, grid, &mut |_, v| {
+    let mut t = time_task(eval, params, "table", repeats, || {
+        eval.eval_table_runs(params, white_furnace, grid, &mut |_, v| {
             std::hint::black_box(v);
             Ok(())
         })
-    })
+    })?;
+    t.cells = Some(cells);
+    // Both rates come from the same runs' times.
+    t.cells_wall_per_s = Some(t.wall_per_s * cells as f64 / t.evaluations.max(1) as f64);
+    Ok(t)
 }
 
 /// View directions of the timed albedo integration: μ evenly spread over (0, 1].
@@ -129,9 +144,9 @@ pub fn measure_albedo(
         + ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
         + ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len();
     let evaluations = (per_direction * wo.len()) as u64;
-    time_task(eval, params, "albedo", evaluations, repeats, || {
+    time_task(eval, params, "albedo", repeats, || {
         std::hint::black_box(rule_albedo(eval, params, white_furnace, ALBEDO_RULE, &wo)?);
-        Ok(())
+        Ok(evaluations)
     })
 }
 
@@ -163,9 +178,9 @@ pub fn measure_lut(
 ) -> Result<Throughput> {
     let spec = lut_spec(params, white_furnace);
     let evaluations = lut_evaluations(&spec)?;
-    time_task(eval, params, "lut", evaluations, repeats, || {
+    time_task(eval, params, "lut", repeats, || {
         std::hint::black_box(crate::lut::compute(eval, &spec, &mut |_, _| {})?);
-        Ok(())
+        Ok(evaluations)
     })
 }
 

@@ -23,6 +23,9 @@ pub struct Evaluator<'a> {
     backend: &'a dyn Backend,
     cancel: Option<&'a CancelToken>,
     fast_pow: bool,
+    /// Tables treat the model as reciprocal though it does not declare it
+    /// ([`Evaluator::assuming_reciprocity`]).
+    assume_reciprocal: bool,
     /// Where invalid values are counted instead of refused ([`Evaluator::counting_invalid`]).
     tally: Option<&'a Mutex<InvalidCount>>,
 }
@@ -34,6 +37,7 @@ impl<'a> Evaluator<'a> {
             backend,
             cancel: None,
             fast_pow: false,
+            assume_reciprocal: false,
             tally: None,
         }
     }
@@ -49,6 +53,7 @@ impl<'a> Evaluator<'a> {
             backend: &CpuBackend,
             cancel: None,
             fast_pow: false,
+            assume_reciprocal: false,
             tally: None,
         }
     }
@@ -66,6 +71,17 @@ impl<'a> Evaluator<'a> {
     /// `lobe tradeoff` measures. The CPU reference ignores it.
     pub fn with_fast_pow(self, fast_pow: bool) -> Evaluator<'a> {
         Evaluator { fast_pow, ..self }
+    }
+
+    /// The same backend, with [`Evaluator::eval_table_runs`] treating the model as reciprocal
+    /// where `reciprocal` is set, even when it does not declare itself so
+    /// ([`Model::is_reciprocal`]): the user's word for a `.brdf` file. Where f is not
+    /// reciprocal, such a table holds f(θi, θo, Δφ) with θi ≤ θo in both of its cells.
+    pub fn assuming_reciprocity(self, reciprocal: bool) -> Evaluator<'a> {
+        Evaluator {
+            assume_reciprocal: reciprocal,
+            ..self
+        }
     }
 
     /// The same backend, counting NaN, ±Inf and negative values into `tally` and handing them
@@ -204,7 +220,8 @@ impl<'a> Evaluator<'a> {
             sink(first, values)
         };
         if !grid.is_product() {
-            return self.eval_table_by_pairs(params, white_furnace, grid, sink);
+            self.eval_table_by_pairs(params, white_furnace, grid, 1, sink)?;
+            return Ok(());
         }
         let (wi, wo) = (grid.wi_list(), grid.wo_list());
         self.backend.table(
@@ -217,30 +234,104 @@ impl<'a> Evaluator<'a> {
         )
     }
 
-    /// A table on a grid that is not an outer product (`halfdiff`): each chunk's (ωi, ωo) pairs
-    /// are made on the CPU and evaluated as pairs; memory stays bounded by the chunk.
-    fn eval_table_by_pairs(
+    /// The lobe table on `grid`, handed to `sink` as runs of cells (first cell, f32 rgb values)
+    /// in any order, each cell once; returns the BRDF evaluations made. For a reciprocal model
+    /// ([`Model::is_reciprocal`], or [`Evaluator::assuming_reciprocity`]) with an isotropic
+    /// parameter set, mirror cells are copied instead of evaluated (docs/design.md §4.5): on the
+    /// isotropic grid with NTHETA_I = NTHETA_O the backend may evaluate only the cells with θi
+    /// index ≤ θo index; on the three-axis half/difference grid the f32 backend evaluates the
+    /// φd cells k ≤ NPHI_D − 1 − k of each row. Otherwise this is [`Evaluator::eval_table`],
+    /// every cell evaluated, in order.
+    pub fn eval_table_runs(
         &self,
         params: &ParamSet,
         white_furnace: bool,
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
-    ) -> Result<()> {
+    ) -> Result<u64> {
+        let reciprocal = (self.assume_reciprocal || params.model().is_reciprocal())
+            // The mirrors take isotropy too (f even in Δφ; the grids refuse other sets).
+            && params.is_isotropic();
+        let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
+            let mut count = InvalidCount::default();
+            count.add_f32(first, values, |cell| grid.pair_at(cell));
+            self.check_invalid(params, count, "evaluating a table")?;
+            sink(first, values)
+        };
+        match *grid {
+            Grid::Isotropic {
+                n_theta_i,
+                n_theta_o,
+                ..
+            } if reciprocal && n_theta_i == n_theta_o => {}
+            Grid::HalfDiff { n_phi_d, .. }
+                if reciprocal && self.backend.precision() == Precision::F32 =>
+            {
+                let row = n_phi_d as u64;
+                return self.eval_table_by_pairs(params, white_furnace, grid, row, sink);
+            }
+            _ => {
+                self.eval_table(params, white_furnace, grid, sink)?;
+                return grid
+                    .cells()
+                    .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"));
+            }
+        }
+        self.backend.table_reciprocal(
+            Query::one(params, white_furnace),
+            &grid.wi_list(),
+            &grid.wo_list(),
+            self.fast_pow,
+            self.cancel,
+            sink,
+        )
+    }
+
+    /// A table on a grid that is not an outer product (`halfdiff`): each chunk's (ωi, ωo) pairs
+    /// are made on the CPU and evaluated as pairs; memory stays bounded by the chunk. Returns
+    /// the evaluations made. With `mirror_row` > 1, the table's last axis (φd, `mirror_row`
+    /// cells) is symmetric about its middle, f(φd) = f(π − φd) (docs/design.md §4.5): chunks
+    /// hold whole rows, and in each row only cell k ≤ mirror_row − 1 − k is evaluated and
+    /// copied to mirror_row − 1 − k.
+    fn eval_table_by_pairs(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        mirror_row: u64,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<u64> {
         let cells = grid
             .cells()
             .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"))?;
-        let mut first = 0u64;
+        let row = mirror_row.max(1);
+        let chunk = (PAIR_CHUNK_CELLS / row).max(1) * row;
+        let mirror = |cell: u64| cell - cell % row + (row - 1 - cell % row);
+        let (mut first, mut evaluations) = (0u64, 0u64);
         while first < cells {
-            let count = PAIR_CHUNK_CELLS.min(cells - first);
-            let pairs: Vec<(DVec3, DVec3)> = (first..first + count)
-                .into_par_iter()
-                .map(|cell| grid.pair_at(cell))
+            let count = chunk.min(cells - first);
+            let evaluated: Vec<u64> = (first..first + count)
+                .filter(|&cell| cell <= mirror(cell))
+                .collect();
+            let pairs: Vec<(DVec3, DVec3)> = evaluated
+                .par_iter()
+                .map(|&cell| grid.pair_at(cell))
                 .collect();
             let f = self.eval_pairs_unchecked(params, white_furnace, &pairs)?;
-            let buf: Vec<f32> = f.iter().flat_map(|v| v.map(|x| x as f32)).collect();
+            let mut buf = vec![0.0f32; count as usize * 3];
+            for (&cell, v) in evaluated.iter().zip(&f) {
+                let v = v.map(|x| x as f32);
+                let at = (cell - first) as usize * 3;
+                buf[at..at + 3].copy_from_slice(&v);
+                if mirror(cell) != cell {
+                    let at = (mirror(cell) - first) as usize * 3;
+                    buf[at..at + 3].copy_from_slice(&v);
+                }
+            }
             sink(first, &buf)?;
+            evaluations += f.len() as u64;
             first += count;
         }
-        Ok(())
+        Ok(evaluations)
     }
 }

@@ -15,6 +15,11 @@
 // Cells past the chunk's end (in the last invocations) are evaluated with i clamped to the last
 // row and written to the output buffer's padding, which the host sizes for whole invocations;
 // so the kernel has no bounds branch.
+//
+// UPPER_TRIANGLE (docs/design.md §4.5): the isotropic grid of a reciprocal model with equal θ
+// axes, wo = (θo, Δφ) row-major, n_wo = n_wi · NDPHI. Only the cells with o ≥ i are made, packed
+// row after row (row i holds view cells i · NDPHI .. n_wo − 1), and `first` counts packed cells;
+// the host copies each cell (i, o, Δφ) with o > i to (o, i, Δφ).
 #include "common.glsl"
 #include "model.glsl"
 
@@ -24,6 +29,8 @@ layout(constant_id = 2) const uint EVALS_PER_INVOCATION = 8u;
 // Read the direction lists through the texel buffers of bindings 4 and 5 instead of the storage
 // buffers of bindings 1 and 2 (the host turns it on where the lists fit maxTexelBufferElements).
 layout(constant_id = 20) const bool TEXEL_DIRECTIONS = false;
+// Make the packed upper triangle instead of every cell (see the top of the file).
+layout(constant_id = 22) const bool UPPER_TRIANGLE = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
 layout(std430, set = 0, binding = 1) readonly buffer LightDirs { vec4 wi_list[]; };
@@ -53,12 +60,38 @@ vec3 view_dir(uint o) {
     return wo_list[o].xyz;
 }
 
+// Row i and view cell o of packed cell `cell` of the upper triangle. Counted from the table's
+// end, row n − 1 − r holds r + 1 (θi, θo) pairs, so the q-th pair from the end lies in the row
+// r with r(r + 1)/2 ≤ q < (r + 1)(r + 2)/2; the float square root finds r to within one, the two
+// loops make it exact. Twin of UpperTriangle::locate (src/backend/mirror.rs). n(n + 1) fits a
+// uint: the host refuses tables of 2^32 cells or more.
+void upper_start(uint cell, uint n_dphi, out uint i, out uint o) {
+    uint n = chunk.n_wi;
+    uint pairs = n * (n + 1u) / 2u;
+    uint pair = cell / n_dphi;
+    uint d = cell - pair * n_dphi;
+    // Cells past the table's end (padding of the last invocation) start at its last pair.
+    uint q = pairs - 1u - min(pair, pairs - 1u);
+    uint r = uint((sqrt(8.0 * float(q) + 1.0) - 1.0) * 0.5);
+    while (r > 0u && r * (r + 1u) / 2u > q) --r;
+    while ((r + 1u) * (r + 2u) / 2u <= q) ++r;
+    i = n - 1u - r;
+    o = (n - 1u - (q - r * (r + 1u) / 2u)) * n_dphi + d;
+}
+
 void main() {
     MODEL_PARAMS p = params[0];
     uint local0 = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
     uint cell = chunk.first + local0;
-    uint i = cell / chunk.n_wo;
-    uint o = cell - i * chunk.n_wo;
+    uint n_dphi = UPPER_TRIANGLE ? chunk.n_wo / chunk.n_wi : 0u;
+    uint i;
+    uint o;
+    if (UPPER_TRIANGLE) {
+        upper_start(cell, n_dphi, i, o);
+    } else {
+        i = cell / chunk.n_wo;
+        o = cell - i * chunk.n_wo;
+    }
     uint last_i = chunk.n_wi - 1u;
     vec3 wi = light_dir(min(i, last_i));
     uint out_index = 3u * (local0 / 4u);
@@ -67,8 +100,8 @@ void main() {
         for (uint r = 0u; r < 4u; ++r) {
             f[r] = brdf(p, wi, view_dir(o));
             if (++o == chunk.n_wo) {
-                o = 0u;
                 ++i;
+                o = UPPER_TRIANGLE ? min(i, last_i) * n_dphi : 0u;
                 wi = light_dir(min(i, last_i));
             }
         }

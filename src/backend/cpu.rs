@@ -1,4 +1,6 @@
-//! The f64 CPU reference as a backend: each model's f64 twin, rayon over every core.
+//! The f64 CPU reference as a backend: each model's f64 twin, rayon over every core. Tables
+//! evaluate every cell, reciprocal ones too (the default [`Backend::table_reciprocal`]): the
+//! reference makes each cell from its own directions.
 
 use super::scene::Scene;
 use super::shade::render_cells_cpu;

@@ -6,10 +6,12 @@
 //! and rules as node lists, and results as f64.
 
 mod cpu;
+mod mirror;
 pub mod scene;
 pub mod shade;
 
 pub use cpu::CpuBackend;
+pub use mirror::UpperTriangle;
 
 use crate::interrupt::CancelToken;
 use crate::model::{Model, ParamSet};
@@ -75,7 +77,9 @@ pub trait NodeRule: Sync {
 /// One rule's sums for several parameter sets: `[set][ωo]` of (Σ w f, the number of nodes).
 pub type RowSums = Vec<Vec<(DVec3, u64)>>;
 
-/// Receives each finished chunk of a table, in order: its first cell and its RGB values.
+/// Receives runs of a table's cells: the first cell's index and the RGB values. From
+/// [`Backend::table`] the runs are its chunks, in order; from [`Backend::table_reciprocal`] they
+/// come in any order, each cell once.
 pub type TableSink<'a> = dyn FnMut(u64, &[f32]) -> Result<()> + 'a;
 
 /// Where f is evaluated: the jobs' one way down to the CPU reference or the Vulkan kernels.
@@ -118,6 +122,24 @@ pub trait Backend: Send + Sync {
         cancel: Option<&CancelToken>,
         sink: &mut TableSink<'_>,
     ) -> Result<()>;
+
+    /// The isotropic table of a reciprocal model with equal θ axes (docs/design.md §4.5):
+    /// `wi[i]` at (θ_i, φ = 0), `wo[o · NDPHI + d]` at (θ_o, Δφ_d), NDPHI = wo.len() / wi.len().
+    /// A backend may evaluate only the cells with o ≥ i and give each cell (o, i, d), o > i, the
+    /// value of (i, o, d); runs of cells go to `sink` in any order, each cell once. Returns the
+    /// BRDF evaluations made. By default every cell is evaluated ([`Backend::table`]).
+    fn table_reciprocal(
+        &self,
+        query: Query,
+        wi: &[DVec3],
+        wo: &[DVec3],
+        fast_pow: bool,
+        cancel: Option<&CancelToken>,
+        sink: &mut TableSink<'_>,
+    ) -> Result<u64> {
+        self.table(query, wi, wo, fast_pow, cancel, sink)?;
+        Ok(wi.len() as u64 * wo.len() as u64)
+    }
 
     /// Σ w f(ωi, ωo) over each rule's nodes, for each parameter set and each ωo:
     /// `[rule][set][ωo]`. A direction's nodes are made once for every set.

@@ -126,13 +126,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
 fn print_csv(out: &mut impl Write, rows: &[Throughput]) -> Result<()> {
     writeln!(
         out,
-        "model,task,backend,evaluations,wall_evals_per_s,kernel_evals_per_s"
+        "model,task,backend,evaluations,wall_evals_per_s,kernel_evals_per_s,cells,wall_cells_per_s"
     )?;
     for r in rows {
-        let k = r.kernel_per_s.map(|k| k.to_string()).unwrap_or_default();
+        let text = |v: Option<String>| v.unwrap_or_default();
+        let k = text(r.kernel_per_s.map(|k| k.to_string()));
+        let cells = text(r.cells.map(|c| c.to_string()));
+        let cells_per_s = text(r.cells_wall_per_s.map(|c| c.to_string()));
         writeln!(
             out,
-            "{},{},{},{},{},{k}",
+            "{},{},{},{},{},{k},{cells},{cells_per_s}",
             r.model, r.task, r.backend, r.evaluations, r.wall_per_s
         )?;
     }
@@ -148,7 +151,10 @@ fn print_table(
 ) -> Result<()> {
     writeln!(
         out,
-        "evaluations per second, median of {} runs: table = {} cells of an isotropic table; \
+        "BRDF evaluations per second (wall, kernel) and table cells written per second (cells), \
+             median of {} runs: table = {} cells of an isotropic table (a reciprocal model's \
+             table with equal theta axes evaluates the cells with theta_i <= theta_o and copies \
+             the others); \
              albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
              lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
         a.repeats,
@@ -178,22 +184,20 @@ fn print_table(
     }
     writeln!(
         out,
-        "{:<18} {:<7} {:<44} {:>14} {:>16}",
-        "model", "task", "backend", "wall (M/s)", "kernel (M/s)"
+        "{:<18} {:<7} {:<44} {:>14} {:>16} {:>15}",
+        "model", "task", "backend", "wall (M/s)", "kernel (M/s)", "cells (M/s)"
     )?;
+    let millions = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{:.1}", v / 1e6));
     for r in rows {
-        let k = r
-            .kernel_per_s
-            .map(|k| format!("{:.1}", k / 1e6))
-            .unwrap_or_else(|| "-".into());
         writeln!(
             out,
-            "{:<18} {:<7} {:<44} {:>14.1} {:>16}",
+            "{:<18} {:<7} {:<44} {:>14.1} {:>16} {:>15}",
             r.model,
             r.task,
             r.backend,
             r.wall_per_s / 1e6,
-            k
+            millions(r.kernel_per_s),
+            millions(r.cells_wall_per_s)
         )?;
     }
     Ok(())

@@ -78,6 +78,14 @@ pub struct TableArgs {
     /// (without it such a table is written only where none exists).
     #[arg(long)]
     allow_invalid: bool,
+    /// Take the model as reciprocal, f(wi, wo) = f(wo, wi), where it does not say so itself (a
+    /// .brdf file; built-in models and MERL files are): on the isotropic grid with NTHETA_I =
+    /// NTHETA_O only the cells with theta_i <= theta_o are evaluated and each is copied into
+    /// its mirror cell, so for a model that is not reciprocal both cells hold f at
+    /// theta_i <= theta_o; on the three-number halfdiff grid likewise phi_d <= 90 deg is copied
+    /// to 180 deg - phi_d. Other grids are unaffected.
+    #[arg(long, conflicts_with = "scene")]
+    reciprocal: bool,
 }
 
 pub fn run(a: TableArgs) -> Result<()> {
@@ -120,21 +128,30 @@ pub fn run(a: TableArgs) -> Result<()> {
     let progress = bar(cells, "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}");
     progress.set_message(format!("{} table", params.model().name()));
     let started = std::time::Instant::now();
-    let written = session.write_table(
+    let mut show = |done, _| progress.set_position(done);
+    fn allow_hint(e: impl std::fmt::Display) -> anyhow::Error {
+        anyhow!("{e} (--allow-invalid lets it replace the existing table)")
+    }
+    let write = if a.reciprocal {
+        lobe::Session::write_table_reciprocal
+    } else {
+        lobe::Session::write_table
+    };
+    let written = write(
+        &session,
         &params,
         a.model.white_furnace,
         grid,
         output,
         a.allow_invalid,
-        &mut |done, _| progress.set_position(done),
-    );
-    progress.finish_and_clear();
-    let invalid = written.map_err(|e| match &e {
-        lobe::Error::Input { input, .. } if input.option == "allow_invalid" => {
-            anyhow!("{e} (--allow-invalid lets it replace the existing table)")
-        }
+        &mut show,
+    )
+    .map_err(|e| match &e {
+        lobe::Error::Input { input, .. } if input.option == "allow_invalid" => allow_hint(e),
         _ => e.into(),
-    })?;
+    });
+    progress.finish_and_clear();
+    let invalid = written?;
     super::warn_invalid(params.model().name(), &invalid);
     let (npy, json) = lobe::table::sibling_paths(output);
     eprintln!(

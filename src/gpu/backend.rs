@@ -3,7 +3,7 @@
 
 use super::{Gpu, GpuPair, TableSwitches};
 use crate::backend::scene::Scene;
-use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink};
+use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink, UpperTriangle};
 use crate::interrupt::CancelToken;
 use crate::model::{Brdf, Model, ParamSet};
 use anyhow::Result;
@@ -18,6 +18,34 @@ fn f32x4(v: DVec3) -> [f32; 4] {
 /// The std430 parameter block of each set.
 fn blocks(sets: &[ParamSet]) -> Vec<Vec<u8>> {
     sets.iter().map(|p| Brdf::new(p).gpu_block()).collect()
+}
+
+/// The table kernel on the query's first set (none: nothing to do), `switches` but for the
+/// white furnace taken from the query.
+fn run_table(
+    gpu: &Gpu,
+    query: &Query,
+    wi: &[DVec3],
+    wo: &[DVec3],
+    switches: TableSwitches,
+    sink: &mut TableSink<'_>,
+) -> Result<()> {
+    let Some(params) = query.sets.first() else {
+        return Ok(());
+    };
+    let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
+    let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
+    gpu.eval_table::<anyhow::Error>(
+        params.model(),
+        &Brdf::new(params).gpu_block(),
+        &wi,
+        &wo,
+        TableSwitches {
+            white_furnace: query.white_furnace,
+            ..switches
+        },
+        sink,
+    )
 }
 
 /// The kernel's model: the query's, which must be one.
@@ -83,22 +111,40 @@ impl Backend for Gpu {
         _cancel: Option<&CancelToken>,
         sink: &mut TableSink<'_>,
     ) -> Result<()> {
-        let Some(params) = query.sets.first() else {
-            return Ok(());
+        let switches = TableSwitches {
+            fast_pow,
+            ..TableSwitches::default()
         };
-        let wi: Vec<[f32; 4]> = wi.iter().map(|v| f32x4(*v)).collect();
-        let wo: Vec<[f32; 4]> = wo.iter().map(|v| f32x4(*v)).collect();
-        self.eval_table::<anyhow::Error>(
-            params.model(),
-            &Brdf::new(params).gpu_block(),
-            &wi,
-            &wo,
-            TableSwitches {
-                white_furnace: query.white_furnace,
-                fast_pow,
-            },
-            sink,
-        )
+        run_table(self, &query, wi, wo, switches, sink)
+    }
+
+    /// The upper triangle by the table kernel (UPPER_TRIANGLE), each chunk scattered as it comes
+    /// back, while the next runs: memory is the two output chunks and one chunk of mirror images.
+    fn table_reciprocal(
+        &self,
+        query: Query,
+        wi: &[DVec3],
+        wo: &[DVec3],
+        fast_pow: bool,
+        _cancel: Option<&CancelToken>,
+        sink: &mut TableSink<'_>,
+    ) -> Result<u64> {
+        if query.sets.is_empty() || wi.is_empty() || wo.is_empty() {
+            return Ok(0);
+        }
+        let triangle = UpperTriangle::new(wi.len() as u64, (wo.len() / wi.len()) as u64);
+        let switches = TableSwitches {
+            fast_pow,
+            upper_triangle: true,
+            ..TableSwitches::default()
+        };
+        let mut scratch = Vec::new();
+        let mut evaluations = 0;
+        run_table(self, &query, wi, wo, switches, &mut |first, values| {
+            evaluations += values.len() as u64 / 3;
+            triangle.scatter(first, values, &mut scratch, sink)
+        })?;
+        Ok(evaluations)
     }
 
     fn rule_sums(

@@ -53,8 +53,8 @@ pub struct GpuPair {
 }
 
 /// What tells pipelines apart: the kernel, the model (with its component choices), and the
-/// white-furnace, fast-pow and texel-directions specialization constants.
-type PipelineKey = (Kernel, Model, bool, bool, bool);
+/// white-furnace, fast-pow, texel-directions and upper-triangle specialization constants.
+type PipelineKey = (Kernel, Model, bool, bool, bool, bool);
 
 /// The specialization switches of a table pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -63,6 +63,9 @@ pub struct TableSwitches {
     pub white_furnace: bool,
     /// cos^n lobes by GLSL's plain pow (exp2(n log2 x)): a speed-for-accuracy variant.
     pub fast_pow: bool,
+    /// Only the cells with θo index ≥ θi index of an isotropic table with equal θ axes, packed
+    /// row after row ([`crate::backend::UpperTriangle`], docs/design.md §4.5).
+    pub upper_triangle: bool,
 }
 
 /// Receives each finished chunk of a table: its first cell's index and its RGB values.
@@ -120,7 +123,19 @@ impl Gpu {
         fast_pow: bool,
         texel_directions: bool,
     ) -> Result<Arc<Pipeline>> {
-        let key = (kernel, model, white_furnace, fast_pow, texel_directions);
+        self.pipeline_keyed((
+            kernel,
+            model,
+            white_furnace,
+            fast_pow,
+            texel_directions,
+            false,
+        ))
+    }
+
+    /// The pipeline for `key`, built on first use (see [`Gpu::pipeline`]).
+    fn pipeline_keyed(&self, key: PipelineKey) -> Result<Arc<Pipeline>> {
+        let (kernel, model, white_furnace, fast_pow, texel_directions, upper_triangle) = key;
         let mut cache = lock(&self.pipelines);
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
@@ -138,6 +153,7 @@ impl Gpu {
             white_furnace,
             fast_pow,
             texel_directions,
+            upper_triangle,
         )?);
         if let Some(log) = &self.log {
             log(&format!(
@@ -220,7 +236,9 @@ impl Gpu {
     }
 
     /// The outer product table f(`wi[i]`, `wo[o]`), cell = i * wo.len() + o, handed to `sink` one
-    /// chunk at a time as (first cell, rgb values).
+    /// chunk at a time as (first cell, rgb values). With `switches.upper_triangle`, only the
+    /// packed cells of [`crate::backend::UpperTriangle`] (wo.len() a multiple of wi.len()), and
+    /// "cell" counts packed cells.
     pub fn eval_table<E: From<GpuError>>(
         &self,
         model: Model,
@@ -233,15 +251,9 @@ impl Gpu {
         let TableSwitches {
             white_furnace,
             fast_pow,
+            upper_triangle,
         } = switches;
-        let cells = wi.len() as u64 * wo.len() as u64;
-        if cells > u32::MAX as u64 {
-            return Err(GpuError::Limit(format!(
-                "a table of {cells} cells exceeds the GPU kernel's 32-bit cell index (at most {})",
-                u32::MAX
-            ))
-            .into());
-        }
+        let cells = table_cells(wi.len() as u64, wo.len() as u64, upper_triangle)?;
         if wi.is_empty() || wo.is_empty() {
             return Ok(());
         }
@@ -251,13 +263,14 @@ impl Gpu {
             wi.len() as u64,
             wo.len() as u64,
         );
-        let pipe = self.pipeline_with(
+        let pipe = self.pipeline_keyed((
             Kernel::Table,
             model,
             white_furnace,
             fast_pow,
             choice.texel_directions,
-        )?;
+            upper_triangle,
+        ))?;
         // Whole invocations per chunk, so that every chunk but the last starts on an
         // invocation's first cell (the kernel's `first` is a multiple of its evaluations).
         let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
@@ -314,6 +327,31 @@ impl Gpu {
         }
         Ok(())
     }
+}
+
+/// The cells the table kernel makes for lists of `n_wi` and `n_wo` directions: every cell, or
+/// with `upper_triangle` the packed cells of [`crate::backend::UpperTriangle`]. Refuses a table
+/// whose cell index does not fit the kernel's 32 bits (nor then n(n + 1) in its upper-triangle
+/// start), and an upper triangle whose view list is not NTHETA × NDPHI directions.
+fn table_cells(n_wi: u64, n_wo: u64, upper_triangle: bool) -> Result<u64> {
+    let product = n_wi * n_wo;
+    if product > u32::MAX as u64 {
+        return Err(GpuError::Limit(format!(
+            "a table of {product} cells exceeds the GPU kernel's 32-bit cell index (at most {})",
+            u32::MAX
+        )));
+    }
+    if !upper_triangle {
+        return Ok(product);
+    }
+    let n_dphi = n_wo.checked_div(n_wi).unwrap_or(0);
+    if n_dphi * n_wi != n_wo {
+        return Err(GpuError::Limit(format!(
+            "an upper-triangle table needs a view list of NTHETA x NDPHI directions; {n_wo} is \
+             not a multiple of the {n_wi} light directions"
+        )));
+    }
+    Ok(crate::backend::UpperTriangle::new(n_wi, n_dphi).cells())
 }
 
 /// How the table kernel runs on a device: the host's choices, made once per job.

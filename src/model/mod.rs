@@ -139,6 +139,17 @@ impl Model {
         }
     }
 
+    /// Whether f(ωi, ωo) = f(ωo, ωi) for every parameter set, so that a lobe table may copy a
+    /// cell's mirror image instead of evaluating it (docs/design.md §4.5). Every built-in model
+    /// is reciprocal; a model defined at run time only where it says so
+    /// ([`runtime::RuntimeModel::with_reciprocity`]: MERL tables do, `.brdf` files do not).
+    pub fn is_reciprocal(self) -> bool {
+        match self {
+            Model::Runtime(r) => r.is_reciprocal(),
+            _ => true,
+        }
+    }
+
     /// The bound on each chunk's GPU wait that the model sets for itself (a model defined at
     /// run time may: [`runtime::RuntimeModel::with_chunk_timeout`]).
     pub fn chunk_timeout(self) -> Option<std::time::Duration> {

@@ -20,7 +20,7 @@ use anyhow::{bail, Result};
 use exr::prelude::*;
 use serde_json::Value;
 use std::borrow::BorrowMut;
-use std::io::Write;
+use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 
 /// The file beside `exr_path` named by its stem, `suffix` and `ext`: `PATH.ext` for an empty
@@ -209,9 +209,16 @@ impl<S: BorrowMut<FileSet>> ArtifactSet<S> {
     pub fn npy_stream(&self, k: usize, shape: &[usize]) -> Result<NpyStream<'_>> {
         let dest = &self.npy[k];
         let mut w = self.member(k).writer();
-        w.write_all(&npy::header(shape))
+        let header = npy::header(shape);
+        w.write_all(&header)
             .map_err(|e| encoder_error(dest, "npy", e))?;
-        Ok(NpyStream { w, dest })
+        let start = header.len() as u64;
+        Ok(NpyStream {
+            w,
+            dest,
+            start,
+            at: start,
+        })
     }
 
     /// Writes the EXR from layers in memory; the image's size is the first layer's.
@@ -322,12 +329,30 @@ fn member_order<'a>(
 pub struct NpyStream<'a> {
     w: OutputWriter<'a>,
     dest: &'a Path,
+    /// Where the values begin (the header's length) and where the next write lands, in bytes.
+    start: u64,
+    at: u64,
 }
 
 impl NpyStream<'_> {
     /// Appends `values` (row-major, continuing where the last call ended).
     pub fn write(&mut self, values: &[f32]) -> Result<()> {
-        npy::write_f32(&mut self.w, values).map_err(|e| encoder_error(self.dest, "npy", e))
+        npy::write_f32(&mut self.w, values).map_err(|e| encoder_error(self.dest, "npy", e))?;
+        self.at += values.len() as u64 * 4;
+        Ok(())
+    }
+
+    /// Writes `values` from value index `first` on (row-major), seeking only where the last
+    /// write did not end there: runs of a table may arrive out of order.
+    pub fn write_at(&mut self, first: u64, values: &[f32]) -> Result<()> {
+        let place = self.start + first * 4;
+        if self.at != place {
+            self.w
+                .seek(std::io::SeekFrom::Start(place))
+                .map_err(|e| encoder_error(self.dest, "npy", e))?;
+            self.at = place;
+        }
+        self.write(values)
     }
 
     /// Flushes the file; a late write error is not lost. Whether the values fill the shape is

@@ -221,21 +221,48 @@ impl Session {
         replace_invalid: bool,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<InvalidCount> {
-        crate::table::check_request(params, &grid, exr_path).lobe()?;
         let meta = TableMeta {
             params,
             white_furnace,
             grid,
             backend: self.backend_name(),
         };
-        crate::table::write_table_with(
-            &self.evaluator(),
-            &meta,
-            exr_path,
-            replace_invalid,
-            progress,
-        )
-        .lobe()
+        self.write_table_as(&meta, false, exr_path, replace_invalid, progress)
+    }
+
+    /// [`Session::write_table`] of a model taken as reciprocal, f(ωi, ωo) = f(ωo, ωi), where it
+    /// does not declare it (a `.brdf` file): on a grid that allows it, each cell with θi ≤ θo is
+    /// evaluated and copied into its mirror cell (docs/design.md §4.5), so for a model that is
+    /// not reciprocal both cells hold f at the first one's directions.
+    pub fn write_table_reciprocal(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: Grid,
+        exr_path: &Path,
+        replace_invalid: bool,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<InvalidCount> {
+        let meta = TableMeta {
+            params,
+            white_furnace,
+            grid,
+            backend: self.backend_name(),
+        };
+        self.write_table_as(&meta, true, exr_path, replace_invalid, progress)
+    }
+
+    fn write_table_as(
+        &self,
+        meta: &TableMeta,
+        reciprocal: bool,
+        exr_path: &Path,
+        replace_invalid: bool,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<InvalidCount> {
+        crate::table::check_request(meta.params, &meta.grid, exr_path).lobe()?;
+        let eval = self.evaluator().assuming_reciprocity(reciprocal);
+        crate::table::write_table_with(&eval, meta, exr_path, replace_invalid, progress).lobe()
     }
 
     /// Writes `params` as a MERL file at `path` ([`crate::merl::write`]); `progress` receives

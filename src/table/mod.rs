@@ -207,8 +207,10 @@ pub fn write_table_with(
 }
 
 /// Evaluates the table on `eval` and writes `exr_path`, its `.npy` and its `.json` into `set`,
-/// which commits them (with whatever else it holds). The npy is streamed chunk by chunk; the EXR
-/// is then written from a memory map of the npy, so no step holds the whole table in memory.
+/// which commits them (with whatever else it holds). The npy is streamed run by run, each run
+/// written at its cells' place (a reciprocal table's mirror cells arrive out of order,
+/// [`Evaluator::eval_table_runs`]); the EXR is then written from a memory map of the npy, so no
+/// step holds the whole table in memory.
 /// `progress` receives (cells done, cells in all).
 pub fn stage_table(
     eval: &Evaluator,
@@ -241,7 +243,8 @@ pub fn stage_table_with(
     let files = ArtifactSet::stage(set, crate::output::TABLE_SET, exr_path, &[""], &[])?;
     {
         let mut w = files.npy_stream(0, &shape)?;
-        eval.eval_table(
+        let mut done = 0;
+        eval.eval_table_runs(
             meta.params,
             meta.white_furnace,
             &meta.grid,
@@ -249,8 +252,9 @@ pub fn stage_table_with(
                 // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
                 // way out and nothing is renamed into place.
                 eval.check_cancelled()?;
-                w.write(values)?;
-                progress(first + values.len() as u64 / 3, cells);
+                w.write_at(first * 3, values)?;
+                done += values.len() as u64 / 3;
+                progress(done, cells);
                 Ok(())
             },
         )?;

@@ -112,6 +112,10 @@ pub const TEXEL_DIRECTIONS_ID: u32 = 20;
 /// writes its own partial sum, no workgroup tree.
 pub const LANE_PARTIALS_ID: u32 = 21;
 
+/// Specialization constant id of UPPER_TRIANGLE (glsl/kernels/table.comp): the packed cells
+/// with θo index ≥ θi index of a reciprocal isotropic table (docs/design.md §4.5).
+pub const UPPER_TRIANGLE_ID: u32 = 22;
+
 /// Whether the albedo kernel writes one partial sum per invocation (LANE_PARTIALS) rather than
 /// one per workgroup. On a CPU driver a barrier switches between the workgroup's SIMD slices,
 /// and the tree's seven barriers per workgroup cost more than storing 64 partials and adding
@@ -191,6 +195,7 @@ impl Pipeline {
         white_furnace: bool,
         fast_pow: bool,
         texel_directions: bool,
+        upper_triangle: bool,
     ) -> Result<Pipeline> {
         let start = Instant::now();
         let model = source.model;
@@ -200,11 +205,16 @@ impl Pipeline {
         })?;
         let evals_per_invocation = evals_per_invocation(kernel, dev.cpu_kernels());
         let label = format!(
-            "{}/{}{}",
+            "{}/{}{}{}",
             kernel.name(),
             source.label,
             if white_furnace {
                 " (white furnace)"
+            } else {
+                ""
+            },
+            if upper_triangle {
+                " (upper triangle)"
             } else {
                 ""
             }
@@ -275,6 +285,10 @@ impl Pipeline {
             if matches!(kernel, Kernel::Table | Kernel::Albedo) {
                 ids.push(TEXEL_DIRECTIONS_ID);
                 spec_data.push(texel_directions as u32);
+            }
+            if kernel == Kernel::Table {
+                ids.push(UPPER_TRIANGLE_ID);
+                spec_data.push(upper_triangle as u32);
             }
             if kernel == Kernel::Albedo {
                 ids.push(LANE_PARTIALS_ID);

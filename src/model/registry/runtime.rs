@@ -48,6 +48,7 @@ pub struct RuntimeModel {
     chunk_timeout: Option<Duration>,
     defaults: Vec<(&'static str, Value)>,
     data: Option<&'static [u8]>,
+    reciprocal: bool,
 }
 
 impl std::fmt::Debug for RuntimeModel {
@@ -213,6 +214,7 @@ impl RuntimeModel {
             chunk_timeout: None,
             defaults: Vec::new(),
             data: None,
+            reciprocal: false,
         })
     }
 
@@ -300,6 +302,14 @@ impl RuntimeModel {
         self
     }
 
+    /// Declares f(ωi, ωo) = f(ωo, ωi) for every parameter set (a measured table looked up by
+    /// half and difference angles is so by construction); lobe tables may then copy mirror
+    /// cells instead of evaluating them (docs/design.md §4.5). Default: not declared.
+    pub fn with_reciprocity(mut self) -> RuntimeModel {
+        self.reciprocal = true;
+        self
+    }
+
     /// Makes the model known to [`Model::from_name`] for the rest of the process and returns it.
     /// Refuses a name that a built-in or registered model already has.
     pub fn register(self) -> Result<Model, ParamError> {
@@ -347,6 +357,11 @@ impl RuntimeModel {
     /// The data table the kernels read, if the model has one ([`RuntimeModel::with_data`]).
     pub fn data(&self) -> Option<&'static [u8]> {
         self.data
+    }
+
+    /// Whether the model declares reciprocity ([`RuntimeModel::with_reciprocity`]).
+    pub fn is_reciprocal(&self) -> bool {
+        self.reciprocal
     }
 }
 
