@@ -7,9 +7,13 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-/// A flag shared between whoever wants work stopped and the job's loops. Clones share the flag.
+/// A flag shared between whoever wants work stopped and the job's loops. Clones share the flag;
+/// a [`child`](CancelToken::child) has a flag of its own and is also set whenever its parent is.
 #[derive(Clone, Debug, Default)]
-pub struct CancelToken(Arc<AtomicBool>);
+pub struct CancelToken {
+    flag: Arc<AtomicBool>,
+    parent: Option<Box<CancelToken>>,
+}
 
 impl CancelToken {
     /// A token that is not set.
@@ -17,19 +21,39 @@ impl CancelToken {
         CancelToken::default()
     }
 
-    /// Asks every job that holds this token (or a clone) to stop at its next check.
+    /// A token that stops its jobs when it is set, or when this one is: one call's own stop
+    /// under a process-wide one (a server dropping a request its page no longer waits for, while
+    /// Ctrl-C still stops everything).
+    ///
+    /// ```
+    /// let all = lobe::CancelToken::new();
+    /// let (one, other) = (all.child(), all.child());
+    /// one.cancel();
+    /// assert!(one.is_cancelled() && !other.is_cancelled() && !all.is_cancelled());
+    /// all.cancel();
+    /// assert!(other.is_cancelled());
+    /// ```
+    pub fn child(&self) -> CancelToken {
+        CancelToken {
+            flag: Arc::default(),
+            parent: Some(Box::new(self.clone())),
+        }
+    }
+
+    /// Asks every job that holds this token (or a clone, or a child) to stop at its next check.
     pub fn cancel(&self) {
-        self.0.store(true, Ordering::SeqCst);
+        self.flag.store(true, Ordering::SeqCst);
     }
 
-    /// Whether [`CancelToken::cancel`] was called (and not [`CancelToken::reset`] since).
+    /// Whether [`CancelToken::cancel`] was called on this token or a parent (and not
+    /// [`CancelToken::reset`] since).
     pub fn is_cancelled(&self) -> bool {
-        self.0.load(Ordering::SeqCst)
+        self.flag.load(Ordering::SeqCst) || self.parent.as_ref().is_some_and(|p| p.is_cancelled())
     }
 
-    /// Clears the flag, so that the next job runs.
+    /// Clears this token's own flag (not a parent's), so that the next job runs.
     pub fn reset(&self) {
-        self.0.store(false, Ordering::SeqCst);
+        self.flag.store(false, Ordering::SeqCst);
     }
 
     /// `Err(Interrupted)` once the token is set.

@@ -12,6 +12,8 @@ mod downloads;
 mod merl;
 #[path = "explore/server.rs"]
 mod server;
+#[path = "explore/stale.rs"]
+mod stale;
 
 use serde_json::{json, Value};
 use server::{floats, http, http_claiming, manifest, Server};

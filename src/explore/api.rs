@@ -39,6 +39,7 @@ pub(crate) fn router(state: Arc<State>) -> Router {
             get(|| asset("text/css; charset=utf-8", STYLE_CSS)),
         )
         .route("/api/models", get(models))
+        .route("/api/status", get(status))
         .route("/api/polar", post(polar))
         .route("/api/hemisphere", post(hemisphere))
         .route("/api/slice", post(slice))
@@ -166,22 +167,50 @@ pub(super) async fn blocking<T: Send + 'static>(
 }
 
 /// Runs `job` on a blocking thread on the session that evaluates `model`
-/// ([`State::session_for`]); a shader that timed out retires its session.
+/// ([`State::session_for`]), with a cancellation token of its own: when the page stops waiting
+/// (it dropped a stale request, so the connection closed and this future is dropped), the job
+/// stops at its next chunk instead of finishing for no one. A shader that timed out retires its
+/// session.
 pub(super) async fn evaluate<T: Send + 'static>(
     state: &Arc<State>,
     model: Model,
     job: impl FnOnce(&crate::Session) -> crate::Result<T> + Send + 'static,
 ) -> Result<T, Refusal> {
     let state = state.clone();
+    let token = state.session.cancel_token().child();
+    let _stop = StopOnDrop(token.clone());
     blocking(move || {
         let session = state.session_for(model)?;
-        let result = job(&session);
-        if let Err(e) = &result {
-            state.retire_if_hung(&session, e);
+        let call = session.with_cancel(token.clone());
+        let result = job(&call);
+        match &result {
+            Err(crate::Error::Cancelled(_)) if !state.session.cancel_token().is_cancelled() => {
+                state
+                    .stopped
+                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            }
+            Err(e) => state.retire_if_hung(&session, e),
+            Ok(_) => {}
         }
         result
     })
     .await
+}
+
+/// Sets its token when dropped (see [`evaluate`]).
+struct StopOnDrop(crate::CancelToken);
+
+impl Drop for StopOnDrop {
+    fn drop(&mut self) {
+        self.0.cancel();
+    }
+}
+
+/// `GET /api/status`: evaluations stopped because their page stopped waiting, so far.
+async fn status(state: Shared) -> Response {
+    json_response(&json!({
+        "stopped": state.stopped.load(std::sync::atomic::Ordering::SeqCst),
+    }))
 }
 
 /// f32 RGB values as little-endian bytes, with the count of invalid values (NaN, ±Inf,

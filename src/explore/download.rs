@@ -6,7 +6,6 @@
 use super::api::{answer, bad, evaluate, Refusal, Shared};
 use super::limits::MAX_ASSIGNMENTS;
 use super::State;
-use crate::error::IntoLobe;
 use crate::grid::Grid;
 use crate::model::ParamSet;
 use crate::plot::{self, polar, Channel, Common, Request, Subject};
@@ -189,7 +188,7 @@ async fn polar_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
     let folder = scratch(&state)?;
     let bytes = evaluate(&state, model, move |session| {
         let svg = folder.path().join("polar.svg");
-        plot::plot(&session.evaluator(), &subjects, &common, &request, &svg).lobe()?;
+        session.plot(&subjects, &common, &request, &svg)?;
         read_back(&svg)
     })
     .await?;

@@ -84,6 +84,8 @@ pub(crate) struct State {
     /// The session models compiled at run time are evaluated on, once one was needed.
     pub shaders: Mutex<Option<Arc<Session>>>,
     pub brdf: crate::brdf::LoadOptions,
+    /// Evaluations stopped because their page stopped waiting for them.
+    pub stopped: std::sync::atomic::AtomicU64,
 }
 
 impl State {
@@ -161,6 +163,7 @@ impl Server {
             shader_options: opts.shader_session,
             shaders: Mutex::new(None),
             brdf: opts.brdf,
+            stopped: Default::default(),
         });
         Ok(Server {
             listener,

@@ -39,6 +39,7 @@ use crate::eval::Evaluator;
 use crate::gpu::{Device, DeviceOptions, Gpu, LogSink};
 use crate::integrate;
 use crate::interrupt::CancelToken;
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Which backend a session evaluates on.
@@ -93,7 +94,7 @@ impl std::fmt::Debug for SessionOptions {
 /// An open backend and everything built on it so far. `Send` and `Sync`: hold it in a worker
 /// thread, an `Arc`, or a Python object.
 pub struct Session {
-    gpu: Option<Gpu>,
+    gpu: Option<Arc<Gpu>>,
     cancel: CancelToken,
 }
 
@@ -124,7 +125,7 @@ impl Session {
                     force_staging: opts.staging,
                     ..DeviceOptions::default()
                 })?;
-                Some(Gpu::new(dev).with_log(opts.log.clone()))
+                Some(Arc::new(Gpu::new(dev).with_log(opts.log.clone())))
             }
         };
         Ok(Session {
@@ -142,6 +143,25 @@ impl Session {
         Session {
             gpu: None,
             cancel: CancelToken::new(),
+        }
+    }
+
+    /// This session's backend (the same device, and every kernel built on it) with `cancel` as its
+    /// cancellation token: one call's own stop, typically a [`CancelToken::child`] of this
+    /// session's token so that both stop it.
+    ///
+    /// ```
+    /// let session = lobe::Session::cpu();
+    /// let call = session.with_cancel(session.cancel_token().child());
+    /// call.cancel_token().cancel(); // stops this call's jobs only
+    /// assert!(!session.cancel_token().is_cancelled());
+    /// session.cancel_token().cancel(); // stops every call's too
+    /// assert!(session.with_cancel(session.cancel_token().child()).cancel_token().is_cancelled());
+    /// ```
+    pub fn with_cancel(&self, cancel: CancelToken) -> Session {
+        Session {
+            gpu: self.gpu.clone(),
+            cancel,
         }
     }
 
@@ -295,5 +315,28 @@ mod tests {
                 .unwrap_err();
             assert!(matches!(e, Error::Cancelled(_)), "{}: {e}", method.name());
         }
+    }
+
+    #[test]
+    fn a_call_with_its_own_token_stops_alone() {
+        let s = Session::cpu();
+        let call = s.with_cancel(s.cancel_token().child());
+        call.cancel_token().cancel();
+        let p = crate::resolve_params("lambert", None, &[]).unwrap();
+        let grid = Grid::Isotropic {
+            n_theta_i: 4,
+            n_theta_o: 4,
+            n_dphi: 4,
+        };
+        let e = call.table(&p, false, &grid, 1 << 20).unwrap_err();
+        assert!(matches!(e, Error::Cancelled(_)), "{e}");
+        // The session's own jobs and another call's run.
+        assert!(s.table(&p, false, &grid, 1 << 20).is_ok());
+        let other = s.with_cancel(s.cancel_token().child());
+        assert!(other.table(&p, false, &grid, 1 << 20).is_ok());
+        // The session's token stops every call.
+        s.cancel_token().cancel();
+        let e = other.table(&p, false, &grid, 1 << 20).unwrap_err();
+        assert!(matches!(e, Error::Cancelled(_)), "{e}");
     }
 }
