@@ -219,6 +219,17 @@ impl<'a> Evaluator<'a> {
             self.check_invalid(params, count, "evaluating a table")?;
             sink(first, values)
         };
+        self.every_cell(params, white_furnace, grid, sink)
+    }
+
+    /// [`Evaluator::eval_table`] without the check of invalid values (its callers make it once).
+    fn every_cell(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        grid: &Grid,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<()> {
         if !grid.is_product() {
             self.eval_table_by_pairs(params, white_furnace, grid, 1, sink)?;
             return Ok(());
@@ -271,7 +282,7 @@ impl<'a> Evaluator<'a> {
                 return self.eval_table_by_pairs(params, white_furnace, grid, row, sink);
             }
             _ => {
-                self.eval_table(params, white_furnace, grid, sink)?;
+                self.every_cell(params, white_furnace, grid, sink)?;
                 return grid
                     .cells()
                     .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"));

@@ -3,8 +3,7 @@
 //! written into a folder of its own inside the server's temporary folder, read back and removed,
 //! so a download is byte for byte the file of the command line the page shows beside it.
 
-use super::api::{answer, bad, evaluate, Refusal, Shared};
-use super::limits::MAX_ASSIGNMENTS;
+use super::reply::{answer, bad, check_incidence, evaluate, resolve, Refusal, Shared};
 use super::State;
 use crate::grid::Grid;
 use crate::model::ParamSet;
@@ -37,14 +36,7 @@ struct ModelEntry {
 
 impl ModelEntry {
     fn params(&self) -> Result<ParamSet, Refusal> {
-        if self.sets.len() > MAX_ASSIGNMENTS {
-            return Err(bad(format!(
-                "{} assignments: at most {MAX_ASSIGNMENTS} are accepted",
-                self.sets.len()
-            )));
-        }
-        crate::resolve_params(&self.model, self.material.as_deref(), &self.sets)
-            .map_err(|e| bad(format!("model {}: {e}", self.model)))
+        resolve(&self.model, self.material.as_deref(), &self.sets)
     }
 
     /// The label `lobe plot` gives the model named `NAME{K=V,...}` (with its preset in front),
@@ -149,12 +141,7 @@ async fn polar_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
             req.models.len()
         )));
     }
-    if !(req.theta_i_deg.is_finite() && (0.0..90.0).contains(&req.theta_i_deg)) {
-        return Err(bad(format!(
-            "theta_i_deg {}: expected an incidence angle in [0, 90) degrees",
-            req.theta_i_deg
-        )));
-    }
+    check_incidence(req.theta_i_deg)?;
     let subjects = req
         .models
         .iter()

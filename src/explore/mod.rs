@@ -12,6 +12,7 @@ mod api;
 mod download;
 mod guard;
 mod limits;
+mod reply;
 mod upload;
 
 pub use limits::*;

@@ -2,9 +2,9 @@
 //! the server's temporary folder under a name of its own and loaded by the code behind
 //! `--model PATH`, with the same limits; messages name the file as the page gave it.
 
-use super::api::{answer, bad, json_response, model_json, Refusal, Shared};
 use super::guard::query_value;
 use super::limits::{MAX_BRDF_BYTES, MAX_MERL_BYTES, MAX_UPLOADS};
+use super::reply::{answer, bad, json_response, model_json, Refusal, Shared};
 use super::State;
 use axum::body::Bytes;
 use axum::extract::Request;
