@@ -12,6 +12,7 @@ use lobe::gpu::{Device, DeviceOptions, Gpu};
 use lobe::grid::Grid;
 use lobe::model::{Model, ParamSet};
 use lobe::Evaluator;
+use lobe::Query;
 
 /// 1.0e6 evaluations per iteration: long enough to dwarf a submit on lavapipe.
 const GRID: Grid = Grid::Isotropic {
@@ -21,7 +22,7 @@ const GRID: Grid = Grid::Isotropic {
 };
 
 fn eval(e: &Evaluator, p: &ParamSet) {
-    e.eval_table(p, false, &GRID, &mut |_, v| {
+    e.eval_table(p, &GRID, &mut |_, v| {
         std::hint::black_box(v);
         Ok(())
     })
@@ -61,7 +62,7 @@ fn albedo_throughput(c: &mut Criterion) {
         for model in Model::ALL {
             let p = ParamSet::defaults(model);
             group.bench_function(model.name(), |b| {
-                b.iter(|| rule_albedo(&e, &p, false, ALBEDO_RULE, &wo).expect("albedo"))
+                b.iter(|| rule_albedo(&e, &p, ALBEDO_RULE, &wo).expect("albedo"))
             });
         }
         group.finish();
@@ -73,7 +74,7 @@ fn lut_throughput(c: &mut Criterion) {
     let dev = Device::open(&DeviceOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = Gpu::new(dev);
     let params = lobe::resolve_params("microfacet", None, &[]).expect("microfacet");
-    let spec = lut_spec(&params, true);
+    let spec = lut_spec(Query::one(&params).with_white_furnace(true));
     let evaluations = lut_evaluations(&spec).expect("LUT spec");
     for (name, e) in [("gpu", Evaluator::gpu(&gpu)), ("cpu_f64", Evaluator::cpu())] {
         let mut group = c.benchmark_group(format!("lut_{name}"));

@@ -20,7 +20,7 @@ fn main() -> lobe::Result<()> {
         n_theta_o: 16,
         n_dphi: 32,
     };
-    let table = session.table(&gold, false, &grid, 1 << 20)?;
+    let table = session.table(&gold, &grid, 1 << 20)?;
     let peak = table.data().chunks(3).map(|c| c[0]).fold(0.0, f32::max);
     println!(
         "{}: {} cells, peak f (red) {peak:.3}/sr, f at the first cell {:?}",

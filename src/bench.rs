@@ -4,6 +4,7 @@
 //! upload and read-back) and on the CPU reference (wall time, all cores). The two backends never
 //! run at the same time: on lavapipe both would compete for the same cores.
 
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::grid::Grid;
 use crate::integrate::Method;
@@ -94,23 +95,24 @@ pub fn measure(
     grid: &Grid,
     repeats: usize,
 ) -> Result<Throughput> {
-    measure_table(eval, params, false, grid, repeats)
+    measure_table(eval, params, grid, repeats)
 }
 
 /// [`measure`], optionally under the white furnace (docs/design.md §3). The table is made as
 /// `lobe table` makes it ([`Evaluator::eval_table_runs`]: a reciprocal model's isotropic table
 /// with equal θ axes evaluates about half its cells), so evaluations and cells are counted
 /// apart.
-pub fn measure_table(
+pub fn measure_table<'q>(
     eval: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: impl Into<Query<'q>>,
     grid: &Grid,
     repeats: usize,
 ) -> Result<Throughput> {
+    let query = query.into();
+    let params = query.params();
     let cells = grid.cells().unwrap_or(0);
     let mut t = time_task(eval, params, "table", repeats, || {
-        eval.eval_table_runs(params, white_furnace, grid, &mut |_, v| {
+        eval.eval_table_runs(query, grid, &mut |_, v| {
             std::hint::black_box(v);
             Ok(())
         })
@@ -130,12 +132,13 @@ pub const ALBEDO_RULE: crate::integrate::Rule = crate::integrate::Rule::Gauss { 
 
 /// Throughput of directional-albedo integration at [`ALBEDO_DIRECTIONS`] view directions with
 /// [`ALBEDO_RULE`], the median of `repeats` runs; evaluations = integrand evaluations.
-pub fn measure_albedo(
+pub fn measure_albedo<'q>(
     eval: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: impl Into<Query<'q>>,
     repeats: usize,
 ) -> Result<Throughput> {
+    let query = query.into();
+    let params = query.params();
     use crate::integrate::{rule_albedo, view_direction};
     let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
@@ -145,7 +148,7 @@ pub fn measure_albedo(
         + ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len();
     let evaluations = (per_direction * wo.len()) as u64;
     time_task(eval, params, "albedo", repeats, || {
-        std::hint::black_box(rule_albedo(eval, params, white_furnace, ALBEDO_RULE, &wo)?);
+        std::hint::black_box(rule_albedo(eval, query, ALBEDO_RULE, &wo)?);
         Ok(evaluations)
     })
 }
@@ -158,8 +161,9 @@ pub const LUT_RES: usize = 32;
 
 /// The LUT [`measure_lut`] times for `params`: the model's default axis at [`LUT_RES`] ×
 /// [`LUT_RES`] cells, the peak rule at [`LUT_SAMPLES`] nodes per direction.
-pub fn lut_spec(params: &ParamSet, white_furnace: bool) -> LutSpec {
-    let mut spec = LutSpec::new(params.clone(), white_furnace);
+pub fn lut_spec(query: Query) -> LutSpec {
+    let mut spec = LutSpec::new(query.params().clone());
+    spec.white_furnace = query.white_furnace;
     spec.n_mu = LUT_RES;
     spec.n_p = LUT_RES;
     spec.method = Method::Peak;
@@ -170,13 +174,14 @@ pub fn lut_spec(params: &ParamSet, white_furnace: bool) -> LutSpec {
 /// Throughput of an albedo look-up table ([`lut_spec`], computed as `lobe albedo --lut` does,
 /// no file written), the median of `repeats` runs; evaluations = integrand evaluations of every
 /// entry, the coarse checks included.
-pub fn measure_lut(
+pub fn measure_lut<'q>(
     eval: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: impl Into<Query<'q>>,
     repeats: usize,
 ) -> Result<Throughput> {
-    let spec = lut_spec(params, white_furnace);
+    let query = query.into();
+    let params = query.params();
+    let spec = lut_spec(query);
     let evaluations = lut_evaluations(&spec)?;
     time_task(eval, params, "lut", repeats, || {
         std::hint::black_box(crate::lut::compute(eval, &spec, &mut |_, _| {})?);

@@ -17,6 +17,7 @@
 //! the hemispherical Ē_A − Ē_B come from the albedo integrators ([`crate::integrate`]), delta
 //! lobes included.
 
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::grid::{angles_deg, half_diff_to_pair, pair_to_half_diff, theta_cell, Grid};
 use crate::input::BadInput;
@@ -307,8 +308,14 @@ pub fn compare(
             kept.push((cell, wi.z, weight));
         }
         if !pairs.is_empty() {
-            fa.extend(eval.eval_pairs(&a.params, opts.white_furnace, &pairs)?);
-            fb.extend(eval.eval_pairs(&b.params, opts.white_furnace, &pairs)?);
+            fa.extend(eval.eval_pairs(
+                Query::one(&a.params).with_white_furnace(opts.white_furnace),
+                &pairs,
+            )?);
+            fb.extend(eval.eval_pairs(
+                Query::one(&b.params).with_white_furnace(opts.white_furnace),
+                &pairs,
+            )?);
         }
         for (cell, cos_i, weight) in kept {
             bins.push(Bin { cos_i, weight });

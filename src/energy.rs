@@ -20,6 +20,7 @@
 //! an isotropic model): the energy the model drops (masking without multiple scattering, the
 //! horizon cutting a lobe, an under-normalized lobe). A negative loss is an average gain.
 
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::integrate::{
     albedo_rows, directional, hemispherical, HemiAlbedo, PointAlbedo, Settings,
@@ -88,20 +89,20 @@ pub fn evaluate(
     eval: &Evaluator,
     model: &str,
     case: &str,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: Query,
     method: crate::integrate::Method,
     samples: usize,
 ) -> Result<EnergyRow> {
+    let params = query.params();
     let s = Settings {
         method,
         samples,
-        white_furnace,
+        white_furnace: query.white_furnace,
     };
     let pts = mu_points();
     let dir = directional(eval, params, &s, &pts)?;
     let h = hemispherical(eval, params, &s, 0.0)?;
-    Ok(summarise(model, case, params, white_furnace, &dir, &h))
+    Ok(summarise(model, case, query, &dir, &h))
 }
 
 fn mu_points() -> Vec<(f64, f64)> {
@@ -112,11 +113,11 @@ fn mu_points() -> Vec<(f64, f64)> {
 fn summarise(
     model: &str,
     case: &str,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: Query,
     dir: &[PointAlbedo],
     h: &HemiAlbedo,
 ) -> EnergyRow {
+    let params = query.params();
     let (mut e_max, mut mu_at_max, mut err_at_max) = (f64::NEG_INFINITY, 1.0, 0.0);
     let mut error: f64 = h.e_avg_error.max_element();
     for d in dir {
@@ -132,7 +133,7 @@ fn summarise(
         model: model.to_string(),
         case: case.to_string(),
         parameters: params.to_text(),
-        white_furnace,
+        white_furnace: query.white_furnace,
         e_max,
         mu_at_max,
         e_normal: last.max_element(),
@@ -169,7 +170,7 @@ fn push_sweep(out: &mut Vec<(String, ParamSet)>, base: &ParamSet, sweep: usize) 
         .iter()
         .any(|s| keys.contains(&s.key) && s.kind == ParamKind::Rgb);
     if sweep > 0 && !colour {
-        let mut spec = LutSpec::new(base.clone(), false);
+        let mut spec = LutSpec::new(base.clone());
         spec.n_p = sweep;
         for p in spec.ps() {
             let set = spec.params_at(p)?;
@@ -304,7 +305,13 @@ pub fn report_series_each(
                 .zip(albedo_rows(eval, &params, &s, &pts, Some(0.0))?)
         {
             let h = h.expect("asked for the hemispherical albedo");
-            let row = summarise(label, case, white, *wf, &dir, &h);
+            let row = summarise(
+                label,
+                case,
+                Query::one(white).with_white_furnace(*wf),
+                &dir,
+                &h,
+            );
             rows.push(row);
             on_row(rows.last().unwrap(), rows.len() as u64, total)?;
         }

@@ -157,28 +157,25 @@ impl<'a> Evaluator<'a> {
     }
 
     /// f at each (ωi, ωo) pair, for one parameter set.
-    pub fn eval_pairs(
+    pub fn eval_pairs<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
-        let f = self.eval_pairs_unchecked(params, white_furnace, pairs)?;
+        let query = query.into();
+        let f = self.eval_pairs_unchecked(query, pairs)?;
         let mut count = InvalidCount::default();
         count.add_pairs(0, &f, pairs);
-        self.check_invalid(params, count, "evaluating f at direction pairs")?;
+        self.check_invalid(query.params(), count, "evaluating f at direction pairs")?;
         Ok(f)
     }
 
     fn eval_pairs_unchecked(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: Query,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
-        let mut f = self
-            .backend
-            .pairs(Query::one(params, white_furnace), pairs)?;
+        let mut f = self.backend.pairs(query, pairs)?;
         Ok(f.pop().unwrap_or_default())
     }
 
@@ -187,62 +184,53 @@ impl<'a> Evaluator<'a> {
     /// themselves. Sets of one model go to the backend as one job, which it may batch.
     pub fn eval_sets_unchecked(
         &self,
-        sets: &[ParamSet],
-        white_furnace: bool,
+        query: Query,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<Vec<[f64; 3]>>> {
         self.check_cancelled()?;
-        let query = Query {
-            sets,
-            white_furnace,
-        };
         if query.one_model() {
             return self.backend.pairs(query, pairs);
         }
-        sets.iter()
-            .map(|p| self.eval_pairs_unchecked(p, white_furnace, pairs))
+        query
+            .sets
+            .iter()
+            .map(|p| self.eval_pairs_unchecked(query.for_set(p), pairs))
             .collect()
     }
 
     /// The lobe table on `grid`, handed to `sink` in order, one chunk at a time, as
     /// (first cell, f32 rgb values).
-    pub fn eval_table(
+    pub fn eval_table<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
+        let query = query.into();
+        let params = query.params();
         let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
             let mut count = InvalidCount::default();
             count.add_f32(first, values, |cell| grid.pair_at(cell));
             self.check_invalid(params, count, "evaluating a table")?;
             sink(first, values)
         };
-        self.every_cell(params, white_furnace, grid, sink)
+        self.every_cell(query, grid, sink)
     }
 
     /// [`Evaluator::eval_table`] without the check of invalid values (its callers make it once).
     fn every_cell(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: Query,
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
         if !grid.is_product() {
-            self.eval_table_by_pairs(params, white_furnace, grid, 1, sink)?;
+            self.eval_table_by_pairs(query, grid, 1, sink)?;
             return Ok(());
         }
         let (wi, wo) = (grid.wi_list(), grid.wo_list());
-        self.backend.table(
-            Query::one(params, white_furnace),
-            &wi,
-            &wo,
-            self.fast_pow,
-            self.cancel,
-            sink,
-        )
+        self.backend
+            .table(query, &wi, &wo, self.fast_pow, self.cancel, sink)
     }
 
     /// The lobe table on `grid`, handed to `sink` as runs of cells (first cell, f32 rgb values)
@@ -253,13 +241,14 @@ impl<'a> Evaluator<'a> {
     /// index ≤ θo index; on the three-axis half/difference grid the f32 backend evaluates the
     /// φd cells k ≤ NPHI_D − 1 − k of each row. Otherwise this is [`Evaluator::eval_table`],
     /// every cell evaluated, in order.
-    pub fn eval_table_runs(
+    pub fn eval_table_runs<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: &Grid,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<u64> {
+        let query = query.into();
+        let params = query.params();
         let reciprocal = (self.assume_reciprocal || params.model().is_reciprocal())
             // The mirrors take isotropy too (f even in Δφ; the grids refuse other sets).
             && params.is_isotropic();
@@ -279,17 +268,17 @@ impl<'a> Evaluator<'a> {
                 if reciprocal && self.backend.precision() == Precision::F32 =>
             {
                 let row = n_phi_d as u64;
-                return self.eval_table_by_pairs(params, white_furnace, grid, row, sink);
+                return self.eval_table_by_pairs(query, grid, row, sink);
             }
             _ => {
-                self.every_cell(params, white_furnace, grid, sink)?;
+                self.every_cell(query, grid, sink)?;
                 return grid
                     .cells()
                     .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"));
             }
         }
         self.backend.table_reciprocal(
-            Query::one(params, white_furnace),
+            query,
             &grid.wi_list(),
             &grid.wo_list(),
             self.fast_pow,
@@ -306,8 +295,7 @@ impl<'a> Evaluator<'a> {
     /// copied to mirror_row − 1 − k.
     fn eval_table_by_pairs(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: Query,
         grid: &Grid,
         mirror_row: u64,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
@@ -328,7 +316,7 @@ impl<'a> Evaluator<'a> {
                 .par_iter()
                 .map(|&cell| grid.pair_at(cell))
                 .collect();
-            let f = self.eval_pairs_unchecked(params, white_furnace, &pairs)?;
+            let f = self.eval_pairs_unchecked(query, &pairs)?;
             let mut buf = vec![0.0f32; count as usize * 3];
             for (&cell, v) in evaluated.iter().zip(&f) {
                 let v = v.map(|x| x as f32);

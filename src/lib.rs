@@ -17,7 +17,7 @@
 //! let session = Session::cpu(); // or Session::open(SessionOptions::default()) for the GPU
 //! let gold = ParamSet::preset("gold", "cook_torrance")?.with("roughness", 0.2)?;
 //! let grid = Grid::Isotropic { n_theta_i: 4, n_theta_o: 4, n_dphi: 8 };
-//! let table = session.table(&gold, false, &grid, 1 << 10)?;
+//! let table = session.table(&gold, &grid, 1 << 10)?;
 //! let [r, g, b] = table.at(&[1, 1, 0]); // f at (θi, θo, Δφ) cell (1, 1, 0), in 1/sr
 //! assert!(r > b && g > b); // gold reflects red and green more than blue
 //! # Ok::<(), lobe::Error>(())
@@ -64,7 +64,7 @@ pub mod table;
 pub mod tolerance;
 pub mod tradeoff;
 
-pub use backend::Backend;
+pub use backend::{Backend, Query};
 pub use error::{Error, Result};
 pub use eval::Evaluator;
 pub use glam;

@@ -105,12 +105,13 @@ pub const MAX_RES: usize = 4096;
 
 impl LutSpec {
     /// The model's default axis ([`default_axis`]) at 32 × 32 cells (the size of Kulla–Conty's
-    /// tables), the default method at its default node count.
-    pub fn new(params: ParamSet, white_furnace: bool) -> LutSpec {
+    /// tables), the default method at its default node count, the model's Fresnel factors (set
+    /// `white_furnace` to replace them by 1).
+    pub fn new(params: ParamSet) -> LutSpec {
         let (keys, lo, hi, mapping) = default_axis(params.model());
         LutSpec {
             params,
-            white_furnace,
+            white_furnace: false,
             keys: keys.into_iter().map(String::from).collect(),
             lo,
             hi,

@@ -11,6 +11,7 @@ use lobe::integrate::{
     view_direction, Estimate, Method, Rule, Settings, ESTIMATE_SAFETY, REFERENCE_RTOL,
 };
 use lobe::model::terms::{pow5, r0_from_ior};
+use lobe::Query;
 use lobe::{resolve_params, Evaluator, ParamSet, Reference};
 
 /// Closed forms against the reference: its stated convergence (1e-10 relative, REFERENCE_RTOL)
@@ -364,7 +365,7 @@ fn default_rule_meets_its_target_and_its_error_estimate_is_honest() {
         let rule = Method::Peak
             .rule(Method::Peak.default_samples(), &p)
             .expect("fixed rule");
-        let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
+        let got = rule_albedo(&Evaluator::cpu(), &p, rule, &wo).expect("cpu");
         for (mu, e) in mus.iter().zip(got) {
             let want = reference(&p, *mu);
             let scale = want.value.abs().max_element();
@@ -401,7 +402,7 @@ fn default_rule_resolves_the_sharpest_ggx_lobe_at_every_view() {
     let rule = Method::Peak
         .rule(Method::Peak.default_samples(), &p)
         .expect("fixed rule");
-    let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
+    let got = rule_albedo(&Evaluator::cpu(), &p, rule, &wo).expect("cpu");
     for (mu, e) in mus.iter().zip(got) {
         let want = reference(&p, *mu);
         let err = (e.value - want.value).abs().max_element();
@@ -437,7 +438,7 @@ fn each_rule_converges_at_its_theoretical_rate() {
     let wo = view_direction(0.5, 0.3);
     let truth = reference(&p, 0.5).value;
     let err_of = |rule: Rule| {
-        let e = rule_albedo(&Evaluator::cpu(), &p, false, rule, &[wo]).expect("cpu")[0];
+        let e = rule_albedo(&Evaluator::cpu(), &p, rule, &[wo]).expect("cpu")[0];
         ((e.value - truth).abs().max_element(), e.error.max_element())
     };
     // Midpoint: O(h²) with N = 4 nθ² nodes, i.e. slope −1 against N.
@@ -479,8 +480,8 @@ fn each_rule_converges_at_its_theoretical_rate() {
     let errs: Vec<f64> = gs
         .iter()
         .map(|&n| {
-            let e = rule_albedo(&Evaluator::cpu(), &p, false, Rule::Gauss { n_mu: n }, &[wo])
-                .expect("cpu")[0];
+            let e =
+                rule_albedo(&Evaluator::cpu(), &p, Rule::Gauss { n_mu: n }, &[wo]).expect("cpu")[0];
             (e.value - truth).abs().max_element().max(1e-16)
         })
         .collect();
@@ -508,9 +509,8 @@ fn gpu_and_cpu_agree_on_every_preset() {
                 .rule(method.default_samples(), &p)
                 .expect("fixed rule");
             // The GPU gets the parameters rounded to f32: compare with the CPU on the same values.
-            let cpu =
-                rule_albedo(&Evaluator::cpu(), &p.rounded_to_f32(), false, rule, &wo).expect("cpu");
-            let g = rule_albedo(&Evaluator::gpu(&gpu), &p, false, rule, &wo).expect("gpu");
+            let cpu = rule_albedo(&Evaluator::cpu(), &p.rounded_to_f32(), rule, &wo).expect("cpu");
+            let g = rule_albedo(&Evaluator::gpu(&gpu), &p, rule, &wo).expect("gpu");
             for ((c, g), o) in cpu.iter().zip(&g).zip(&wo) {
                 assert_rel(
                     &format!(
@@ -529,8 +529,20 @@ fn gpu_and_cpu_agree_on_every_preset() {
     // One shared node list (midpoint) and a white furnace pipeline take the other paths.
     let p = params("cook_torrance", Some("gold"), &[]);
     let rule = Rule::Midpoint { n_theta: 64 };
-    let cpu = rule_albedo(&Evaluator::cpu(), &p.rounded_to_f32(), true, rule, &wo).expect("cpu");
-    let g = rule_albedo(&Evaluator::gpu(&gpu), &p, true, rule, &wo).expect("gpu");
+    let cpu = rule_albedo(
+        &Evaluator::cpu(),
+        Query::one(&p.rounded_to_f32()).with_white_furnace(true),
+        rule,
+        &wo,
+    )
+    .expect("cpu");
+    let g = rule_albedo(
+        &Evaluator::gpu(&gpu),
+        Query::one(&p).with_white_furnace(true),
+        rule,
+        &wo,
+    )
+    .expect("gpu");
     for (c, g) in cpu.iter().zip(&g) {
         assert_rel(
             "cook_torrance gold white furnace midpoint: GPU vs CPU",
@@ -644,7 +656,7 @@ fn importance_sampling_error_estimate_is_honest_on_every_preset() {
         let rule = Method::Importance
             .rule(Method::Importance.default_samples(), &p)
             .expect("fixed rule");
-        let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
+        let got = rule_albedo(&Evaluator::cpu(), &p, rule, &wo).expect("cpu");
         for (mu, e) in mus.iter().zip(got) {
             let want = reference(&p, *mu);
             let scale = want.value.abs().max_element();
@@ -695,7 +707,7 @@ fn importance_sampling_converges_at_least_at_the_monte_carlo_rate() {
             .iter()
             .map(|&n| {
                 let rule = Method::Importance.rule(n, &p).expect("fixed rule");
-                let got = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu");
+                let got = rule_albedo(&Evaluator::cpu(), &p, rule, &wo).expect("cpu");
                 let ss: f64 = got
                     .iter()
                     .zip(&truth)
@@ -728,7 +740,7 @@ fn importance_sampling_beats_cosine_qmc_on_a_sharp_lobe() {
         let truth = reference(&p, mu).value;
         let err = |m: Method| {
             let rule = m.rule(1 << 16, &p).expect("fixed rule");
-            let e = rule_albedo(&Evaluator::cpu(), &p, false, rule, &wo).expect("cpu")[0];
+            let e = rule_albedo(&Evaluator::cpu(), &p, rule, &wo).expect("cpu")[0];
             (e.value - truth).abs().max_element()
         };
         let (imp, qmc) = (err(Method::Importance), err(Method::Qmc));

@@ -83,7 +83,7 @@ fn gpu() -> Option<Gpu> {
 fn assert_matches_builtin(gpu: &Gpu, file_params: &ParamSet, builtin: &ParamSet) {
     let pairs = pairs();
     let g = Evaluator::gpu(gpu)
-        .eval_pairs(file_params, false, &pairs)
+        .eval_pairs(file_params, &pairs)
         .expect("gpu");
     let r = Reference::new(builtin, false);
     for ((wi, wo), g) in pairs.iter().zip(g) {
@@ -119,13 +119,11 @@ fn the_lambert_file_is_albedo_over_pi_and_its_albedo_is_the_albedo() {
     let p = with(model, &["albedo=0.2,0.4,0.8"]);
     assert!(p.is_isotropic(), "BRDF() never reads X or Y");
     let Some(gpu) = gpu() else { return };
-    let f = Evaluator::gpu(&gpu)
-        .eval_pairs(&p, false, &pairs())
-        .expect("gpu");
+    let f = Evaluator::gpu(&gpu).eval_pairs(&p, &pairs()).expect("gpu");
     common::assert_rho_over_pi(&f, [0.2, 0.4, 0.8], F32_REL);
     // Below the horizon lobe's one-sided rule gives 0, whatever the file's formula.
     let below = Evaluator::gpu(&gpu)
-        .eval_pairs(&p, false, &[(direction(30.0, 0.0), -DVec3::Z)])
+        .eval_pairs(&p, &[(direction(30.0, 0.0), -DVec3::Z)])
         .expect("gpu");
     assert_eq!(below[0], [0.0; 3]);
     // Its albedo by a fixed rule is the albedo: E = ρ for Lambert. Each of the 4096 f32 terms is
@@ -162,7 +160,7 @@ fn the_blinn_phong_file_equals_the_built_in_blinn_phong() {
     let plain = with(model, &["n=64", "kd=0", "ks=1", "normalized=false"]);
     let pairs = pairs();
     let g = Evaluator::gpu(&gpu)
-        .eval_pairs(&plain, false, &pairs)
+        .eval_pairs(&plain, &pairs)
         .expect("gpu");
     let r = Reference::new(
         &lobe::resolve_params(
@@ -295,8 +293,8 @@ fn the_shipped_coated_plastic_file_is_reciprocal_and_conserves_energy() {
     let swapped: Vec<_> = pairs.iter().map(|&(a, b)| (b, a)).collect();
     for sets in [&["roughness=0.35"][..], &["roughness=0.05", "ior=2.5"][..]] {
         let p = with(model, sets);
-        let f = e.eval_pairs(&p, false, &pairs).unwrap();
-        let g = e.eval_pairs(&p, false, &swapped).unwrap();
+        let f = e.eval_pairs(&p, &pairs).unwrap();
+        let g = e.eval_pairs(&p, &swapped).unwrap();
         for ((a, b), (wi, wo)) in f.iter().zip(&g).zip(&pairs) {
             for c in 0..3 {
                 let tol = 1e-6 + RECIPROCITY_REL * a[c].abs();
@@ -309,7 +307,7 @@ fn the_shipped_coated_plastic_file_is_reciprocal_and_conserves_energy() {
     }
     // With the coat off it is Lambert: base/π.
     let f = e
-        .eval_pairs(&with(model, &["coat=0", "base=0.5"]), false, &pairs[..3])
+        .eval_pairs(&with(model, &["coat=0", "base=0.5"]), &pairs[..3])
         .unwrap();
     assert!(
         f.iter()
@@ -374,16 +372,12 @@ fn names_a_shader_shares_with_lobes_kernels_do_not_clash() {
     let Some(gpu) = gpu() else { return };
     let e = Evaluator::gpu(&gpu);
     let pair = [(direction(30.0, 0.0), direction(50.0, 200.0))];
-    let f = e
-        .eval_pairs(&with(model, &["chunk=2"]), false, &pair)
-        .unwrap();
+    let f = e.eval_pairs(&with(model, &["chunk=2"]), &pair).unwrap();
     for (c, a) in [0.25, 0.5, 1.0].into_iter().enumerate() {
         let want = 2.0 * a * FRAC_1_PI;
         assert!((f[0][c] - want).abs() <= F32_REL * want, "{:?}", f[0]);
     }
-    let off = e
-        .eval_pairs(&with(model, &["on=false"]), false, &pair)
-        .unwrap();
+    let off = e.eval_pairs(&with(model, &["on=false"]), &pair).unwrap();
     assert_eq!(off[0], [0.0; 3]);
     // The table kernel runs too (the albedo and preview kernels: the other tests, the CLI's).
     let grid = lobe::grid::Grid::Isotropic {
@@ -393,7 +387,7 @@ fn names_a_shader_shares_with_lobes_kernels_do_not_clash() {
     };
     let p = with(model, &[]);
     let mut cells = 0;
-    e.eval_table(&p, false, &grid, &mut |_, chunk: &[f32]| {
+    e.eval_table(&p, &grid, &mut |_, chunk: &[f32]| {
         cells += chunk.len() / 3;
         Ok(())
     })
@@ -510,7 +504,7 @@ fn set_values_are_checked_against_the_files_declarations() {
 fn the_cpu_backend_refuses_a_brdf_model() {
     let model = load("lambert.brdf");
     let e = Session::cpu()
-        .eval_pairs(&ParamSet::defaults(model), false, &pairs())
+        .eval_pairs(&ParamSet::defaults(model), &pairs())
         .unwrap_err();
     assert!(matches!(e, Error::NoReference(_)), "{e}");
     let text = e.to_string();

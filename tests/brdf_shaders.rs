@@ -83,9 +83,7 @@ fn helpers_named_like_built_ins_are_the_files_own() {
         (dir(30.0, 10.0), dir(60.0, 200.0)),
         (dir(75.0, 120.0), dir(20.0, 300.0)),
     ];
-    let f = Evaluator::gpu(&gpu)
-        .eval_pairs(&p, false, &pairs)
-        .expect("gpu");
+    let f = Evaluator::gpu(&gpu).eval_pairs(&p, &pairs).expect("gpu");
     for ((wi, wo), got) in pairs.iter().zip(f) {
         let want = builtin_names_expected(*wi, *wo, 0.25);
         for c in 0..3 {

@@ -223,8 +223,7 @@ fn a_merl_file_equals_its_analytic_source_on_its_own_bins() {
     let path = d.join("ct_source.binary");
     let source = params("cook_torrance", &["roughness=0.3"]);
     let cpu = Session::cpu();
-    cpu.write_merl(&source, false, &path, &mut |_, _| {})
-        .unwrap();
+    cpu.write_merl(&source, &path, &mut |_, _| {}).unwrap();
     let loaded = lobe::merl::model::load(&path).unwrap();
     let file = ParamSet::defaults(loaded.model);
     let opts = Options {

@@ -3,6 +3,7 @@
 use lobe::energy::{cases, evaluate, white_configuration, EnergyRow};
 use lobe::integrate::Method;
 use lobe::model::terms::r0_from_ior;
+use lobe::Query;
 use lobe::{resolve_params, Evaluator, Model};
 
 mod common;
@@ -19,8 +20,7 @@ fn row(model: &str, sets: &[&str]) -> EnergyRow {
         &Evaluator::cpu(),
         model,
         "test",
-        &white,
-        wf,
+        Query::one(&white).with_white_furnace(wf),
         Method::Peak,
         Method::Peak.default_samples(),
     )

@@ -248,7 +248,7 @@ fn zero_roughness_is_lambert() {
             "roughness=0",
             &format!("multiscatter={ms}"),
         ]);
-        for f in Evaluator::gpu(&gpu).eval_pairs(&p, false, &pairs).unwrap() {
+        for f in Evaluator::gpu(&gpu).eval_pairs(&p, &pairs).unwrap() {
             for ch in 0..3 {
                 assert!(
                     (f[ch] - expected[ch]).abs() <= LAMBERT_F32_RTOL * expected[ch],
@@ -357,7 +357,7 @@ fn finite_accurate_and_reciprocal_at_grazing() {
     for p in &cases {
         let p32 = p.rounded_to_f32();
         let rf = Reference::new(&p32, false);
-        let got = Evaluator::gpu(&gpu).eval_pairs(p, false, &pairs32).unwrap();
+        let got = Evaluator::gpu(&gpu).eval_pairs(p, &pairs32).unwrap();
         for ((wi, wo), g) in pairs32.iter().zip(got) {
             let c = rf.eval(*wi, *wo);
             let tol = tolerance::parity_tolerance(&p32, &rf, *wi, *wo, c);
@@ -400,7 +400,7 @@ fn every_multiscatter_choice_matches_on_the_gpu() {
             let pairs = sample_pairs(&mut rng, 200);
             let p32 = p.rounded_to_f32();
             let rf = Reference::new(&p32, false);
-            let got = Evaluator::gpu(&gpu).eval_pairs(&p, false, &pairs).unwrap();
+            let got = Evaluator::gpu(&gpu).eval_pairs(&p, &pairs).unwrap();
             for ((wi, wo), g) in pairs.iter().zip(got) {
                 let c = rf.eval(*wi, *wo);
                 let tol = tolerance::parity_tolerance(&p32, &rf, *wi, *wo, c);

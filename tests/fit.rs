@@ -76,7 +76,7 @@ fn recovers_ggx_from_its_merl_file_on_the_gpu() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("gold_ggx.binary");
     session
-        .write_merl(&ggx(alpha, specular), false, &path, &mut |_, _| {})
+        .write_merl(&ggx(alpha, specular), &path, &mut |_, _| {})
         .unwrap();
     let r = fit::fit(
         &session.evaluator(),

@@ -26,7 +26,7 @@ fn params(model: &str, material: Option<&str>, sets: &[&str]) -> ParamSet {
 }
 
 fn small_spec(p: ParamSet) -> LutSpec {
-    let mut s = LutSpec::new(p, false);
+    let mut s = LutSpec::new(p);
     s.n_mu = 5;
     s.n_p = 3;
     // Fewer nodes keep the test quick; the comparison is with the same rule.

@@ -47,7 +47,7 @@ fn gold() -> ParamSet {
 fn write_cpu(p: &ParamSet, dir: &Path, stem: &str) -> PathBuf {
     let path = dir.join(format!("{stem}.binary"));
     Session::cpu()
-        .write_merl(p, false, &path, &mut |_, _| {})
+        .write_merl(p, &path, &mut |_, _| {})
         .expect("a MERL file");
     path
 }
@@ -183,7 +183,7 @@ fn missing_bins_read_as_zero_and_are_counted() {
         })
         .collect();
     let p = ParamSet::defaults(loaded.model);
-    let cpu = Evaluator::cpu().eval_pairs(&p, false, &pairs).expect("cpu");
+    let cpu = Evaluator::cpu().eval_pairs(&p, &pairs).expect("cpu");
     let expect = [[0.0, f, 0.0], [f, 0.0, f], [f, f, f]];
     for (got, want) in cpu.iter().zip(expect) {
         for c in 0..3 {
@@ -194,9 +194,7 @@ fn missing_bins_read_as_zero_and_are_counted() {
         return;
     };
     let gpu = Gpu::new(dev);
-    let g = Evaluator::gpu(&gpu)
-        .eval_pairs(&p, false, &pairs)
-        .expect("gpu");
+    let g = Evaluator::gpu(&gpu).eval_pairs(&p, &pairs).expect("gpu");
     for (got, want) in g.iter().zip(expect) {
         assert_eq!(got.map(|v| v as f32), want.map(|v| v as f32), "{got:?}");
     }
@@ -239,7 +237,7 @@ fn written_files_read_back_at_their_bin_centres() {
     }
     let model = merl::model::load(&path).expect("a model").model;
     let f = Evaluator::cpu()
-        .eval_pairs(&lookup(model, "nearest"), false, &pairs)
+        .eval_pairs(&lookup(model, "nearest"), &pairs)
         .expect("cpu");
     for (got, w) in f.iter().zip(&want) {
         for c in 0..3 {
@@ -252,8 +250,13 @@ fn written_files_read_back_at_their_bin_centres() {
     };
     let gpu = Gpu::new(dev);
     let gpu_path = d.path().join("gold_gpu.binary");
-    merl::write::write(&Evaluator::gpu(&gpu), &p, false, &gpu_path, &mut |_, _| {})
-        .expect("a GPU-written file");
+    merl::write::write(
+        &Evaluator::gpu(&gpu),
+        (&p).into(),
+        &gpu_path,
+        &mut |_, _| {},
+    )
+    .expect("a GPU-written file");
     let g = merl::read(&gpu_path).expect("its own file");
     // The GPU's f at each bin centre against the f64 reference, under the parity tests'
     // tolerance model (docs/design.md §10).
@@ -312,10 +315,8 @@ fn the_gpu_lookup_matches_the_f64_twin() {
     let gpu = Gpu::new(dev);
     let pairs = pairs_off_the_edges(20_000, 11);
     let near = lookup(model, "nearest");
-    let cpu = Evaluator::cpu().eval_pairs(&near, false, &pairs).unwrap();
-    let g = Evaluator::gpu(&gpu)
-        .eval_pairs(&near, false, &pairs)
-        .unwrap();
+    let cpu = Evaluator::cpu().eval_pairs(&near, &pairs).unwrap();
+    let g = Evaluator::gpu(&gpu).eval_pairs(&near, &pairs).unwrap();
     for (k, (a, b)) in g.iter().zip(&cpu).enumerate() {
         assert_eq!(
             a.map(|v| v as f32),
@@ -325,10 +326,8 @@ fn the_gpu_lookup_matches_the_f64_twin() {
         );
     }
     let tri = lookup(model, "trilinear");
-    let cpu = Evaluator::cpu().eval_pairs(&tri, false, &pairs).unwrap();
-    let g = Evaluator::gpu(&gpu)
-        .eval_pairs(&tri, false, &pairs)
-        .unwrap();
+    let cpu = Evaluator::cpu().eval_pairs(&tri, &pairs).unwrap();
+    let g = Evaluator::gpu(&gpu).eval_pairs(&tri, &pairs).unwrap();
     let mut worst: f64 = 0.0;
     for (k, (a, b)) in g.iter().zip(&cpu).enumerate() {
         let (wi, wo) = pairs[k];

@@ -373,7 +373,7 @@ fn the_library_refuses_with_the_count_and_counts_when_asked() {
         (dir(80.0), dir(10.0)),
         (dir(30.0), dir(40.0)),
     ];
-    match session.eval_pairs(&params, false, &pairs) {
+    match session.eval_pairs(&params, &pairs) {
         Err(Error::InvalidValues(v)) => {
             assert_eq!(
                 (v.count.evaluated, v.count.invalid, v.count.nan),
@@ -385,7 +385,7 @@ fn the_library_refuses_with_the_count_and_counts_when_asked() {
         other => panic!("eval_pairs: expected InvalidValues, got {other:?}"),
     }
     let (f, count) = session
-        .eval_pairs_counting(&params, false, &pairs)
+        .eval_pairs_counting(&params, &pairs)
         .expect("counting keeps the values");
     assert!(f[1][0].is_nan() && f[0][0].is_finite());
     assert_eq!((count.invalid, count.nan), (1, 1));

@@ -303,7 +303,7 @@ fn lambert_is_albedo_over_pi_on_both_backends() {
         .collect();
     for e in [lobe::Evaluator::gpu(&gpu), lobe::Evaluator::cpu()] {
         let expected = [0.25 / PI, 0.5 / PI, 0.75 / PI];
-        for f in e.eval_pairs(&p, false, &pairs).unwrap() {
+        for f in e.eval_pairs(&p, &pairs).unwrap() {
             for ch in 0..3 {
                 // f32: one rounding of albedo and of 1/π and one product: 4 ε.
                 assert!(
@@ -335,7 +335,7 @@ fn ashikhmin_shirley_is_finite_at_h_equal_n() {
         (direction(0.3, 0.0), direction(0.3, PI)),
     ];
     for e in [lobe::Evaluator::gpu(&gpu), lobe::Evaluator::cpu()] {
-        for f in e.eval_pairs(&p, false, &pairs).unwrap() {
+        for f in e.eval_pairs(&p, &pairs).unwrap() {
             assert!(
                 f.iter().all(|v| v.is_finite() && *v > 0.0),
                 "{}: f = {f:?} at h = n",
@@ -361,7 +361,6 @@ fn zero_below_the_horizon() {
             let out = e
                 .eval_pairs(
                     &p,
-                    false,
                     &[(below, up), (up, below), (horizon, up), (up, horizon)],
                 )
                 .unwrap();

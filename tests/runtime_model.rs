@@ -71,7 +71,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
     let p = twin(model, &[0.2, 0.4, 0.8]);
 
     let cpu = Session::cpu();
-    let e = cpu.eval_pairs(&p, false, &pairs()).unwrap_err();
+    let e = cpu.eval_pairs(&p, &pairs()).unwrap_err();
     assert!(matches!(e, Error::NoReference(_)), "{e}");
     assert!(
         e.to_string().contains("lambert_gpu_only") && e.to_string().contains("no f64"),
@@ -86,9 +86,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
         return;
     };
     let gpu = Gpu::new(dev);
-    let f = Evaluator::gpu(&gpu)
-        .eval_pairs(&p, false, &pairs())
-        .expect("gpu");
+    let f = Evaluator::gpu(&gpu).eval_pairs(&p, &pairs()).expect("gpu");
     common::assert_rho_over_pi(&f, [0.2, 0.4, 0.8], F32_REL);
     // Its GPU albedo by a fixed rule works (no reference needed) and gives E = albedo.
     let s = AlbedoSettings {
@@ -118,7 +116,7 @@ fn a_model_with_reference_runs_on_both_backends() {
     let model = lambert_twin("lambert_with_reference", true);
     let p = twin(model, &[0.6]);
     let cpu = Session::cpu();
-    let f = cpu.eval_pairs(&p, false, &pairs()).expect("cpu");
+    let f = cpu.eval_pairs(&p, &pairs()).expect("cpu");
     assert!(f.iter().all(|v| v[1] == 0.6 * FRAC_1_PI), "{f:?}");
     // The adaptive reference integrates the run-time reference: E = albedo.
     let s = AlbedoSettings {
@@ -136,9 +134,9 @@ fn a_model_with_reference_runs_on_both_backends() {
         n_theta_o: 4,
         n_dphi: 5,
     };
-    let twin = cpu.table(&p, false, &grid, 1 << 10).expect("twin table");
+    let twin = cpu.table(&p, &grid, 1 << 10).expect("twin table");
     let builtin = cpu
-        .table(&lambert("0.6"), false, &grid, 1 << 10)
+        .table(&lambert("0.6"), &grid, 1 << 10)
         .expect("lambert table");
     assert_eq!(twin, builtin);
 }

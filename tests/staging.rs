@@ -39,7 +39,7 @@ fn table(gpu: &Gpu, grid: &Grid) -> Vec<u32> {
     .unwrap();
     let mut out = Vec::new();
     Evaluator::gpu(gpu)
-        .eval_table(&params, false, grid, &mut |first, v| {
+        .eval_table(&params, grid, &mut |first, v| {
             assert_eq!(first as usize * 3, out.len(), "chunks arrive in order");
             out.extend(bits(v));
             Ok(())

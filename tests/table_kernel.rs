@@ -20,7 +20,7 @@ fn f32x3(v: glam::DVec3) -> [f32; 3] {
 fn both(gpu: &Gpu, params: &ParamSet, grid: &Grid) -> (Vec<u32>, Vec<u32>) {
     let mut table = Vec::new();
     Evaluator::gpu(gpu)
-        .eval_table(params, false, grid, &mut |first, v| {
+        .eval_table(params, grid, &mut |first, v| {
             assert_eq!(first as usize * 3, table.len(), "chunks arrive in order");
             table.extend(v.iter().map(|x| x.to_bits()));
             Ok(())

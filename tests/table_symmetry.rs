@@ -45,7 +45,7 @@ fn sets() -> Vec<ParamSet> {
 /// The plain table (every cell evaluated, [`Evaluator::eval_table`]), in npy order.
 fn plain(eval: &Evaluator, params: &ParamSet, grid: &Grid) -> Vec<f32> {
     let mut out = Vec::new();
-    eval.eval_table(params, false, grid, &mut |first, v| {
+    eval.eval_table(params, grid, &mut |first, v| {
         assert_eq!(first as usize * 3, out.len(), "chunks arrive in order");
         out.extend_from_slice(v);
         Ok(())
@@ -61,7 +61,7 @@ fn runs(eval: &Evaluator, params: &ParamSet, grid: &Grid) -> (Vec<f32>, u64) {
     let mut out = vec![f32::NAN; cells * 3];
     let mut seen = vec![0u8; cells];
     let evaluations = eval
-        .eval_table_runs(params, false, grid, &mut |first, v| {
+        .eval_table_runs(params, grid, &mut |first, v| {
             let first = first as usize;
             out[first * 3..first * 3 + v.len()].copy_from_slice(v);
             seen[first..first + v.len() / 3]

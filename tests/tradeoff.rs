@@ -67,7 +67,7 @@ fn rational_g1_error_is_recomputed_independently() {
         .flat_map(|a| wo.iter().map(move |b| (*a, *b)))
         .collect();
     let got = Evaluator::gpu(&gpu)
-        .eval_pairs(&chosen[0].params, false, &pairs)
+        .eval_pairs(&chosen[0].params, &pairs)
         .unwrap();
     let r = Reference::new(&truth, false);
     let t: Vec<[f64; 3]> = pairs

@@ -13,6 +13,7 @@ mod plot;
 use errors::{invalid, GpuError, InvalidValuesError};
 use lobe::glam::DVec3;
 use lobe::grid::Grid;
+use lobe::Query;
 use lobe::{AlbedoSettings, BackendKind, Session, SessionOptions};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -108,7 +109,9 @@ impl PySession {
         let rows = model::resolve_rows(model, material, &sets_list)?;
         let pairs = pairs(&wi, &wo);
         let s = &self.inner;
-        let values = job::run(py, s, || s.eval_pairs_sets(&rows, white_furnace, &pairs))?;
+        let values = job::run(py, s, || {
+            s.eval_pairs_sets(Query::sets(&rows).with_white_furnace(white_furnace), &pairs)
+        })?;
         let flat: Vec<f64> = values.into_iter().flatten().flatten().collect();
         array(py, flat, vec![rows.len(), pairs.len(), 3])
     }
@@ -133,7 +136,13 @@ impl PySession {
         let grid = grid_of(grid, &res)?;
         lobe::table::check_grid(&params, &grid).map_err(|e| errors::from_anyhow("grid", e))?;
         let s = &self.inner;
-        let table = job::run(py, s, || s.table(&params, white_furnace, &grid, max_cells))?;
+        let table = job::run(py, s, || {
+            s.table(
+                Query::one(&params).with_white_furnace(white_furnace),
+                &grid,
+                max_cells,
+            )
+        })?;
         let axes = table
             .axes()
             .into_iter()
@@ -163,8 +172,7 @@ impl PySession {
         let s = &self.inner;
         let count = job::run(py, s, || {
             s.write_table(
-                &params,
-                white_furnace,
+                Query::one(&params).with_white_furnace(white_furnace),
                 grid,
                 &path,
                 allow_invalid,

@@ -44,7 +44,8 @@ pub fn albedo_lut<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = model::resolve(model, material, &sets)?;
     let s = settings(method, samples, white_furnace)?;
-    let mut spec = LutSpec::new(params, white_furnace);
+    let mut spec = LutSpec::new(params);
+    spec.white_furnace = white_furnace;
     if let Some(keys) = param {
         spec.keys = keys;
     }

@@ -33,12 +33,39 @@ pub struct Query<'a> {
 }
 
 impl<'a> Query<'a> {
-    /// One parameter set.
-    pub fn one(params: &'a ParamSet, white_furnace: bool) -> Query<'a> {
+    /// One parameter set, with the model's Fresnel factors (`.with_white_furnace(true)` replaces
+    /// them by 1). `&params` converts into the same query.
+    pub fn one(params: &'a ParamSet) -> Query<'a> {
+        Query::sets(std::slice::from_ref(params))
+    }
+
+    /// Several parameter sets of one model, with the model's Fresnel factors.
+    pub fn sets(sets: &'a [ParamSet]) -> Query<'a> {
         Query {
-            sets: std::slice::from_ref(params),
-            white_furnace,
+            sets,
+            white_furnace: false,
         }
+    }
+
+    /// The same sets, with every Fresnel factor of a specular lobe replaced by 1 where `on`.
+    pub fn with_white_furnace(self, on: bool) -> Query<'a> {
+        Query {
+            white_furnace: on,
+            ..self
+        }
+    }
+
+    /// The first parameter set: the one a single-set job evaluates.
+    ///
+    /// # Panics
+    /// On a query without sets (the constructors of one set cannot make one).
+    pub fn params(&self) -> &'a ParamSet {
+        &self.sets[0]
+    }
+
+    /// The same switch for the one parameter set `params`.
+    pub fn for_set<'b>(&self, params: &'b ParamSet) -> Query<'b> {
+        Query::one(params).with_white_furnace(self.white_furnace)
     }
 
     /// The model of every set (of the first; None without sets).
@@ -49,6 +76,12 @@ impl<'a> Query<'a> {
     /// Whether every set has the same model (component choices included), as a backend needs.
     pub fn one_model(&self) -> bool {
         self.sets.windows(2).all(|w| w[0].model() == w[1].model())
+    }
+}
+
+impl<'a> From<&'a ParamSet> for Query<'a> {
+    fn from(params: &'a ParamSet) -> Query<'a> {
+        Query::one(params)
     }
 }
 

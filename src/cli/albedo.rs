@@ -10,6 +10,7 @@ use clap::{Args, ValueEnum};
 use lobe::integrate::{AlbedoReport, Method, Settings};
 use lobe::lut::engine::{EngineKind, EngineSpec};
 use lobe::lut::{self, LutSpec, Mapping};
+use lobe::Query;
 use lobe::{ParamSet, Session};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -204,16 +205,14 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
             out,
             "{}",
             serde_json::to_string_pretty(&report.to_json(
-                &params,
-                a.model.white_furnace,
+                Query::one(&params).with_white_furnace(a.model.white_furnace),
                 &backend
             ))?
         )?,
         TableFormat::Csv => report.write_csv(&mut out)?,
         TableFormat::Table => report.write_table(
             &mut out,
-            &params,
-            a.model.white_furnace,
+            Query::one(&params).with_white_furnace(a.model.white_furnace),
             &backend,
             a.phi_deg,
         )?,
@@ -235,7 +234,8 @@ fn parse_pair<T: std::str::FromStr>(flag: &str, text: &str, what: &str) -> Resul
 /// The look-up table the flags ask for: the model's own axis unless --lut-param names another
 /// (then its full valid range, linear, unless given).
 fn lut_spec(a: &AlbedoArgs, params: ParamSet, settings: Settings, phi: f64) -> Result<LutSpec> {
-    let mut spec = LutSpec::new(params, a.model.white_furnace);
+    let mut spec = LutSpec::new(params);
+    spec.white_furnace = a.model.white_furnace;
     spec.method = settings.method;
     spec.samples = settings.samples;
     spec.phi = phi;

@@ -6,6 +6,7 @@ use clap::{Args, ValueEnum};
 use lobe::bench::Throughput;
 use lobe::grid::Grid;
 use lobe::ParamSet;
+use lobe::Query;
 use std::io::Write;
 
 /// What `lobe bench` times.
@@ -104,9 +105,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 ));
                 let wf = a.white_furnace;
                 rows.push(match task {
-                    BenchTask::Table => session.bench_table_with(params, wf, &grid, a.repeats)?,
-                    BenchTask::Albedo => session.bench_albedo(params, wf, a.repeats)?,
-                    BenchTask::Lut => session.bench_lut(params, wf, a.repeats)?,
+                    BenchTask::Table => session.bench_table_with(
+                        Query::one(params).with_white_furnace(wf),
+                        &grid,
+                        a.repeats,
+                    )?,
+                    BenchTask::Albedo => session
+                        .bench_albedo(Query::one(params).with_white_furnace(wf), a.repeats)?,
+                    BenchTask::Lut => {
+                        session.bench_lut(Query::one(params).with_white_furnace(wf), a.repeats)?
+                    }
                 });
                 progress.inc(1);
             }

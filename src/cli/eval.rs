@@ -6,6 +6,7 @@ use super::{open_session, BackendArgs, ModelArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use lobe::pairs::{self, PairsReader, CHUNK_PAIRS};
+use lobe::Query;
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 
@@ -127,8 +128,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
             break;
         }
         let (values, mut count) = session.eval_pairs_counting(
-            &params,
-            a.model.white_furnace,
+            Query::one(&params).with_white_furnace(a.model.white_furnace),
             &pairs::directions(&angles),
         )?;
         if let Some(f) = &mut count.first {

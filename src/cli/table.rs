@@ -6,6 +6,7 @@ use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use lobe::grid::Grid;
 use lobe::input::option_of;
+use lobe::Query;
 use std::path::{Path, PathBuf};
 
 /// The table grids (`lobe table --grid`, `lobe compare --grid`).
@@ -139,8 +140,7 @@ pub fn run(a: TableArgs) -> Result<()> {
     };
     let written = write(
         &session,
-        &params,
-        a.model.white_furnace,
+        Query::one(&params).with_white_furnace(a.model.white_furnace),
         grid,
         output,
         a.allow_invalid,
@@ -194,9 +194,11 @@ fn run_merl(a: &TableArgs) -> Result<()> {
     let progress = bar(bins, "{msg} [{bar:40}] {percent}% {per_sec} eta {eta}");
     progress.set_message(format!("{} MERL file", params.model().name()));
     let started = std::time::Instant::now();
-    session.write_merl(&params, a.model.white_furnace, output, &mut |done, _| {
-        progress.set_position(done)
-    })?;
+    session.write_merl(
+        Query::one(&params).with_white_furnace(a.model.white_furnace),
+        output,
+        &mut |done, _| progress.set_position(done),
+    )?;
     progress.finish_and_clear();
     eprintln!(
         "lobe: wrote {} (MERL, {bins} bins, {:.2} s on {})",

@@ -42,7 +42,7 @@ pub(super) fn parity_of(
     for mat in materials {
         let p32: ParamSet = material::preset(mat, model)?.rounded_to_f32();
         let r = Reference::new(&p32, false);
-        let g = eval.eval_pairs(&p32, false, &pairs)?;
+        let g = eval.eval_pairs(&p32, &pairs)?;
         for (&(wi, wo), gv) in pairs.iter().zip(&g) {
             let c = r.eval(wi, wo);
             let tol = parity_tolerance(&p32, &r, wi, wo, c);

@@ -107,7 +107,7 @@ pub(super) fn albedo_row(
     let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&m| (m, 0.0)).collect();
     let report = albedo_report(eval, params, &albedo_settings(d), &points, 0.0)
         .with_context(|| format!("albedo of {material} {}", params.model().name()))?;
-    let json = report.to_json(params, false, d.backend);
+    let json = report.to_json(params.into(), d.backend);
     std::fs::write(
         d.staging.path(&rel),
         serde_json::to_string_pretty(&json)? + "\n",
@@ -178,7 +178,8 @@ pub(super) fn lut(
     for assignment in ["diffuse=0", "specular=1"] {
         params.set_text(assignment)?;
     }
-    let mut spec = crate::lut::LutSpec::new(params, true);
+    let mut spec = crate::lut::LutSpec::new(params);
+    spec.white_furnace = true;
     spec.n_mu = settings.lut_res.0;
     spec.n_p = settings.lut_res.1;
     spec.samples = settings.lut_samples;
@@ -395,7 +396,7 @@ fn measured_model(eval: &Evaluator) -> Result<(Model, usize)> {
     let dir = tempfile::tempdir().context("creating a temporary folder for the MERL file")?;
     let path = dir.path().join(format!("{MEASURED_NAME}.binary"));
     let gold = material::preset("gold", Model::CookTorrance)?;
-    merl::write::write(&cpu, &gold, false, &path, &mut |_, _| {})?;
+    merl::write::write(&cpu, (&gold).into(), &path, &mut |_, _| {})?;
     let loaded = merl::model::load(&path)?;
     *made = Some((loaded.model, loaded.missing));
     Ok((loaded.model, loaded.missing))

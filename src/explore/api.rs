@@ -10,6 +10,7 @@ use super::reply::{
 };
 use super::upload::{self, renamed};
 use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
+use crate::backend::Query;
 use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamSet};
 use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
@@ -194,7 +195,7 @@ async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
         .collect();
     let p = params.clone();
     let (f, count) = evaluate(&state, params.model(), move |session| {
-        session.eval_pairs_counting(&p, req.white_furnace, &pairs)
+        session.eval_pairs_counting(Query::one(&p).with_white_furnace(req.white_furnace), &pairs)
     })
     .await?;
     Ok(binary(&f, count.invalid, &params))
@@ -290,7 +291,7 @@ async fn image(state: Arc<State>, body: Bytes, cell: Cell) -> Result<Response, R
     }
     let p = params.clone();
     let (f, count) = evaluate(&state, params.model(), move |session| {
-        session.eval_pairs_counting(&p, req.white_furnace, &pairs)
+        session.eval_pairs_counting(Query::one(&p).with_white_furnace(req.white_furnace), &pairs)
     })
     .await?;
     let mut values = f.into_iter();

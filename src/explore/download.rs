@@ -5,6 +5,7 @@
 
 use super::reply::{answer, bad, check_incidence, evaluate, resolve, Refusal, Shared};
 use super::State;
+use crate::backend::Query;
 use crate::grid::Grid;
 use crate::model::ParamSet;
 use crate::plot::{self, polar, Channel, Common, Request, Subject};
@@ -96,8 +97,7 @@ async fn table_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
     let bytes = evaluate(&state, params.model(), move |session| {
         let exr = folder.path().join("table.exr");
         session.write_table(
-            &params,
-            req.white_furnace,
+            Query::one(&params).with_white_furnace(req.white_furnace),
             grid,
             &exr,
             false,

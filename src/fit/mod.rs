@@ -19,6 +19,7 @@ pub mod batch;
 pub mod space;
 pub mod target;
 
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::input::BadInput;
 use crate::integrate::{self, PointAlbedo};
@@ -199,7 +200,7 @@ impl<'a> Objective<'a> {
         for part in sets.chunks(self.batch) {
             values.extend(
                 self.eval
-                    .eval_sets_unchecked(part, false, &self.samples.pairs)?,
+                    .eval_sets_unchecked(Query::sets(part), &self.samples.pairs)?,
             );
         }
         // NaN, ±Inf and negative values are refused (docs/design.md §2.1): a loss of them

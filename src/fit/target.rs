@@ -188,7 +188,7 @@ fn model_samples(params: &ParamSet, eval: &Evaluator, max_bins: usize) -> Result
         .collect();
     let pairs: Vec<(DVec3, DVec3)> = picked.iter().map(|c| c.pair).collect();
     let values = eval
-        .eval_pairs(params, false, &pairs)
+        .eval_pairs(params, &pairs)
         .with_context(|| format!("evaluating the target {}", params.model().name()))?;
     // A model's value is data everywhere (eval_pairs refuses NaN, ±Inf and negative values).
     let mut s = Samples {

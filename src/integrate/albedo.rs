@@ -47,7 +47,7 @@ pub fn directional(
     let wo = directions(points);
     let r = Reference::new(params, s.white_furnace);
     let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
-        Some(rule) => rule_albedo(backend, params, s.white_furnace, rule, &wo)?,
+        Some(rule) => rule_albedo(backend, s.query(params), rule, &wo)?,
         // The reference is the adaptive f64 integrator: it runs on the CPU whatever the backend.
         None => {
             params
@@ -171,7 +171,7 @@ pub fn hemispherical(
     let table: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => {
             let wo = hemispherical_directions(params, phi);
-            rule_albedo(backend, params, s.white_furnace, rule, &wo)?
+            rule_albedo(backend, s.query(params), rule, &wo)?
         }
         None => {
             params
@@ -223,7 +223,7 @@ pub fn albedo_rows(
     if let Some(phi) = phi {
         wo.extend(hemispherical_directions(&rows[0], phi));
     }
-    let est = rule_albedo_rows(backend, rows, s.white_furnace, *rule, &wo)?;
+    let est = rule_albedo_rows(backend, s.query_sets(rows), *rule, &wo)?;
     rows.iter()
         .zip(est)
         .map(|(p, mut e)| {

@@ -7,26 +7,18 @@ use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::Rule;
 use crate::backend::{NodeRule, Precision, Query};
 use crate::eval::Evaluator;
-use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
 use rayon::prelude::*;
 
 /// E (delta excluded) of a fixed rule at each ωo on `backend`, with the rule's error estimate.
-pub fn rule_albedo(
+pub fn rule_albedo<'q>(
     backend: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: impl Into<Query<'q>>,
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<Estimate>> {
-    let mut rows = rule_albedo_rows(
-        backend,
-        std::slice::from_ref(params),
-        white_furnace,
-        rule,
-        wo,
-    )?;
+    let mut rows = rule_albedo_rows(backend, query.into(), rule, wo)?;
     Ok(rows.pop().unwrap_or_default())
 }
 
@@ -103,39 +95,32 @@ fn f32_rounding(
 pub use crate::backend::RowSums;
 
 /// Σ w f(ωi, ωo) for each ωo: f64 sums on the CPU, the reduction kernel on the GPU.
-pub fn sum_rule(
+pub fn sum_rule<'q>(
     backend: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: impl Into<Query<'q>>,
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<(DVec3, u64)>> {
-    let mut sums = sum_rules_rows(
-        backend,
-        std::slice::from_ref(params),
-        white_furnace,
-        &[rule],
-        wo,
-    )?;
+    let mut sums = sum_rules_rows(backend, query.into(), &[rule], wo)?;
     Ok(sums.pop().and_then(|mut r| r.pop()).unwrap_or_default())
 }
 
-/// [`rule_albedo`] for several parameter sets of one model (the rows of a LUT) at the same view
+/// [`rule_albedo`] for each parameter set of `query` (the rows of a LUT) at the same view
 /// directions with the same rule: each direction's nodes are made once and serve every row, and
 /// on the GPU every row, the rule and its two coarser levels (or every replicate) go out in the
-/// same dispatches. Row r of the result is `rule_albedo(backend, &rows[r], …)`. Rows of
-/// different models are taken row by row.
+/// same dispatches. Row r of the result is `rule_albedo(backend, query.for_set(&rows[r]), …)`.
+/// Rows of different models are taken row by row.
 pub fn rule_albedo_rows(
     backend: &Evaluator,
-    rows: &[ParamSet],
-    white_furnace: bool,
+    query: Query,
     rule: Rule,
     wo: &[DVec3],
 ) -> Result<Vec<Vec<Estimate>>> {
-    if !rows.windows(2).all(|w| w[0].model() == w[1].model()) {
+    let rows = query.sets;
+    if !query.one_model() {
         return rows
             .iter()
-            .map(|p| rule_albedo(backend, p, white_furnace, rule, wo))
+            .map(|p| rule_albedo(backend, query.for_set(p), rule, wo))
             .collect();
     }
     let Some(first) = rows.first() else {
@@ -156,7 +141,7 @@ pub fn rule_albedo_rows(
             })
             .collect();
         // [replicate][row][ωo]
-        let sums = sum_rules_rows(backend, rows, white_furnace, &reps, wo)?;
+        let sums = sum_rules_rows(backend, query, &reps, wo)?;
         let r = REPLICATES as f64;
         return Ok((0..rows.len())
             .map(|row| {
@@ -181,7 +166,7 @@ pub fn rule_albedo_rows(
     let (coarse, p) = (rule.coarse(), rule.level_exponent());
     let levels = [rule, coarse, coarse.coarse()];
     // [level][row][ωo]
-    let sums = sum_rules_rows(backend, rows, white_furnace, &levels, wo)?;
+    let sums = sum_rules_rows(backend, query, &levels, wo)?;
     Ok((0..rows.len())
         .map(|row| {
             (0..wo.len())
@@ -199,22 +184,17 @@ pub fn rule_albedo_rows(
         .collect())
 }
 
-/// [`sum_rule`] of each rule of `rules` for every parameter set of `rows` (one model) at each
+/// [`sum_rule`] of each rule of `rules` for every parameter set of `query` (one model) at each
 /// ωo: results indexed `[rule][row][ωo]`. Each direction's nodes are made once for all rows:
 /// the CPU runs the directions in parallel, the GPU sends a batch of directions (every rule and
 /// row of it) in the same dispatches.
 pub fn sum_rules_rows(
     backend: &Evaluator,
-    rows: &[ParamSet],
-    white_furnace: bool,
+    query: Query,
     rules: &[Rule],
     wo: &[DVec3],
 ) -> Result<Vec<RowSums>> {
     let rules: Vec<&dyn NodeRule> = rules.iter().map(|r| r as &dyn NodeRule).collect();
-    let query = Query {
-        sets: rows,
-        white_furnace,
-    };
     backend
         .backend()
         .rule_sums(query, &rules, wo, backend.cancel_token())

@@ -63,6 +63,7 @@ pub use report::{albedo_report, AlbedoReport};
 pub use rules::Rule;
 pub use vcavity::{v_cavity_kinks, v_cavity_turns};
 
+use crate::backend::Query;
 use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
@@ -192,6 +193,18 @@ pub struct Settings {
     pub samples: usize,
     /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
+}
+
+impl Settings {
+    /// What these settings evaluate of `params`: the parameter set with the white-furnace switch.
+    pub fn query<'a>(&self, params: &'a ParamSet) -> Query<'a> {
+        Query::one(params).with_white_furnace(self.white_furnace)
+    }
+
+    /// [`Settings::query`] of several parameter sets of one model.
+    pub fn query_sets<'a>(&self, sets: &'a [ParamSet]) -> Query<'a> {
+        Query::sets(sets).with_white_furnace(self.white_furnace)
+    }
 }
 
 impl Default for Settings {

@@ -3,6 +3,7 @@
 
 use super::albedo::{directional, hemispherical, HemiAlbedo, PointAlbedo};
 use super::{Method, Settings};
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::model::ParamSet;
 use anyhow::Result;
@@ -46,12 +47,8 @@ pub fn albedo_report(
 impl AlbedoReport {
     /// The report as `lobe albedo` prints it, with the parameters, the white-furnace switch and
     /// the backend's name.
-    pub fn to_json(
-        &self,
-        params: &ParamSet,
-        white_furnace: bool,
-        backend: &str,
-    ) -> serde_json::Value {
+    pub fn to_json(&self, query: Query, backend: &str) -> serde_json::Value {
+        let (params, white_furnace) = (query.params(), query.white_furnace);
         let a = |v: DVec3| serde_json::json!(v.to_array());
         let points: Vec<_> = self
             .points
@@ -131,11 +128,11 @@ impl AlbedoReport {
     pub fn write_table(
         &self,
         out: &mut dyn std::io::Write,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: Query,
         backend: &str,
         phi_deg: f64,
     ) -> std::io::Result<()> {
+        let (params, white_furnace) = (query.params(), query.white_furnace);
         writeln!(out, "{} {}", params.model().name(), params.to_text())?;
         writeln!(
             out,

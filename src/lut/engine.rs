@@ -154,7 +154,8 @@ impl EngineSpec {
                 false
             }
         };
-        let mut lut = LutSpec::new(params, white_furnace);
+        let mut lut = LutSpec::new(params);
+        lut.white_furnace = white_furnace;
         lut.with_avg = kind.has_avg();
         if kind != EngineKind::Eon {
             lut.keys = vec!["alpha".to_string()];

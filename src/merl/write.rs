@@ -6,6 +6,7 @@
 //! (f(φd) = f(φd + π)); a mirror spike (a delta lobe) is not in it, as in every table.
 
 use super::{bin, bin_centre, encode, BINS, DIMS};
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::grid::{half_diff_to_pair, Grid};
 use crate::input::BadInput;
@@ -57,8 +58,7 @@ pub fn check_request(params: &ParamSet, path: &Path) -> Result<()> {
 /// `progress` receives (bins done, bins in all).
 pub fn bin_values(
     eval: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: Query,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Vec<f64>> {
     let mut values = vec![0.0; 3 * BINS];
@@ -74,7 +74,7 @@ pub fn bin_values(
                 }
             }
         }
-        let f = eval.eval_pairs(params, white_furnace, &pairs)?;
+        let f = eval.eval_pairs(query, &pairs)?;
         let first = bin(rows[0], 0, 0);
         for (k, v) in f.iter().enumerate() {
             for (c, x) in v.iter().enumerate() {
@@ -90,14 +90,14 @@ pub fn bin_values(
 /// complete or not at all, the old file kept until then.
 pub fn write(
     eval: &Evaluator,
-    params: &ParamSet,
-    white_furnace: bool,
+    query: Query,
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<()> {
+    let params = query.params();
     check_request(params, path)?;
     let set = FileSet::new(&[path])?;
-    let values = bin_values(eval, params, white_furnace, progress)?;
+    let values = bin_values(eval, query, progress)?;
     {
         let mut w = set[0].writer();
         w.write_all(&encode(&values))

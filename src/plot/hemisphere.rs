@@ -195,7 +195,7 @@ pub fn hemisphere_data(
                 },
             ));
         }
-        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        let f = eval.eval_pairs(common.query(&subject.params), &pairs)?;
         evaluations += f.len() as u64;
         for (a, &t) in opts.theta_deg.iter().enumerate() {
             let part = &f[a * inside.len()..(a + 1) * inside.len()];

@@ -38,7 +38,9 @@ pub use subject::{
     describe_subjects, params_json, params_json_path, series_names, write_params_json, Subject,
 };
 
+use crate::backend::Query;
 use crate::input::BadInput;
+use crate::model::ParamSet;
 use anyhow::{anyhow, bail, Result};
 use std::path::Path;
 
@@ -208,6 +210,13 @@ pub struct Common {
     pub size: (u32, u32),
     /// Screen or paper sizes: how the canvas is scaled onto the written picture.
     pub style: Style,
+}
+
+impl Common {
+    /// What a plot evaluates of `params`: the parameter set with the white-furnace switch.
+    pub fn query<'a>(&self, params: &'a ParamSet) -> Query<'a> {
+        Query::one(params).with_white_furnace(self.white_furnace)
+    }
 }
 
 /// How big a picture's text and lines are against its page.

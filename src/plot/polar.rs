@@ -161,7 +161,7 @@ pub fn polar_data(
                 s_deg.iter().map(move |&s| (wi, view_direction(rad(s))))
             })
             .collect();
-        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        let f = eval.eval_pairs(common.query(&subject.params), &pairs)?;
         let reference = Reference::new(&subject.params, common.white_furnace);
         for (a, &t) in opts.theta_i_deg.iter().enumerate() {
             let c_i = rad(t).cos();

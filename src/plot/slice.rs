@@ -102,7 +102,7 @@ pub fn slice_data(
     let mut panels = Vec::new();
     let mut evaluations = 0;
     for (j, subject) in subjects.iter().enumerate() {
-        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        let f = eval.eval_pairs(common.query(&subject.params), &pairs)?;
         evaluations += f.len() as u64;
         let values = f
             .iter()

@@ -110,7 +110,7 @@ pub fn surface3d_data(
             let wi = direction(rad(t), rad(opts.phi_i_deg));
             pairs.extend(wo.iter().map(|&o| (wi, o)));
         }
-        let f = eval.eval_pairs(&subject.params, common.white_furnace, &pairs)?;
+        let f = eval.eval_pairs(common.query(&subject.params), &pairs)?;
         evaluations += f.len() as u64;
         for (a, &t) in opts.theta_i_deg.iter().enumerate() {
             let w = if common.cos { rad(t).cos() } else { 1.0 };

@@ -1,6 +1,7 @@
 //! Running a scene: each table, albedo and preview it asks for, written under one folder.
 
 use super::{AlbedoJob, Outputs, PreviewJob, RunSummary, Scene, TableJob, ALBEDO_MU};
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::preview::{self, Sheet};
 use crate::{integrate, output, table};
@@ -182,7 +183,10 @@ impl Scene {
         let report = integrate::albedo_report(e, &m.params, &settings, &points, 0.0)
             .with_context(|| format!("albedo of material '{}'", m.name))?;
         e.check_cancelled()?;
-        let mut json = report.to_json(&m.params, a.white_furnace, &e.name());
+        let mut json = report.to_json(
+            Query::one(&m.params).with_white_furnace(a.white_furnace),
+            &e.name(),
+        );
         json["material"] = serde_json::json!(m.name);
         let mut w = set[k].writer();
         serde_json::to_writer_pretty(&mut w, &json)

@@ -97,7 +97,8 @@ impl Session {
     ///
     /// ```
     /// let ggx = lobe::ParamSet::for_model("cook_torrance")?;
-    /// let mut spec = lobe::lut::LutSpec::new(ggx, true);
+    /// let mut spec = lobe::lut::LutSpec::new(ggx);
+    /// spec.white_furnace = true;
     /// (spec.n_mu, spec.n_p, spec.samples, spec.with_avg) = (4, 3, 256, false);
     /// let lut = lobe::Session::cpu().albedo_lut(&spec, &mut |_, _| {})?;
     /// assert_eq!((lut.mus.len(), lut.ps.len()), (4, 3));
@@ -117,7 +118,8 @@ impl Session {
     /// ```
     /// let dir = tempfile::tempdir().unwrap();
     /// let ggx = lobe::ParamSet::for_model("cook_torrance")?;
-    /// let mut spec = lobe::lut::LutSpec::new(ggx, true);
+    /// let mut spec = lobe::lut::LutSpec::new(ggx);
+    /// spec.white_furnace = true;
     /// (spec.n_mu, spec.n_p, spec.samples) = (4, 3, 256);
     /// let path = dir.path().join("e.exr");
     /// lobe::Session::cpu().write_albedo_lut(&spec, &path, &mut |_, _| {})?;

@@ -1,6 +1,7 @@
 //! Throughput of the commands' kernels on this session's backend (`lobe bench`).
 
 use super::Session;
+use crate::backend::Query;
 use crate::bench::Throughput;
 use crate::error::{IntoLobe, Result};
 use crate::grid::Grid;
@@ -32,18 +33,18 @@ impl Session {
     /// use lobe::grid::Grid;
     /// let gold = lobe::ParamSet::preset("gold", "cook_torrance")?;
     /// let grid = Grid::Isotropic { n_theta_i: 4, n_theta_o: 4, n_dphi: 4 };
-    /// let t = lobe::Session::cpu().bench_table_with(&gold, true, &grid, 1)?;
+    /// let t = lobe::Session::cpu().bench_table_with(lobe::Query::one(&gold).with_white_furnace(true), &grid, 1)?;
     /// assert_eq!(t.evaluations, 64);
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn bench_table_with(
+    pub fn bench_table_with<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: &Grid,
         repeats: usize,
     ) -> Result<Throughput> {
-        crate::bench::measure_table(&self.evaluator(), params, white_furnace, grid, repeats).lobe()
+        let query = query.into();
+        crate::bench::measure_table(&self.evaluator(), query, grid, repeats).lobe()
     }
 
     /// Throughput of directional-albedo integration on this session's backend
@@ -51,17 +52,17 @@ impl Session {
     ///
     /// ```
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
-    /// let t = lobe::Session::cpu().bench_albedo(&lambert, false, 1)?;
+    /// let t = lobe::Session::cpu().bench_albedo(&lambert, 1)?;
     /// assert_eq!(t.task, "albedo");
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn bench_albedo(
+    pub fn bench_albedo<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         repeats: usize,
     ) -> Result<Throughput> {
-        crate::bench::measure_albedo(&self.evaluator(), params, white_furnace, repeats).lobe()
+        let query = query.into();
+        crate::bench::measure_albedo(&self.evaluator(), query, repeats).lobe()
     }
 
     /// Throughput of an albedo look-up table ([`crate::bench::lut_spec`]) on this session's
@@ -69,16 +70,12 @@ impl Session {
     ///
     /// ```
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
-    /// let t = lobe::Session::cpu().bench_lut(&lambert, false, 1)?;
+    /// let t = lobe::Session::cpu().bench_lut(&lambert, 1)?;
     /// assert!(t.evaluations > 0);
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn bench_lut(
-        &self,
-        params: &ParamSet,
-        white_furnace: bool,
-        repeats: usize,
-    ) -> Result<Throughput> {
-        crate::bench::measure_lut(&self.evaluator(), params, white_furnace, repeats).lobe()
+    pub fn bench_lut<'q>(&self, query: impl Into<Query<'q>>, repeats: usize) -> Result<Throughput> {
+        let query = query.into();
+        crate::bench::measure_lut(&self.evaluator(), query, repeats).lobe()
     }
 }

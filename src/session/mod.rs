@@ -260,7 +260,7 @@ mod tests {
     fn the_cpu_session_evaluates_lambert_as_albedo_over_pi() {
         let s = Session::cpu();
         let p = crate::resolve_params("lambert", None, &["albedo=0.5".into()]).unwrap();
-        let f = s.eval_pairs(&p, false, &[(DVec3::Z, DVec3::Z)]).unwrap();
+        let f = s.eval_pairs(&p, &[(DVec3::Z, DVec3::Z)]).unwrap();
         assert!((f[0][0] - 0.5 / std::f64::consts::PI).abs() < 1e-15);
     }
 
@@ -281,7 +281,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.exr");
         let e = s
-            .write_table(&p, false, grid, &path, false, &mut |_, _| {})
+            .write_table(&p, grid, &path, false, &mut |_, _| {})
             .unwrap_err();
         match &e {
             Error::Input { input, .. } => assert_eq!(input.option, "grid", "{e}"),
@@ -301,7 +301,7 @@ mod tests {
             n_theta_o: 4,
             n_dphi: 4,
         };
-        let e = s.table(&p, false, &grid, 1 << 20).unwrap_err();
+        let e = s.table(&p, &grid, 1 << 20).unwrap_err();
         assert!(matches!(e, Error::Cancelled(_)), "{e}");
         // Every albedo method stops too, the adaptive reference included.
         for method in crate::integrate::Method::ALL {
@@ -328,15 +328,15 @@ mod tests {
             n_theta_o: 4,
             n_dphi: 4,
         };
-        let e = call.table(&p, false, &grid, 1 << 20).unwrap_err();
+        let e = call.table(&p, &grid, 1 << 20).unwrap_err();
         assert!(matches!(e, Error::Cancelled(_)), "{e}");
         // The session's own jobs and another call's run.
-        assert!(s.table(&p, false, &grid, 1 << 20).is_ok());
+        assert!(s.table(&p, &grid, 1 << 20).is_ok());
         let other = s.with_cancel(s.cancel_token().child());
-        assert!(other.table(&p, false, &grid, 1 << 20).is_ok());
+        assert!(other.table(&p, &grid, 1 << 20).is_ok());
         // The session's token stops every call.
         s.cancel_token().cancel();
-        let e = other.table(&p, false, &grid, 1 << 20).unwrap_err();
+        let e = other.table(&p, &grid, 1 << 20).unwrap_err();
         assert!(matches!(e, Error::Cancelled(_)), "{e}");
     }
 }

@@ -1,9 +1,9 @@
 //! f at direction pairs: one parameter set, or several of one sweep at once.
 
 use super::Session;
+use crate::backend::Query;
 use crate::error::{IntoLobe, Result};
 use crate::finite::InvalidCount;
-use crate::model::ParamSet;
 use glam::DVec3;
 
 impl Session {
@@ -14,22 +14,22 @@ impl Session {
     /// use lobe::glam::DVec3;
     /// let session = lobe::Session::cpu();
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
-    /// let (f, invalid) = session.eval_pairs_counting(&lambert, false, &[(DVec3::Z, DVec3::Z)])?;
+    /// let (f, invalid) = session.eval_pairs_counting(&lambert, &[(DVec3::Z, DVec3::Z)])?;
     /// assert_eq!(f.len(), 1);
     /// assert!(invalid.is_clean());
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn eval_pairs_counting(
+    pub fn eval_pairs_counting<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<(Vec<[f64; 3]>, InvalidCount)> {
+        let query = query.into();
         let tally = std::sync::Mutex::new(InvalidCount::default());
         let f = self
             .evaluator()
             .counting_invalid(&tally)
-            .eval_pairs(params, white_furnace, pairs)
+            .eval_pairs(query, pairs)
             .lobe()?;
         let count = tally
             .into_inner()
@@ -44,19 +44,17 @@ impl Session {
     /// use lobe::glam::DVec3;
     /// let session = lobe::Session::cpu();
     /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
-    /// let f = session.eval_pairs(&lambert, false, &[(DVec3::Z, DVec3::Z)])?;
+    /// let f = session.eval_pairs(&lambert, &[(DVec3::Z, DVec3::Z)])?;
     /// assert!((f[0][0] - 0.5 / std::f64::consts::PI).abs() < 1e-12);
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn eval_pairs(
+    pub fn eval_pairs<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
-        self.evaluator()
-            .eval_pairs(params, white_furnace, pairs)
-            .lobe()
+        let query = query.into();
+        self.evaluator().eval_pairs(query, pairs).lobe()
     }
 
     /// f of each parameter set of `sets` at each (ωi, ωo) pair (`out[k][j]`: set k at pair j),
@@ -73,21 +71,17 @@ impl Session {
     ///     ParamSet::for_model("lambert")?.with("albedo", 0.2)?,
     ///     ParamSet::for_model("lambert")?.with("albedo", 0.8)?,
     /// ];
-    /// let f = session.eval_pairs_sets(&sets, false, &[(DVec3::Z, DVec3::Z)])?;
+    /// let f = session.eval_pairs_sets(lobe::Query::sets(&sets), &[(DVec3::Z, DVec3::Z)])?;
     /// assert!(f[1][0][0] > f[0][0][0]);
     /// # Ok::<(), lobe::Error>(())
     /// ```
     pub fn eval_pairs_sets(
         &self,
-        sets: &[ParamSet],
-        white_furnace: bool,
+        query: Query,
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<Vec<[f64; 3]>>> {
-        let values = self
-            .evaluator()
-            .eval_sets_unchecked(sets, white_furnace, pairs)
-            .lobe()?;
-        for (p, f) in sets.iter().zip(&values) {
+        let values = self.evaluator().eval_sets_unchecked(query, pairs).lobe()?;
+        for (p, f) in query.sets.iter().zip(&values) {
             let mut count = InvalidCount::default();
             count.add_pairs(0, f, pairs);
             count.refuse(p.model().name(), "evaluating f at direction pairs")?;

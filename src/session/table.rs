@@ -1,10 +1,10 @@
 //! Lobe tables: in memory as a [`Table`] (values with their grid), or written as files.
 
 use super::Session;
+use crate::backend::Query;
 use crate::error::{Error, IntoLobe, Result};
 use crate::finite::InvalidCount;
 use crate::grid::{dphi_cell, phi_cell, theta_cell, Grid};
-use crate::model::ParamSet;
 use crate::table::TableMeta;
 use std::path::Path;
 
@@ -163,7 +163,7 @@ impl Session {
     /// let session = lobe::Session::cpu();
     /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
     /// let grid = Grid::Isotropic { n_theta_i: 2, n_theta_o: 3, n_dphi: 4 };
-    /// let t = session.table(&lambert, false, &grid, 1 << 10)?;
+    /// let t = session.table(&lambert, &grid, 1 << 10)?;
     /// assert_eq!(t.shape(), [2, 3, 4]);
     /// assert_eq!(t.axes()[2].name, "delta_phi");
     /// let f = t.at(&[1, 2, 3]);
@@ -171,13 +171,13 @@ impl Session {
     /// assert_eq!(t.data().len(), 2 * 3 * 4 * 3);
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn table(
+    pub fn table<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: &Grid,
         max_cells: u64,
     ) -> Result<Table> {
+        let query = query.into();
         let cells = grid.cells().filter(|&c| c <= max_cells).ok_or_else(|| {
             Error::Invalid(format!(
                 "a table of shape {:?} has more than the {max_cells} cells allowed in memory",
@@ -186,7 +186,7 @@ impl Session {
         })?;
         let mut data = Vec::with_capacity(cells as usize * 3);
         let ev = self.evaluator();
-        ev.eval_table(params, white_furnace, grid, &mut |_, v| {
+        ev.eval_table(query, grid, &mut |_, v| {
             ev.check_cancelled()?;
             data.extend_from_slice(v);
             Ok(())
@@ -207,23 +207,23 @@ impl Session {
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
     /// let grid = Grid::Isotropic { n_theta_i: 2, n_theta_o: 2, n_dphi: 2 };
     /// let invalid = lobe::Session::cpu()
-    ///     .write_table(&lambert, false, grid, &path, false, &mut |_, _| {})?;
+    ///     .write_table(&lambert, grid, &path, false, &mut |_, _| {})?;
     /// assert!(invalid.is_clean());
     /// assert!(path.exists() && dir.path().join("lambert.npy").exists());
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn write_table(
+    pub fn write_table<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: Grid,
         exr_path: &Path,
         replace_invalid: bool,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<InvalidCount> {
+        let query = query.into();
         let meta = TableMeta {
-            params,
-            white_furnace,
+            params: query.params(),
+            white_furnace: query.white_furnace,
             grid,
             backend: self.backend_name(),
         };
@@ -234,18 +234,18 @@ impl Session {
     /// does not declare it (a `.brdf` file): on a grid that allows it, each cell with θi ≤ θo is
     /// evaluated and copied into its mirror cell (docs/design.md §4.5), so for a model that is
     /// not reciprocal both cells hold f at the first one's directions.
-    pub fn write_table_reciprocal(
+    pub fn write_table_reciprocal<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         grid: Grid,
         exr_path: &Path,
         replace_invalid: bool,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<InvalidCount> {
+        let query = query.into();
         let meta = TableMeta {
-            params,
-            white_furnace,
+            params: query.params(),
+            white_furnace: query.white_furnace,
             grid,
             backend: self.backend_name(),
         };
@@ -272,23 +272,24 @@ impl Session {
     /// let dir = tempfile::tempdir().unwrap();
     /// let gold = lobe::ParamSet::preset("gold", "cook_torrance")?;
     /// lobe::Session::cpu()
-    ///     .write_merl(&gold, false, &dir.path().join("gold.binary"), &mut |_, _| {})?;
+    ///     .write_merl(&gold, &dir.path().join("gold.binary"), &mut |_, _| {})?;
     /// # Ok::<(), lobe::Error>(())
     /// ```
-    pub fn write_merl(
+    pub fn write_merl<'q>(
         &self,
-        params: &ParamSet,
-        white_furnace: bool,
+        query: impl Into<Query<'q>>,
         path: &Path,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<()> {
-        crate::merl::write::write(&self.evaluator(), params, white_furnace, path, progress).lobe()
+        let query = query.into();
+        crate::merl::write::write(&self.evaluator(), query, path, progress).lobe()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::ParamSet;
 
     /// The table stores f32; the CPU reference computes in f64, so a cell and the same pair
     /// evaluated alone agree to f32 rounding (half an ulp, relative 2^-24, with margin).
@@ -298,14 +299,14 @@ mod tests {
     /// the grid's angles for that index.
     fn check_indexing(params: &ParamSet, grid: Grid) {
         let s = Session::cpu();
-        let t = s.table(params, false, &grid, 1 << 12).unwrap();
+        let t = s.table(params, &grid, 1 << 12).unwrap();
         assert_eq!(t.shape(), grid.shape());
         assert_eq!(t.cells() as u64, grid.cells().unwrap());
         let axes = t.axes();
         assert_eq!(axes.len(), grid.shape().len());
         for cell in 0..grid.cells().unwrap() {
             let idx = grid.index(cell);
-            let want = s.eval_pairs(params, false, &[grid.pair(&idx)]).unwrap()[0];
+            let want = s.eval_pairs(params, &[grid.pair(&idx)]).unwrap()[0];
             let got = t.at(&idx);
             for c in 0..3 {
                 let tol = F32_ROUNDING * want[c].abs().max(1e-30);
@@ -393,7 +394,7 @@ mod tests {
                 n_phi_d: 2,
             },
         ] {
-            let t = Session::cpu().table(&gold, false, &grid, 64).unwrap();
+            let t = Session::cpu().table(&gold, &grid, 64).unwrap();
             let json = grid.axes_json();
             let sidecar: Vec<&str> = json
                 .as_array()
@@ -416,7 +417,7 @@ mod tests {
             n_theta_o: 3,
             n_dphi: 4,
         };
-        let t = Session::cpu().table(&lambert, false, &grid, 64).unwrap();
+        let t = Session::cpu().table(&lambert, &grid, 64).unwrap();
         assert!(t.get(&[1, 2, 3]).is_some());
         for bad in [
             &[2, 0, 0][..],

@@ -17,6 +17,7 @@
 //! ([`crate::tolerance`]): a ratio above 1 is a value the parity test would reject.
 
 use crate::backend::Precision;
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::model::{Model, ParamSet, Reference};
 use anyhow::{Context, Result};
@@ -343,7 +344,10 @@ pub fn sweep(opts: Options<'_>) -> Result<Report> {
             let gpu_values = match compared {
                 true => Some(
                     opts.backend
-                        .eval_sets_unchecked(&sets, white_furnace, &pairs)
+                        .eval_sets_unchecked(
+                            Query::sets(&sets).with_white_furnace(white_furnace),
+                            &pairs,
+                        )
                         .with_context(|| format!("evaluating {label} on the GPU"))?,
                 ),
                 false => None,

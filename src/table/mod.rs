@@ -9,6 +9,7 @@
 //! - isotropic grid: a slice per θi is NDPHI wide (Δφ) and NTHETA_O tall (θo); slices sit side by
 //!   side. Pixel (x, y) holds θi = x / NDPHI, Δφ = x % NDPHI, θo = y.
 
+use crate::backend::Query;
 use crate::eval::Evaluator;
 use crate::finite::InvalidCount;
 use crate::grid::Grid;
@@ -109,6 +110,13 @@ pub struct TableMeta<'a> {
     pub grid: Grid,
     /// The backend that evaluated it, as [`Evaluator::name`] says.
     pub backend: String,
+}
+
+impl TableMeta<'_> {
+    /// What the table evaluates: its parameter set with the white-furnace switch.
+    pub fn query(&self) -> Query<'_> {
+        Query::one(self.params).with_white_furnace(self.white_furnace)
+    }
 }
 
 /// The npy and JSON siblings of a table written at `exr_path` (the three files share a stem).
@@ -244,20 +252,15 @@ pub fn stage_table_with(
     {
         let mut w = files.npy_stream(0, &shape)?;
         let mut done = 0;
-        eval.eval_table_runs(
-            meta.params,
-            meta.white_furnace,
-            &meta.grid,
-            &mut |first, values| {
-                // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
-                // way out and nothing is renamed into place.
-                eval.check_cancelled()?;
-                w.write_at(first * 3, values)?;
-                done += values.len() as u64 / 3;
-                progress(done, cells);
-                Ok(())
-            },
-        )?;
+        eval.eval_table_runs(meta.query(), &meta.grid, &mut |first, values| {
+            // Ctrl-C: stop between chunks; the temporary files are dropped (removed) on the
+            // way out and nothing is renamed into place.
+            eval.check_cancelled()?;
+            w.write_at(first * 3, values)?;
+            done += values.len() as u64 / 3;
+            progress(done, cells);
+            Ok(())
+        })?;
         w.finish()?;
     }
     let count = tally

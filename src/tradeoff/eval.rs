@@ -158,9 +158,9 @@ pub fn variant_table(gpu: Option<&Evaluator>, v: &EvalVariant, grid: &Grid) -> R
     match (v.gpu, gpu) {
         (true, Some(g)) => g
             .with_fast_pow(v.fast_pow)
-            .eval_table(&v.params, false, grid, &mut sink)?,
+            .eval_table(&v.params, grid, &mut sink)?,
         (true, None) => anyhow::bail!("variant '{}' needs the GPU backend", v.name),
-        (false, _) => Evaluator::cpu().eval_table(&v.params, false, grid, &mut sink)?,
+        (false, _) => Evaluator::cpu().eval_table(&v.params, grid, &mut sink)?,
     }
     Ok(out)
 }

@@ -51,7 +51,7 @@ pub fn rule_albedo_once(
     rule: &Rule,
     wo: DVec3,
 ) -> Result<(DVec3, usize)> {
-    let (value, n) = sum_rule(backend, params, false, *rule, &[wo])?
+    let (value, n) = sum_rule(backend, params, *rule, &[wo])?
         .pop()
         .expect("one sum per direction");
     Ok((value, n as usize))

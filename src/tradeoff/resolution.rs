@@ -84,7 +84,7 @@ pub fn measure_tables(
             progress(&format!("table {n} {}", backend_tag(backend)));
             let run = || -> Result<Vec<DVec3>> {
                 let mut table = Vec::with_capacity(cells as usize * 3);
-                backend.eval_table(params, false, &grid, &mut |_, v| {
+                backend.eval_table(params, &grid, &mut |_, v| {
                     table.extend_from_slice(v);
                     Ok(())
                 })?;
