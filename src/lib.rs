@@ -27,15 +27,15 @@
 //! ω = (sinθ cosφ, sinθ sinφ, cosθ); ωi points to the light, ωo to the viewer; f is in 1/sr,
 //! linear RGB, without the cosine, and 0 whenever cosθi ≤ 0 or cosθo ≤ 0.
 
-pub mod axis;
+mod axis;
 pub mod backend;
 pub mod bench;
 pub mod brdf;
 pub mod compare;
 pub mod demo;
 pub mod energy;
-pub mod error;
-pub mod eval;
+mod error;
+mod eval;
 #[cfg(feature = "explore")]
 pub mod explore;
 pub mod finite;
@@ -54,11 +54,11 @@ pub mod output;
 pub mod pairs;
 pub mod plot;
 pub mod preview;
-pub mod quadrature;
+mod quadrature;
 pub mod resolve;
 pub mod scene;
-pub mod session;
-pub mod spec;
+mod session;
+mod spec;
 pub mod stability;
 pub mod table;
 pub mod tolerance;

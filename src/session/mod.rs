@@ -73,7 +73,7 @@ pub struct SessionOptions {
     /// Receives progress notes (each pipeline built, with its build time).
     pub log: Option<LogSink>,
     /// Set it (from any thread) to stop the running job at its next chunk with
-    /// [`Error::Cancelled`]; nothing partial is kept.
+    /// [`Error::Cancelled`](crate::Error::Cancelled); nothing partial is kept.
     pub cancel: CancelToken,
 }
 
