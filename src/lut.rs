@@ -38,7 +38,7 @@ mod estimate;
 mod files;
 
 pub use crate::axis::Mapping;
-pub use estimate::{large_error_warning, largest_entry, ErrorEntry};
+pub use estimate::{largest_entry, ErrorEntry};
 use files::{check_path, AVG};
 pub use files::{read_exr, read_npy, sibling_paths, write, LutData};
 
@@ -92,7 +92,7 @@ pub fn check_max_error(largest: f64, limit: Option<f64>) -> Result<()> {
         Some(limit) if !(largest <= limit) => Err(BadInput::new(
             "max-error",
             format!(
-                "the largest error estimate {largest:.3e} exceeds the limit {limit:.3e}; nothing was written (use more --samples or another --method)"
+                "the largest error estimate {largest:.3e} exceeds the limit {limit:.3e}; nothing was written (use more samples or another method)"
             ),
         )
         .into()),

@@ -309,8 +309,11 @@ fn write_lut(a: &AlbedoArgs, session: &Session, spec: &LutSpec, path: &Path) -> 
 
 /// Says on stderr that an error estimate is large ([`lut::LARGE_ERROR`]), and where.
 fn warn_large(largest: f64, at: &str) {
-    if let Some(w) = lut::large_error_warning(largest, at) {
-        eprintln!("{w}");
+    let limit = lut::LARGE_ERROR;
+    if !(largest <= limit) {
+        eprintln!(
+            "warning: the largest error estimate is {largest:.3e}, at {at}, above {limit:.3e} (the step of half floats below 1); use more --samples, another --method, or --max-error to refuse such results"
+        );
     }
 }
 

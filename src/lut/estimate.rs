@@ -1,7 +1,5 @@
 //! Where a table's largest error estimate lies, and the warning that names it.
 
-use super::LARGE_ERROR;
-
 /// Where a table's largest error estimate is: the entry, its indices and its axes' values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ErrorEntry {
@@ -50,15 +48,5 @@ pub fn largest_entry(
         } else {
             a
         }
-    })
-}
-
-/// The warning `lobe albedo` prints when an estimate exceeds [`LARGE_ERROR`], naming where the
-/// largest is (`at`); None when none does.
-pub fn large_error_warning(largest: f64, at: &str) -> Option<String> {
-    (!(largest <= LARGE_ERROR)).then(|| {
-        format!(
-            "warning: the largest error estimate is {largest:.3e}, at {at}, above {LARGE_ERROR:.3e} (the step of half floats below 1); use more --samples, another --method, or --max-error to refuse such results"
-        )
     })
 }

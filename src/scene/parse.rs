@@ -400,7 +400,7 @@ fn inside_output_folder(text: &str) -> Result<PathBuf, &'static str> {
             Component::Normal(n) => p.push(n),
             Component::CurDir => {}
             Component::ParentDir => {
-                return Err("has a '..' part: outputs stay inside the output folder (--output-dir), so write the path from there down");
+                return Err("has a '..' part: outputs stay inside the output folder, so write the path from there down");
             }
             Component::RootDir | Component::Prefix(_) => {
                 return Err(
