@@ -2,7 +2,7 @@
 //! counts on each backend, timed from scratch per directional albedo and judged against the
 //! adaptive reference (see the notes of [`crate::tradeoff`]).
 
-use super::albedo::{albedo_errors, backend_tag, AlbedoSetup};
+use super::setup::{albedo_errors, backend_tag, AlbedoSetup};
 use super::{mark_pareto, Row, Section};
 use crate::bench::median;
 use crate::eval::Evaluator;

@@ -43,13 +43,13 @@
 //! two albedo sections share (set-up, reference, error); `integration.rs` and `resolution.rs`
 //! those two sections; `output.rs` the report as text tables, CSV and JSON.
 
-mod albedo;
+mod setup;
 mod eval;
 mod integration;
 mod output;
 mod resolution;
 
-pub use albedo::{albedo_errors, reference_albedos, AlbedoSetup};
+pub use setup::{albedo_errors, reference_albedos, AlbedoSetup};
 pub use eval::{
     as_microfacet, conductor_of, error_grid_for, eval_variants, measure_eval, relative_errors,
     truth_table, variant_table, EvalVariant, REL_FLOOR,

@@ -1,7 +1,7 @@
 //! The table-resolution section: E(μ) computed from isotropic lobe tables of growing resolution,
 //! as a user holding such a table would compute it (see the notes of [`crate::tradeoff`]).
 
-use super::albedo::{albedo_errors, backend_tag, AlbedoSetup};
+use super::setup::{albedo_errors, backend_tag, AlbedoSetup};
 use super::{mark_pareto, Row, Section};
 use crate::bench::median;
 use crate::eval::Evaluator;
