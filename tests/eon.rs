@@ -12,7 +12,7 @@ use lobe::grid::direction;
 use lobe::integrate::{directional, Method, Settings};
 use lobe::model::eon::{
     eon_albedo, eon_albedo_avg, eon_albedo_ss, eon_angle, eon_g_over_pi, eon_g_over_pi_fit,
-    eon_loss, Eon, EonConfig, C1, C2, MULTISCATTERS,
+    eon_loss, Eon, EonConfig, EonMultiscatter, C1, C2,
 };
 use lobe::tolerance::{self, EPS32};
 use lobe::{resolve_params, Evaluator, ParamSet, Reference};
@@ -222,7 +222,7 @@ fn zero_roughness_is_lambert() {
     let pairs = sample_pairs(&mut rng, 500);
     let lambert = resolve_params("lambert", None, &["albedo=0.25,0.5,0.75".into()]).unwrap();
     let lambert = Reference::new(&lambert, false);
-    for ms in MULTISCATTERS {
+    for ms in EonMultiscatter::NAMES {
         let p = params(&[
             "albedo=0.25,0.5,0.75",
             "roughness=0",
@@ -242,7 +242,7 @@ fn zero_roughness_is_lambert() {
     };
     let gpu = lobe::gpu::Gpu::new(dev);
     let expected = [0.25 / PI, 0.5 / PI, 0.75 / PI];
-    for ms in MULTISCATTERS {
+    for ms in EonMultiscatter::NAMES {
         let p = params(&[
             "albedo=0.25,0.5,0.75",
             "roughness=0",
@@ -264,7 +264,9 @@ fn zero_roughness_is_lambert() {
 /// (albedo 1) within the same of 1.
 #[test]
 fn the_fit_is_within_its_accuracy_of_the_exact_lobe() {
-    let approx = EonConfig { multiscatter: 1 };
+    let approx = EonConfig {
+        multiscatter: EonMultiscatter::Approx,
+    };
     let mut worst: f64 = 0.0;
     for i in 0..=100 {
         let r = i as f64 / 100.0;
@@ -309,7 +311,13 @@ fn finite_accurate_and_reciprocal_at_grazing() {
         );
     }
     assert!(
-        eon_g_over_pi_fit(mu).is_finite() && eon_loss(mu, EonConfig { multiscatter: 1 }) == 0.0
+        eon_g_over_pi_fit(mu).is_finite()
+            && eon_loss(
+                mu,
+                EonConfig {
+                    multiscatter: EonMultiscatter::Approx,
+                }
+            ) == 0.0
     );
     let graze = mu.acos();
     let mut pairs = Vec::new();
@@ -319,7 +327,7 @@ fn finite_accurate_and_reciprocal_at_grazing() {
         }
     }
     let mut cases = Vec::new();
-    for ms in MULTISCATTERS {
+    for ms in EonMultiscatter::NAMES {
         for r in ["0", "1e-4", "0.5", "1"] {
             cases.push(params(&[
                 "albedo=1,0.5,0",
@@ -383,7 +391,7 @@ fn every_multiscatter_choice_matches_on_the_gpu() {
     let gpu = lobe::gpu::Gpu::new(dev);
     let mut rng = common::Rng(0x0e0e_2025);
     let mut worst: f64 = 0.0;
-    for ms in MULTISCATTERS {
+    for ms in EonMultiscatter::NAMES {
         for _ in 0..24 {
             let albedo = [0; 3].map(|_| rng.uniform());
             let r = if rng.uniform() < 0.1 {
@@ -429,7 +437,7 @@ fn the_choice_is_the_pipeline() {
     assert_eq!(p.model().spec_constants(), vec![0]);
     let variants = p.model().variants();
     assert_eq!(variants.len(), 3);
-    for (v, ms) in variants.iter().zip(MULTISCATTERS) {
+    for (v, ms) in variants.iter().zip(EonMultiscatter::NAMES) {
         let q = params(&[&format!("multiscatter={ms}")]);
         assert_eq!(q.model(), *v);
         assert_eq!(ParamSet::defaults(*v).get("multiscatter").to_string(), *ms);

@@ -10,7 +10,9 @@
 //!
 //! `cargo test --release --test kernel_ops -- --nocapture` prints the table.
 
-use lobe::model::components::MicrofacetConfig;
+use lobe::model::components::{
+    BeckmannG1, Distribution, Fresnel, Masking, MicrofacetConfig, Multiscatter,
+};
 use lobe::model::eon::EonConfig;
 use lobe::model::Model;
 use rspirv::dr::{Function, Instruction, Module, Operand};
@@ -379,11 +381,11 @@ fn spec_constants(model: Model) -> HashMap<u32, u32> {
 /// The table job measured against the peer (docs/design.md §11): Beckmann, separable Smith with
 /// Walter's rational G1, the exact conductor Fresnel.
 const TABLE_JOB: MicrofacetConfig = MicrofacetConfig {
-    distribution: 0,
-    masking: 1,
-    beckmann_g1: 1,
-    fresnel: 3,
-    multiscatter: 0,
+    distribution: Distribution::Beckmann,
+    masking: Masking::SmithSeparable,
+    beckmann_g1: BeckmannG1::Rational,
+    fresnel: Fresnel::Conductor,
+    multiscatter: Multiscatter::None,
 };
 
 fn models() -> Vec<(String, Model)> {
@@ -424,7 +426,7 @@ fn every_configuration() -> Vec<Model> {
         .filter(|m| !matches!(m, Model::Microfacet(_) | Model::Eon(_)))
         .collect();
     out.extend(MicrofacetConfig::all().into_iter().map(Model::Microfacet));
-    out.extend((0..3).map(|multiscatter| Model::Eon(EonConfig { multiscatter })));
+    out.extend(EonConfig::all().into_iter().map(Model::Eon));
     out
 }
 

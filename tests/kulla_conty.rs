@@ -9,7 +9,7 @@ use glam::DVec3;
 use lobe::grid::direction;
 use lobe::integrate::{directional, Settings};
 use lobe::model::kulla_conty::{self, fresnel_average, TABLES};
-use lobe::model::microfacet::{self as mf, Microfacet, MicrofacetConfig};
+use lobe::model::microfacet::{Fresnel, Microfacet, MicrofacetConfig};
 use lobe::model::terms::{F_dielectric, F_schlick};
 use lobe::model::Model;
 use lobe::{resolve_params, Evaluator, ParamSet, Reference};
@@ -215,7 +215,7 @@ fn fresnel_averages() {
 #[test]
 fn reciprocal_and_finite() {
     let mut rng = common::Rng(0x6b63_0012);
-    for fresnel in mf::FRESNELS {
+    for fresnel in Fresnel::NAMES {
         for alpha in [
             ["alpha=1e-4", "alpha=1e-4"],
             ["alpha_x=0.05", "alpha_y=1"],

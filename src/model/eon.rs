@@ -24,6 +24,7 @@
 //! (which overshoots c1 by 4.6e-4 for μ < 1.4e-3) from going negative. c1 − G/π itself is
 //! evaluated without cancelling as μ → 0 ([`eon_loss`]).
 
+use super::components::choice_enum;
 use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
 use super::quadrature::no_lobes;
@@ -34,17 +35,24 @@ use glam::DVec3;
 use std::f64::consts::{FRAC_1_PI, PI};
 use std::mem::offset_of;
 
-/// Options of the `multiscatter` parameter, in the order of their index (specialization
-/// constant 3): the closed-form Ê, the paper's polynomial fit of it, or no multiple scattering
-/// (the FON lobe alone).
-pub const MULTISCATTERS: &[&str] = &["exact", "approx", "none"];
+choice_enum! {
+    /// The multiple-scattering lobe: the `multiscatter` parameter, specialization constant 3.
+    pub enum EonMultiscatter {
+        /// f_ms from the closed-form Ê.
+        Exact = 0 => "exact",
+        /// f_ms from the paper's polynomial fit of Ê.
+        Approx = 1 => "approx",
+        /// No multiple scattering: the FON lobe alone.
+        None = 2 => "none",
+    }
+}
 
 /// The parameter table: the facets' albedo, the roughness r and the multiple-scattering choice.
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::choice(
         "multiscatter",
-        MULTISCATTERS,
-        0,
+        EonMultiscatter::NAMES,
+        EonConfig::DEFAULT.multiscatter as usize,
         "multiple-scattering lobe: closed-form albedo, its polynomial fit, or none",
     ),
     ParamSpec::rgb("albedo", 0.8, "single-scattering albedo rho of the facets"),
@@ -62,27 +70,28 @@ pub const C1: f64 = 0.5 - 2.0 / (3.0 * PI);
 /// c2 = 2/3 − 28/(15π): Ē = A(1 + c2 r).
 pub const C2: f64 = 2.0 / 3.0 - 28.0 / (15.0 * PI);
 
-/// The component choice, an index into [`MULTISCATTERS`]; the pipeline's specialization
-/// constant 3.
+/// The component choice; its index is the pipeline's specialization constant 3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct EonConfig {
-    /// Index into [`MULTISCATTERS`].
-    pub multiscatter: u8,
+    /// The multiple-scattering lobe.
+    pub multiscatter: EonMultiscatter,
 }
 
 impl EonConfig {
-    /// The closed-form multiple-scattering lobe.
-    pub const DEFAULT: EonConfig = EonConfig { multiscatter: 0 };
+    /// The closed-form multiple-scattering lobe: the parameter table's default.
+    pub const DEFAULT: EonConfig = EonConfig {
+        multiscatter: EonMultiscatter::Exact,
+    };
 
     /// The configuration a parameter set's choice value names (`get` reads a value by key); an
     /// option it does not know counts as the first.
     pub fn from_values(get: impl Fn(&'static str) -> Value) -> EonConfig {
         let multiscatter = match get("multiscatter") {
-            Value::Choice(name) => MULTISCATTERS.iter().position(|o| *o == name).unwrap_or(0),
-            _ => 0,
+            Value::Choice(name) => EonMultiscatter::from_name(name),
+            _ => None,
         };
         EonConfig {
-            multiscatter: multiscatter as u8,
+            multiscatter: multiscatter.unwrap_or(EonMultiscatter::ALL[0]),
         }
     }
 
@@ -98,13 +107,14 @@ impl EonConfig {
 
     /// `exact`, `approx` or `none`.
     pub fn label(&self) -> &'static str {
-        MULTISCATTERS[self.multiscatter as usize]
+        self.multiscatter.name()
     }
 
-    /// Every choice.
+    /// Every choice, in the order of its index.
     pub fn all() -> Vec<EonConfig> {
-        (0..MULTISCATTERS.len() as u8)
-            .map(|multiscatter| EonConfig { multiscatter })
+        EonMultiscatter::ALL
+            .iter()
+            .map(|&multiscatter| EonConfig { multiscatter })
             .collect()
     }
 }
@@ -254,7 +264,7 @@ pub fn eon_g_over_pi_fit(mu: f64) -> f64 {
 /// The fit keeps c1 − g(μ): it crosses 0 at μ* ≈ 1.4e-3, where no form is accurate in relative
 /// terms.
 pub fn eon_loss(mu: f64, config: EonConfig) -> f64 {
-    if config.multiscatter == 1 {
+    if config.multiscatter == EonMultiscatter::Approx {
         return (C1 - eon_g_over_pi_fit(mu)).max(0.0);
     }
     let s = ((1.0 - mu) * (1.0 + mu)).max(0.0).sqrt();
@@ -270,8 +280,8 @@ pub fn eon_loss(mu: f64, config: EonConfig) -> f64 {
 pub fn eon_albedo_ss(mu: f64, r: f64, config: EonConfig) -> f64 {
     let a = 1.0 / (1.0 + C1 * r);
     let g = match config.multiscatter {
-        1 => eon_g_over_pi_fit(mu),
-        _ => eon_g_over_pi(mu),
+        EonMultiscatter::Approx => eon_g_over_pi_fit(mu),
+        EonMultiscatter::Exact | EonMultiscatter::None => eon_g_over_pi(mu),
     };
     a + r * a * g
 }
@@ -289,7 +299,7 @@ pub fn eon_albedo(p: &Eon, mu: f64) -> DVec3 {
     let r = p.roughness;
     let exact = EonConfig::DEFAULT;
     let e_ss = p.albedo * eon_albedo_ss(mu, r, exact);
-    if p.config.multiscatter == 2 {
+    if p.config.multiscatter == EonMultiscatter::None {
         return e_ss;
     }
     let b = r / (1.0 + C1 * r);
@@ -297,7 +307,7 @@ pub fn eon_albedo(p: &Eon, mu: f64) -> DVec3 {
     let rho_ms = p.albedo * p.albedo * e_avg / (DVec3::ONE - p.albedo * (1.0 - e_avg));
     // ∫ f_ms μi dωi = ρ_ms B loss(μo) · 2∫B loss(μi) μi dμi / (B (c1 − c2)); for the exact loss
     // the integral is 1 − Ē = B (c1 − c2), for the fit it is taken by Gauss–Legendre below.
-    let moment = if p.config.multiscatter == 0 {
+    let moment = if p.config.multiscatter == EonMultiscatter::Exact {
         C1 - C2
     } else {
         fit_loss_moment()
@@ -353,7 +363,7 @@ pub fn eon(p: &Eon, wi: DVec3, wo: DVec3) -> DVec3 {
         a * (1.0 - r) + b * (0.5 * ((ui + uo).length_squared() + (mu_i * mu_i + mu_o * mu_o)))
     };
     let f_ss = p.albedo * FRAC_1_PI * lobe;
-    if p.config.multiscatter == 2 {
+    if p.config.multiscatter == EonMultiscatter::None {
         return f_ss;
     }
     let e_avg = a * (1.0 + C2 * r);

@@ -20,7 +20,7 @@
 //! E(μo) + L̃(μo): one up to the interpolation error of L̃. Anisotropic roughness looks the
 //! tables up at √(αx αy).
 
-use super::components::{MicrofacetConfig, BECKMANN_G1S, DISTRIBUTIONS, MASKINGS};
+use super::components::{BeckmannG1, MicrofacetConfig};
 use std::sync::OnceLock;
 
 /// Knots per axis: s = √μ and r = √α at j/64, j = 0 … 64.
@@ -57,16 +57,15 @@ pub struct Table {
 
 /// Which table a configuration reads (an index into [`TABLES`]).
 pub fn table_index(c: MicrofacetConfig) -> usize {
-    let d = DISTRIBUTIONS[c.distribution as usize];
-    let m = MASKINGS[c.masking as usize];
-    let g1 = if d == "beckmann" && m != "v_cavity" {
-        BECKMANN_G1S[c.beckmann_g1 as usize]
+    let g1 = if c.uses_beckmann_g1() {
+        c.beckmann_g1
     } else {
-        "exact"
+        BeckmannG1::Exact
     };
+    let key = (c.distribution.name(), c.masking.name(), g1.name());
     TABLES
         .iter()
-        .position(|t| *t == (d, m, g1))
+        .position(|t| *t == key)
         .expect("every configuration has a table")
 }
 

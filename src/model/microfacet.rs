@@ -8,7 +8,7 @@
 //! so a pipeline holds only the components it uses.
 
 pub use super::components::{
-    MicrofacetConfig, BECKMANN_G1S, DISTRIBUTIONS, FRESNELS, MASKINGS, MULTISCATTERS,
+    BeckmannG1, Distribution, Fresnel, Masking, MicrofacetConfig, Multiscatter,
 };
 use super::info::{white_specular_alone, LutAxis, ModelInfo};
 use super::kulla_conty;
@@ -28,22 +28,38 @@ use std::mem::offset_of;
 /// Keys whose absence means something: alpha_x and alpha_y fall back to alpha, f0 to the IOR.
 pub const OPTIONAL_KEYS: &[&str] = &["alpha_x", "alpha_y", "f0"];
 
-/// The parameter table: the four component choices, then the roughness, Fresnel inputs and the
-/// two weights.
+/// The parameter table: the five component choices (their options from the enums of
+/// [`super::components`], their defaults [`MicrofacetConfig::DEFAULT`]), then the roughness,
+/// Fresnel inputs and the two weights.
 pub const PARAMS: &[ParamSpec] = &[
-    ParamSpec::choice("distribution", DISTRIBUTIONS, 1, "normal distribution D"),
-    ParamSpec::choice("masking", MASKINGS, 2, "masking-shadowing G"),
+    ParamSpec::choice(
+        "distribution",
+        Distribution::NAMES,
+        MicrofacetConfig::DEFAULT.distribution as usize,
+        "normal distribution D",
+    ),
+    ParamSpec::choice(
+        "masking",
+        Masking::NAMES,
+        MicrofacetConfig::DEFAULT.masking as usize,
+        "masking-shadowing G",
+    ),
     ParamSpec::choice(
         "beckmann_g1",
-        BECKMANN_G1S,
-        0,
+        BeckmannG1::NAMES,
+        MicrofacetConfig::DEFAULT.beckmann_g1 as usize,
         "Beckmann's Smith G1: erf form or Walter 2007's rational fit",
     ),
-    ParamSpec::choice("fresnel", FRESNELS, 1, "Fresnel factor F"),
+    ParamSpec::choice(
+        "fresnel",
+        Fresnel::NAMES,
+        MicrofacetConfig::DEFAULT.fresnel as usize,
+        "Fresnel factor F",
+    ),
     ParamSpec::choice(
         "multiscatter",
-        MULTISCATTERS,
-        0,
+        Multiscatter::NAMES,
+        MicrofacetConfig::DEFAULT.multiscatter as usize,
         "multiple scattering: none, or Kulla-Conty's lobe from lobe's own E(mu, alpha) tables",
     ),
     ParamSpec::positive(
@@ -221,7 +237,7 @@ pub const INFO: ModelInfo = ModelInfo {
 /// |x| of Beckmann's exp(−(h_x²/α_x² + h_y²/α_y²)/h_z²) at (ωi, ωo); GGX has no exponential.
 fn microfacet_exponent_at(p: &ParamSet, wi: DVec3, wo: DVec3) -> f64 {
     match p.model() {
-        Model::Microfacet(c) if DISTRIBUTIONS[c.distribution as usize] == "beckmann" => {
+        Model::Microfacet(c) if c.distribution == Distribution::Beckmann => {
             let h = (wi + wo).normalize_or_zero();
             let m = Microfacet::new(p);
             (h.x * h.x / (m.alpha_x * m.alpha_x) + h.y * h.y / (m.alpha_y * m.alpha_y))
@@ -244,20 +260,20 @@ fn stability_edges(model: Model) -> Vec<&'static [&'static str]> {
         &["diffuse=0", "alpha_x=1", "alpha_y=1e-4"],
     ];
     if let Model::Microfacet(c) = model {
-        out.extend_from_slice(match FRESNELS[c.fresnel as usize] {
-            "schlick" => &[
+        out.extend_from_slice(match c.fresnel {
+            Fresnel::Schlick => &[
                 &["alpha=1e-4", "f0=0"],
                 &["alpha=1e-4", "f0=1"],
                 &["alpha=1e-4", "ior=1"],
                 &["alpha=1e-4", "ior=5"],
             ],
-            "dielectric" => &[&["alpha=1e-4", "ior=1"], &["alpha=1e-4", "ior=5"]],
-            "conductor" => &[
+            Fresnel::Dielectric => &[&["alpha=1e-4", "ior=1"], &["alpha=1e-4", "ior=5"]],
+            Fresnel::Conductor => &[
                 &["alpha=1e-4", "eta=0.01", "k=10"],
                 &["alpha=1e-4", "eta=10", "k=0"],
                 &["alpha=1e-4", "eta=1", "k=0"],
             ],
-            _ => &[],
+            Fresnel::None => &[],
         });
     }
     out
@@ -343,10 +359,10 @@ impl Microfacet {
     fn lambda(&self, w: DVec3) -> f64 {
         let t2 = alpha_tan2(w, self.alpha_x, self.alpha_y);
         match (self.config.distribution, self.config.beckmann_g1) {
-            (1, _) => lambda_ggx(t2),
-            (_, 0) => lambda_beckmann(t2),
+            (Distribution::Ggx, _) => lambda_ggx(t2),
+            (Distribution::Beckmann, BeckmannG1::Exact) => lambda_beckmann(t2),
             // Λ implied by the rational G1 = 1/(1 + Λ), so that both Smith forms can use it.
-            _ => 1.0 / G1_beckmann_rational(t2) - 1.0,
+            (Distribution::Beckmann, BeckmannG1::Rational) => 1.0 / G1_beckmann_rational(t2) - 1.0,
         }
     }
 }
@@ -357,10 +373,12 @@ impl Microfacet {
 /// per parameter set; the GPU reads it from the parameter block.
 pub fn fresnel_average(p: &Microfacet) -> DVec3 {
     match p.config.fresnel {
-        0 => DVec3::ONE,
-        1 => p.f0 + (DVec3::ONE - p.f0) / 21.0,
-        2 => DVec3::splat(kulla_conty::fresnel_average(|c| F_dielectric(c, p.ior))),
-        _ => {
+        Fresnel::None => DVec3::ONE,
+        Fresnel::Schlick => p.f0 + (DVec3::ONE - p.f0) / 21.0,
+        Fresnel::Dielectric => {
+            DVec3::splat(kulla_conty::fresnel_average(|c| F_dielectric(c, p.ior)))
+        }
+        Fresnel::Conductor => {
             let channel = |i: usize| {
                 kulla_conty::fresnel_average(|c| {
                     F_conductor(c, DVec3::splat(p.eta[i]), DVec3::splat(p.k[i])).x
@@ -390,22 +408,22 @@ pub fn microfacet_from_sum(
     let (h, c_d) = half_vector_from_sum(s);
     let (c_i, c_o) = (wi.z, wo.z);
     let d = match p.config.distribution {
-        0 => D_beckmann(h, p.alpha_x, p.alpha_y),
-        _ => D_ggx(h, p.alpha_x, p.alpha_y),
+        Distribution::Beckmann => D_beckmann(h, p.alpha_x, p.alpha_y),
+        Distribution::Ggx => D_ggx(h, p.alpha_x, p.alpha_y),
     };
     let g = match p.config.masking {
-        0 => G_v_cavity(h.z, c_d, c_i, c_o),
-        1 => 1.0 / ((1.0 + p.lambda(wi)) * (1.0 + p.lambda(wo))),
-        _ => 1.0 / (1.0 + p.lambda(wi) + p.lambda(wo)),
+        Masking::VCavity => G_v_cavity(h.z, c_d, c_i, c_o),
+        Masking::SmithSeparable => 1.0 / ((1.0 + p.lambda(wi)) * (1.0 + p.lambda(wo))),
+        Masking::SmithCorrelated => 1.0 / (1.0 + p.lambda(wi) + p.lambda(wo)),
     };
     let f = if white_furnace {
         DVec3::ONE
     } else {
         match p.config.fresnel {
-            0 => DVec3::ONE,
-            1 => F_schlick(c_d, p.f0),
-            2 => DVec3::splat(F_dielectric(c_d, p.ior)),
-            _ => F_conductor(c_d, p.eta, p.k),
+            Fresnel::None => DVec3::ONE,
+            Fresnel::Schlick => F_schlick(c_d, p.f0),
+            Fresnel::Dielectric => DVec3::splat(F_dielectric(c_d, p.ior)),
+            Fresnel::Conductor => F_conductor(c_d, p.eta, p.k),
         }
     };
     let mut out = p.diffuse * FRAC_1_PI + p.specular * f * (d * g / (4.0 * c_i * c_o));
@@ -436,5 +454,5 @@ fn microfacet_lobes(p: &ParamSet) -> Option<SamplingLobes> {
 
 /// V-cavity masking is one of the component choices.
 fn has_v_cavity(model: Model) -> bool {
-    matches!(model, Model::Microfacet(c) if MASKINGS[c.masking as usize] == "v_cavity")
+    matches!(model, Model::Microfacet(c) if c.masking == Masking::VCavity)
 }

@@ -1,76 +1,165 @@
 //! The microfacet model's component choices: distribution, masking, Beckmann's G1 variant,
-//! Fresnel term and multiple scattering, each an index into its option list. Every combination
-//! is its own pipeline (the indices are specialization constants), and the Kulla–Conty tables
-//! are computed per combination.
+//! Fresnel term and multiple scattering, each a typed enum whose discriminant is the option's
+//! index. Every combination is its own pipeline (the indices are specialization constants), and
+//! the Kulla–Conty tables are computed per combination.
 
 use crate::model::Value;
 
-/// Options of the `distribution` parameter, in the order of their index (specialization
-/// constant 3).
-pub const DISTRIBUTIONS: &[&str] = &["beckmann", "ggx"];
-/// Options of the `masking` parameter, in the order of their index (specialization constant 4).
-pub const MASKINGS: &[&str] = &["v_cavity", "smith_separable", "smith_correlated"];
-/// Options of the `beckmann_g1` parameter, in the order of their index (specialization
-/// constant 5); only Smith masking with Beckmann's D uses it.
-pub const BECKMANN_G1S: &[&str] = &["exact", "rational"];
-/// Options of the `fresnel` parameter, in the order of their index (specialization constant 6).
-pub const FRESNELS: &[&str] = &["none", "schlick", "dielectric", "conductor"];
+/// A closed set of named options that selects a pipeline: the enum (`#[repr(u32)]`, each
+/// discriminant the option's index, which is the specialization constant's value), `ALL` in
+/// index order, `NAMES` (the option names in the same order: the parameter table's choice list),
+/// `name()` and `from_name()`. Each variant is written once, with its index and its name, so the
+/// enum and the parameter table cannot disagree.
+macro_rules! choice_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $name:ident {
+            $( $(#[$variant_meta:meta])* $variant:ident = $index:literal => $option:literal, )+
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[repr(u32)]
+        pub enum $name {
+            $( $(#[$variant_meta])* $variant = $index, )+
+        }
 
-/// Options of the `multiscatter` parameter, in the order of their index (specialization
-/// constant 7): no multiple scattering, or Kulla & Conty's lobe.
-pub const MULTISCATTERS: &[&str] = &["none", "kulla_conty"];
+        impl $name {
+            /// Every option, in the order of its index.
+            pub const ALL: &'static [$name] = &[$($name::$variant),+];
 
-/// The component choices, as indices into the option lists; they are the pipeline's
-/// specialization constants 3, 4, 5, 6 and 7.
+            /// The option names, in the order of their index: the parameter's choice list.
+            pub const NAMES: &'static [&'static str] = &[$($option),+];
+
+            /// The option's name, as parameter values spell it.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => $option,)+
+                }
+            }
+
+            /// The option a parameter value names, or None for a name it does not know.
+            pub fn from_name(name: &str) -> Option<$name> {
+                match name {
+                    $($option => Some($name::$variant),)+
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+pub(crate) use choice_enum;
+
+choice_enum! {
+    /// The normal distribution D: the `distribution` parameter, specialization constant 3.
+    pub enum Distribution {
+        /// Beckmann's Gaussian distribution of slopes (Beckmann & Spizzichino 1963).
+        Beckmann = 0 => "beckmann",
+        /// GGX, Trowbridge & Reitz's distribution (Walter et al. 2007).
+        Ggx = 1 => "ggx",
+    }
+}
+
+choice_enum! {
+    /// The masking-shadowing term G: the `masking` parameter, specialization constant 4.
+    pub enum Masking {
+        /// Cook & Torrance's V-cavity masking (Torrance & Sparrow 1967).
+        VCavity = 0 => "v_cavity",
+        /// Smith's G1(ωi) G1(ωo), masking and shadowing independent (Walter et al. 2007).
+        SmithSeparable = 1 => "smith_separable",
+        /// Smith's height-correlated 1/(1 + Λ(ωi) + Λ(ωo)) (Heitz 2014).
+        SmithCorrelated = 2 => "smith_correlated",
+    }
+}
+
+choice_enum! {
+    /// Beckmann's Smith G1: the `beckmann_g1` parameter, specialization constant 5; only Smith
+    /// masking with Beckmann's D uses it.
+    pub enum BeckmannG1 {
+        /// The exact form with erf.
+        Exact = 0 => "exact",
+        /// Walter et al. 2007's rational fit.
+        Rational = 1 => "rational",
+    }
+}
+
+choice_enum! {
+    /// The Fresnel factor F: the `fresnel` parameter, specialization constant 6.
+    pub enum Fresnel {
+        /// F = 1.
+        None = 0 => "none",
+        /// Schlick 1994's approximation, from `f0` or from `ior`.
+        Schlick = 1 => "schlick",
+        /// The exact unpolarized dielectric, from `ior`.
+        Dielectric = 2 => "dielectric",
+        /// The exact unpolarized conductor, from `eta` and `k`.
+        Conductor = 3 => "conductor",
+    }
+}
+
+choice_enum! {
+    /// Multiple scattering: the `multiscatter` parameter, specialization constant 7.
+    pub enum Multiscatter {
+        /// The single-scattering lobe alone.
+        None = 0 => "none",
+        /// Kulla & Conty 2017's lobe, from lobe's own E(μ, α) tables.
+        KullaConty = 1 => "kulla_conty",
+    }
+}
+
+/// The component choices; their indices are the pipeline's specialization constants 3, 4, 5, 6
+/// and 7. The derived order is that of the indices, field by field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct MicrofacetConfig {
-    /// Index into [`DISTRIBUTIONS`].
-    pub distribution: u8,
-    /// Index into [`MASKINGS`].
-    pub masking: u8,
-    /// Index into [`BECKMANN_G1S`].
-    pub beckmann_g1: u8,
-    /// Index into [`FRESNELS`].
-    pub fresnel: u8,
-    /// Index into [`MULTISCATTERS`].
-    pub multiscatter: u8,
+    /// The normal distribution D.
+    pub distribution: Distribution,
+    /// The masking-shadowing term G.
+    pub masking: Masking,
+    /// Beckmann's Smith G1 variant.
+    pub beckmann_g1: BeckmannG1,
+    /// The Fresnel factor F.
+    pub fresnel: Fresnel,
+    /// Multiple scattering.
+    pub multiscatter: Multiscatter,
 }
 
 impl MicrofacetConfig {
     /// GGX, height-correlated Smith, exact Beckmann G1 (unused with GGX), Schlick, no multiple
-    /// scattering.
+    /// scattering: the parameter table's defaults.
     pub const DEFAULT: MicrofacetConfig = MicrofacetConfig {
-        distribution: 1,
-        masking: 2,
-        beckmann_g1: 0,
-        fresnel: 1,
-        multiscatter: 0,
+        distribution: Distribution::Ggx,
+        masking: Masking::SmithCorrelated,
+        beckmann_g1: BeckmannG1::Exact,
+        fresnel: Fresnel::Schlick,
+        multiscatter: Multiscatter::None,
     };
 
     /// The configuration a parameter set's choice values name (`get` reads a value by key); an
     /// option it does not know counts as the first.
     pub fn from_values(get: impl Fn(&'static str) -> Value) -> MicrofacetConfig {
-        let index = |key: &'static str, options: &[&str]| match get(key) {
-            Value::Choice(name) => options.iter().position(|o| *o == name).unwrap_or(0) as u8,
-            _ => 0,
+        let name = |key: &'static str| match get(key) {
+            Value::Choice(name) => name,
+            _ => "",
         };
         MicrofacetConfig {
-            distribution: index("distribution", DISTRIBUTIONS),
-            masking: index("masking", MASKINGS),
-            beckmann_g1: index("beckmann_g1", BECKMANN_G1S),
-            fresnel: index("fresnel", FRESNELS),
-            multiscatter: index("multiscatter", MULTISCATTERS),
+            distribution: Distribution::from_name(name("distribution"))
+                .unwrap_or(Distribution::ALL[0]),
+            masking: Masking::from_name(name("masking")).unwrap_or(Masking::ALL[0]),
+            beckmann_g1: BeckmannG1::from_name(name("beckmann_g1")).unwrap_or(BeckmannG1::ALL[0]),
+            fresnel: Fresnel::from_name(name("fresnel")).unwrap_or(Fresnel::ALL[0]),
+            multiscatter: Multiscatter::from_name(name("multiscatter"))
+                .unwrap_or(Multiscatter::ALL[0]),
         }
     }
 
     /// (key, option) of each component, as parameter values.
     pub fn choices(&self) -> [(&'static str, &'static str); 5] {
         [
-            ("distribution", DISTRIBUTIONS[self.distribution as usize]),
-            ("masking", MASKINGS[self.masking as usize]),
-            ("beckmann_g1", BECKMANN_G1S[self.beckmann_g1 as usize]),
-            ("fresnel", FRESNELS[self.fresnel as usize]),
-            ("multiscatter", MULTISCATTERS[self.multiscatter as usize]),
+            ("distribution", self.distribution.name()),
+            ("masking", self.masking.name()),
+            ("beckmann_g1", self.beckmann_g1.name()),
+            ("fresnel", self.fresnel.name()),
+            ("multiscatter", self.multiscatter.name()),
         ]
     }
 
@@ -87,22 +176,27 @@ impl MicrofacetConfig {
 
     /// Whether Kulla & Conty's multiple-scattering lobe is on.
     pub fn kulla_conty(&self) -> bool {
-        MULTISCATTERS[self.multiscatter as usize] == "kulla_conty"
+        self.multiscatter == Multiscatter::KullaConty
+    }
+
+    /// Whether the G1 choice matters: Smith masking (separable or correlated) with Beckmann's D.
+    pub fn uses_beckmann_g1(&self) -> bool {
+        self.distribution == Distribution::Beckmann && self.masking != Masking::VCavity
     }
 
     /// `ggx/smith_correlated/schlick` (the G1 variant only where it matters, `+kulla_conty`
     /// where that lobe is on).
     pub fn label(&self) -> String {
-        let d = DISTRIBUTIONS[self.distribution as usize];
-        let g1 = if self.distribution == 0 && self.masking != 0 {
-            format!("+{}", BECKMANN_G1S[self.beckmann_g1 as usize])
+        let g1 = if self.uses_beckmann_g1() {
+            format!("+{}", self.beckmann_g1.name())
         } else {
             String::new()
         };
         format!(
-            "{d}/{}{g1}/{}{}",
-            MASKINGS[self.masking as usize],
-            FRESNELS[self.fresnel as usize],
+            "{}/{}{g1}/{}{}",
+            self.distribution.name(),
+            self.masking.name(),
+            self.fresnel.name(),
             if self.kulla_conty() {
                 "+kulla_conty"
             } else {
@@ -111,14 +205,14 @@ impl MicrofacetConfig {
         )
     }
 
-    /// Every combination of components.
+    /// Every combination of components, in the derived order.
     pub fn all() -> Vec<MicrofacetConfig> {
         let mut out = Vec::new();
-        for distribution in 0..DISTRIBUTIONS.len() as u8 {
-            for masking in 0..MASKINGS.len() as u8 {
-                for beckmann_g1 in 0..BECKMANN_G1S.len() as u8 {
-                    for fresnel in 0..FRESNELS.len() as u8 {
-                        for multiscatter in 0..MULTISCATTERS.len() as u8 {
+        for &distribution in Distribution::ALL {
+            for &masking in Masking::ALL {
+                for &beckmann_g1 in BeckmannG1::ALL {
+                    for &fresnel in Fresnel::ALL {
+                        for &multiscatter in Multiscatter::ALL {
                             out.push(MicrofacetConfig {
                                 distribution,
                                 masking,
@@ -132,5 +226,75 @@ impl MicrofacetConfig {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::eon::EonMultiscatter;
+
+    /// Each enum's discriminants are 0, 1, … in the order of `ALL`, its names in `NAMES`, and
+    /// every name parses back to its option.
+    macro_rules! check_enum {
+        ($name:ident, $names:expr) => {
+            assert_eq!($name::NAMES, $names);
+            assert_eq!($name::ALL.len(), $name::NAMES.len());
+            for (i, &v) in $name::ALL.iter().enumerate() {
+                assert_eq!(v as usize, i, "{v:?}");
+                assert_eq!(v.name(), $name::NAMES[i]);
+                assert_eq!($name::from_name(v.name()), Some(v));
+            }
+            assert_eq!($name::from_name("no_such_option"), None);
+        };
+    }
+
+    #[test]
+    fn options_keep_their_indices_and_names() {
+        // The indices are the kernels' specialization constants: these lists must not change
+        // order (glsl/brdf/microfacet.glsl, constants 3 to 7).
+        check_enum!(Distribution, &["beckmann", "ggx"]);
+        check_enum!(
+            Masking,
+            &["v_cavity", "smith_separable", "smith_correlated"]
+        );
+        check_enum!(BeckmannG1, &["exact", "rational"]);
+        check_enum!(Fresnel, &["none", "schlick", "dielectric", "conductor"]);
+        check_enum!(Multiscatter, &["none", "kulla_conty"]);
+        // EON's, constant 3 of glsl/brdf/eon.glsl.
+        check_enum!(EonMultiscatter, &["exact", "approx", "none"]);
+    }
+
+    #[test]
+    fn every_combination_once_in_index_order() {
+        let all = MicrofacetConfig::all();
+        assert_eq!(all.len(), 2 * 3 * 2 * 4 * 2);
+        // Sorted by the derived order, which is the lexicographic order of the indices.
+        for pair in all.windows(2) {
+            assert!(pair[0] < pair[1], "{pair:?}");
+            assert!(
+                pair[0].spec_constants() < pair[1].spec_constants(),
+                "{pair:?}"
+            );
+        }
+        assert_eq!(MicrofacetConfig::DEFAULT.spec_constants(), [1, 2, 0, 1, 0]);
+    }
+
+    #[test]
+    fn values_round_trip() {
+        for c in MicrofacetConfig::all() {
+            let choices = c.choices();
+            let get = |key: &'static str| {
+                let (_, name) = choices
+                    .iter()
+                    .find(|(k, _)| *k == key)
+                    .expect("a component");
+                Value::Choice(*name)
+            };
+            assert_eq!(MicrofacetConfig::from_values(get), c);
+        }
+        // An unknown option counts as the first.
+        let c = MicrofacetConfig::from_values(|_| Value::Choice("no_such_option"));
+        assert_eq!(c.spec_constants(), [0; 5]);
     }
 }
