@@ -234,6 +234,24 @@ impl Session {
     /// does not declare it (a `.brdf` file): on a grid that allows it, each cell with θi ≤ θo is
     /// evaluated and copied into its mirror cell (docs/design.md §4.5), so for a model that is
     /// not reciprocal both cells hold f at the first one's directions.
+    ///
+    /// ```
+    /// use lobe::grid::Grid;
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let path = dir.path().join("phong.exr");
+    /// let phong = lobe::ParamSet::for_model("phong")?;
+    /// let grid = Grid::Isotropic { n_theta_i: 3, n_theta_o: 3, n_dphi: 2 };
+    /// let session = lobe::Session::cpu();
+    /// session.write_table_reciprocal(&phong, grid, &path, false, &mut |_, _| {})?;
+    /// let npy = std::fs::read(dir.path().join("phong.npy")).unwrap();
+    /// // f32 cells after the header: (θi, θo) = (0, 2) and (2, 0) hold the same bytes.
+    /// let cell = |i: usize, o: usize| {
+    ///     let at = npy.len() - (9 * 2 * 3 * 4) + ((i * 3 + o) * 2 * 3 * 4);
+    ///     npy[at..at + 12].to_vec()
+    /// };
+    /// assert_eq!(cell(0, 2), cell(2, 0));
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
     pub fn write_table_reciprocal<'q>(
         &self,
         query: impl Into<Query<'q>>,
