@@ -10,13 +10,15 @@
 //!    or the relative L2 sqrt(Σ w |f_fit − f_target|² / Σ w |f_target|²).
 //! 3. The free keys span an unbounded vector z mapped into their ranges by a logistic function
 //!    ([`space`]); Nelder–Mead (argmin) runs from several Halton starts in lock-step
-//!    ([`batch`]), so each round's candidates of every start are evaluated together: one
-//!    dispatch of the pairs kernel on the GPU, or the f64 reference on the CPU.
+//!    ([`batch`]; the starts' threads and rounds in `starts.rs`), so each round's candidates of
+//!    every start are evaluated together: one dispatch of the pairs kernel on the GPU, or the
+//!    f64 reference on the CPU.
 //! 4. The best start's parameters are the fit; the report adds each start's result, the
 //!    per-channel loss, and the directional albedo of target and fit side by side.
 
 pub mod batch;
 pub mod space;
+mod starts;
 pub mod target;
 
 use crate::backend::Query;
@@ -26,12 +28,8 @@ use crate::integrate::{self, PointAlbedo};
 use crate::loss::{ChannelErrors, LossKind};
 use crate::model::ParamSet;
 use anyhow::{Context, Result};
-use argmin::core::observers::{Observe, ObserverMode};
-use argmin::core::{CostFunction, Executor, State, KV};
-use argmin::solver::neldermead::NelderMead;
 use glam::DVec3;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::Arc;
+use starts::{run_starts, start_reports, Rounds};
 use std::time::Instant;
 
 pub use space::Space;
@@ -53,10 +51,6 @@ pub const DEFAULT_MAX_ITERS: u64 = 400;
 /// MERL file stops with α within 1e-7 of the truth), and near the f32 noise of a GPU
 /// evaluation of the loss, below which more iterations only chase rounding.
 pub const SD_TOLERANCE: f64 = 1e-8;
-
-/// Size of the starting simplex in z (the logistic coordinates): 1 moves a value from the middle
-/// of its range by about a quarter of it.
-const SIMPLEX_STEP: f64 = 1.0;
 
 /// Most starts: each is a thread and a block of parameters per round.
 pub const MAX_STARTS: usize = 64;
@@ -223,42 +217,6 @@ impl<'a> Objective<'a> {
     }
 }
 
-/// One start's problem for argmin: its costs go through the lock-step.
-struct StartProblem<'s, 'a> {
-    step: &'s batch::LockStep<'a>,
-    start: usize,
-    /// Cost calls so far, to tell the initial simplex from the iterations.
-    calls: AtomicUsize,
-    /// Calls of the initial simplex (dims + 1).
-    init_calls: usize,
-}
-
-impl CostFunction for StartProblem<'_, '_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-
-    fn cost(&self, z: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        let call = self.calls.fetch_add(1, Ordering::Relaxed);
-        match self.step.cost(self.start, z.clone()) {
-            Ok(v) => Ok(v),
-            // argmin's Nelder–Mead unwraps the costs of its initial simplex; an infinite loss
-            // there ends the run at its first iteration, which then reports the failure.
-            Err(_) if call < self.init_calls => Ok(f64::INFINITY),
-            Err(e) => Err(anyhow::anyhow!(e)),
-        }
-    }
-}
-
-/// Writes each iteration of one start into a shared counter.
-struct IterationCounter(Arc<AtomicU64>);
-
-impl<I: State> Observe<I> for IterationCounter {
-    fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), argmin::core::Error> {
-        self.0.store(state.get_iter(), Ordering::Relaxed);
-        Ok(())
-    }
-}
-
 /// Fits the free keys of `space` to `target` (module docs). `progress` is called after every
 /// round.
 pub fn fit(
@@ -268,87 +226,22 @@ pub fn fit(
     opts: &FitOptions,
     progress: &(dyn Fn(FitProgress) + Sync),
 ) -> Result<FitReport> {
-    if !(1..=MAX_STARTS).contains(&opts.starts) {
-        return Err(BadInput::new(
-            "starts",
-            format!(
-                "starts = {}: expected from 1 to {MAX_STARTS} Nelder-Mead runs",
-                opts.starts
-            ),
-        )
-        .into());
-    }
-    if opts.max_iters == 0 {
-        return Err(BadInput::new(
-            "max_iters",
-            "max_iters = 0: expected at least 1 Nelder-Mead iteration per start",
-        )
-        .into());
-    }
+    check_options(opts)?;
     eval.supports(space.base.model())?;
     let t0 = Instant::now();
     let samples = target::samples(target, eval, opts.max_bins)?;
     let objective = Objective::new(*eval, &samples, opts.loss, opts.starts);
-    let best = Mutex::new(f64::INFINITY);
-    let iterations: Vec<Arc<AtomicU64>> = (0..opts.starts)
-        .map(|_| Arc::new(AtomicU64::new(0)))
-        .collect();
-    let rounds = AtomicU64::new(0);
-    let round_eval = |round: &[(usize, Vec<f64>)]| -> Result<Vec<f64>> {
-        let sets: Vec<Option<ParamSet>> = round.iter().map(|(_, z)| space.params(z).ok()).collect();
-        let valid: Vec<ParamSet> = sets.iter().flatten().cloned().collect();
-        let mut losses = objective.losses(&valid)?.into_iter();
-        let out: Vec<f64> = sets
-            .iter()
-            .map(|s| match s {
-                Some(_) => losses
-                    .next()
-                    .map(|e| e.total)
-                    .filter(|l| l.is_finite())
-                    .unwrap_or(f64::INFINITY),
-                None => f64::INFINITY,
-            })
-            .collect();
-        let mut b = best.lock().unwrap_or_else(|e| e.into_inner());
-        *b = out.iter().copied().fold(*b, f64::min);
-        let done = rounds.fetch_add(1, Ordering::Relaxed) + 1;
-        progress(FitProgress {
-            rounds: done,
-            iteration: iterations
-                .iter()
-                .map(|i| i.load(Ordering::Relaxed))
-                .max()
-                .unwrap_or(0),
-            best_loss: *b,
-        });
-        Ok(out)
-    };
+    let rounds = Rounds::new(&objective, space, opts.starts, progress);
+    let round_eval = |round: &[(usize, Vec<f64>)]| rounds.eval(round);
     let step = batch::LockStep::new(opts.starts, &round_eval);
-    let dims = space.dims();
     let starts = space.starts(opts.starts);
-    let results: Vec<std::result::Result<(Vec<f64>, f64, u64, String), String>> =
-        std::thread::scope(|scope| {
-            let handles: Vec<_> = starts
-                .iter()
-                .enumerate()
-                .map(|(k, z0)| {
-                    let step = &step;
-                    let counter = iterations[k].clone();
-                    scope.spawn(move || {
-                        let r = run_start(step, k, z0, dims, opts.max_iters, counter);
-                        step.finish(k);
-                        r
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| {
-                    h.join()
-                        .unwrap_or_else(|_| Err("a Nelder-Mead run panicked".to_string()))
-                })
-                .collect()
-        });
+    let results = run_starts(
+        &step,
+        &starts,
+        space.dims(),
+        opts.max_iters,
+        &rounds.iterations,
+    );
     if let Some(e) = step.failure() {
         // The first failure of a round (a lost device, Ctrl-C) ends the fit with its own error.
         if eval.check_cancelled().is_err() {
@@ -356,18 +249,7 @@ pub fn fit(
         }
         anyhow::bail!("fitting {}: {e}", space.base.model().name());
     }
-    let mut reports = Vec::new();
-    for (k, r) in results.into_iter().enumerate() {
-        let (z, loss, iters, stopped) =
-            r.map_err(|e| anyhow::anyhow!("fitting {}: {e}", space.base.model().name()))?;
-        reports.push(StartReport {
-            start: space.params(&starts[k])?,
-            params: space.params(&z)?,
-            loss,
-            iterations: iters,
-            stopped,
-        });
-    }
+    let reports = start_reports(space, &starts, results)?;
     let best_start = reports
         .iter()
         .enumerate()
@@ -388,63 +270,46 @@ pub fn fit(
         rounds,
         evaluations,
         seconds,
-        samples: SampleCounts {
-            used: samples.pairs.len(),
-            valid: samples.valid,
-            grid_bins: samples.grid_bins,
-            missing: samples.missing,
-            grid: samples.grid.clone(),
-        },
+        samples: SampleCounts::of(&samples),
         albedo,
         backend: eval.name(),
         params,
     })
 }
 
-use std::sync::Mutex;
-
-/// One Nelder–Mead run from `z0`: (best z, its loss, iterations, why it stopped).
-fn run_start(
-    step: &batch::LockStep,
-    start: usize,
-    z0: &[f64],
-    dims: usize,
-    max_iters: u64,
-    counter: Arc<AtomicU64>,
-) -> std::result::Result<(Vec<f64>, f64, u64, String), String> {
-    let mut simplex = vec![z0.to_vec()];
-    for d in 0..dims {
-        let mut z = z0.to_vec();
-        z[d] += SIMPLEX_STEP;
-        simplex.push(z);
+/// Refuses a number of starts outside 1..=[`MAX_STARTS`] and a bound of 0 iterations.
+fn check_options(opts: &FitOptions) -> Result<()> {
+    if !(1..=MAX_STARTS).contains(&opts.starts) {
+        return Err(BadInput::new(
+            "starts",
+            format!(
+                "starts = {}: expected from 1 to {MAX_STARTS} Nelder-Mead runs",
+                opts.starts
+            ),
+        )
+        .into());
     }
-    let solver = NelderMead::new(simplex)
-        .with_sd_tolerance(SD_TOLERANCE)
-        .map_err(|e| e.to_string())?;
-    let problem = StartProblem {
-        step,
-        start,
-        calls: AtomicUsize::new(0),
-        init_calls: dims + 1,
-    };
-    let result = Executor::new(problem, solver)
-        .configure(|s| s.max_iters(max_iters))
-        .add_observer(IterationCounter(counter), ObserverMode::Always)
-        .run()
-        .map_err(|e| format!("{e:#}"))?;
-    let state = result.state();
-    let z = state
-        .get_best_param()
-        .cloned()
-        .unwrap_or_else(|| z0.to_vec());
-    Ok((
-        z,
-        state.get_best_cost(),
-        state.get_iter(),
-        state
-            .get_termination_reason()
-            .map_or_else(|| "not stopped".to_string(), |r| r.text().to_string()),
-    ))
+    if opts.max_iters == 0 {
+        return Err(BadInput::new(
+            "max_iters",
+            "max_iters = 0: expected at least 1 Nelder-Mead iteration per start",
+        )
+        .into());
+    }
+    Ok(())
+}
+
+impl SampleCounts {
+    /// The counts of `samples`.
+    fn of(samples: &Samples) -> SampleCounts {
+        SampleCounts {
+            used: samples.pairs.len(),
+            valid: samples.valid,
+            grid_bins: samples.grid_bins,
+            missing: samples.missing,
+            grid: samples.grid.clone(),
+        }
+    }
 }
 
 /// The target's model, where it has one: a model target, or a MERL file as its lookup model.

@@ -140,20 +140,85 @@ impl Gpu {
         nodes: &AlbedoNodes<'_>,
         sums: &[AlbedoSum],
     ) -> Result<Vec<[f64; 3]>> {
-        for s in sums {
-            if s.begin + s.len > nodes.len || s.param >= blocks.len() {
-                return Err(GpuError::Limit(format!(
-                    "albedo: a sum over nodes {}..{} with parameter block {} of a buffer of {} nodes and {} blocks",
-                    s.begin,
-                    s.begin + s.len,
-                    s.param,
-                    nodes.len,
-                    blocks.len()
-                )));
-            }
+        check_sums(sums, blocks.len(), nodes.len)?;
+        let spans = SpanList::of(sums, span_nodes(self.dev.cpu_kernels()));
+        let mut out = vec![[0.0f64; 3]; sums.len()];
+        if spans.spans.is_empty() {
+            return Ok(out);
         }
-        let span = span_nodes(self.dev.cpu_kernels());
-        // Each sum's spans, and which sum each span belongs to.
+        // The texel view covers the first maxTexelBufferElements nodes of the buffer.
+        let texel_nodes = self.dev.cpu_kernels()
+            && nodes.len as u64 <= self.dev.limits.max_texel_buffer_elements as u64;
+        let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
+        let plan = DispatchPlan::new(self, &spans)?;
+        let bufs = SumBuffers::new(self, blocks, &spans, &plan)?;
+        let node_buf = &nodes.buf;
+        let dispatcher = Dispatcher::new(
+            &pipe,
+            &[&bufs.params, node_buf, &bufs.spans, &bufs.out, node_buf],
+        )?;
+        let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as usize;
+        let n_spans = spans.spans.len();
+        for first in (0..n_spans).step_by(plan.per_dispatch) {
+            let groups = plan.per_dispatch.min(n_spans - first);
+            let push = AlbedoPush {
+                first_span: first as u32,
+                dispatch_count: (groups * per_group) as u32,
+                pad: [0; 2],
+            };
+            dispatcher.run_one(&bytemuck::cast::<AlbedoPush, ChunkPush>(push))?;
+            let partials = bufs.out.read_f32(4 * plan.partials_per_span * groups);
+            if let Some((invalid, bad)) = first_invalid(partials, plan.partials_per_span) {
+                let evaluated = spans.spans[..first + groups]
+                    .iter()
+                    .map(|s| (s.end - s.begin) as u64)
+                    .sum();
+                return Err(self.invalid_in_span(
+                    model,
+                    blocks,
+                    white_furnace,
+                    nodes,
+                    &spans.spans[first + bad],
+                    (invalid, evaluated),
+                ));
+            }
+            let owners = &spans.owner[first..first + groups];
+            add_partials(&mut out, partials, plan.partials_per_span, owners);
+        }
+        Ok(out)
+    }
+}
+
+/// Refuses a sum that reaches past the `n_nodes` nodes filled or names a parameter block past
+/// the `n_blocks` given.
+fn check_sums(sums: &[AlbedoSum], n_blocks: usize, n_nodes: usize) -> Result<()> {
+    for s in sums {
+        if s.begin + s.len > n_nodes || s.param >= n_blocks {
+            return Err(GpuError::Limit(format!(
+                "albedo: a sum over nodes {}..{} with parameter block {} of a buffer of {} nodes and {} blocks",
+                s.begin,
+                s.begin + s.len,
+                s.param,
+                n_nodes,
+                n_blocks
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Each sum's spans, one workgroup each, and which sum each span belongs to.
+struct SpanList {
+    spans: Vec<AlbedoSpan>,
+    /// The index in the sums of span k's sum.
+    owner: Vec<usize>,
+    /// Nodes a span holds at most ([`span_nodes`]).
+    span: usize,
+}
+
+impl SpanList {
+    /// `sums` cut into spans of at most `span` nodes, in order.
+    fn of(sums: &[AlbedoSum], span: usize) -> SpanList {
         let mut spans = Vec::new();
         let mut owner = Vec::new();
         for (i, s) in sums.iter().enumerate() {
@@ -169,95 +234,114 @@ impl Gpu {
                 owner.push(i);
             }
         }
-        let mut out = vec![[0.0f64; 3]; sums.len()];
-        if spans.is_empty() {
-            return Ok(out);
-        }
-        let limits = &self.dev.limits;
-        // The texel view covers the first maxTexelBufferElements nodes of the buffer.
-        let texel_nodes =
-            self.dev.cpu_kernels() && nodes.len as u64 <= limits.max_texel_buffer_elements as u64;
-        let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
-        // One rgb partial (as a vec4) per workgroup, or per invocation (LANE_PARTIALS).
-        let partials_per_span = if albedo_lane_partials(self.dev.cpu_kernels()) {
+        SpanList { spans, owner, span }
+    }
+}
+
+/// How the spans go out: partials each span writes, and spans (workgroups) per dispatch.
+struct DispatchPlan {
+    /// One rgb partial (as a vec4) per workgroup, or per invocation (LANE_PARTIALS).
+    partials_per_span: usize,
+    /// Workgroups one dispatch runs at most.
+    per_dispatch: usize,
+    /// Bytes of the span list.
+    span_bytes: usize,
+}
+
+impl DispatchPlan {
+    /// The plan for `spans` on `gpu`'s device: every buffer a dispatch binds stays within the
+    /// device's storage-buffer range, every dispatch within its workgroup count and
+    /// [`DISPATCH_NODES`].
+    fn new(gpu: &Gpu, spans: &SpanList) -> Result<DispatchPlan> {
+        let limits = &gpu.dev.limits;
+        let partials_per_span = if albedo_lane_partials(gpu.dev.cpu_kernels()) {
             LOCAL_SIZE as usize
         } else {
             1
         };
-        // Every buffer a dispatch binds stays within the device's storage-buffer range.
         let range = limits.max_storage_buffer_range as usize;
-        let span_bytes = std::mem::size_of_val(spans.as_slice());
+        let span_bytes = std::mem::size_of_val(spans.spans.as_slice());
         if span_bytes > range {
             return Err(GpuError::Limit(format!(
                 "albedo: {} workgroup spans need {span_bytes} bytes, over this device's storage buffer range of {range}; use fewer rows, directions or nodes per call",
-                spans.len()
+                spans.spans.len()
             )));
         }
         let per_dispatch = (limits.max_compute_work_group_count[0] as usize)
             .min(range / (16 * partials_per_span))
-            .min(DISPATCH_NODES / span)
-            .min(spans.len());
+            .min(DISPATCH_NODES / spans.span)
+            .min(spans.spans.len());
+        Ok(DispatchPlan {
+            partials_per_span,
+            per_dispatch,
+            span_bytes,
+        })
+    }
+}
+
+/// The buffers of one [`Gpu::albedo_sums`] call beside the node buffer: the parameter blocks and
+/// the spans, written once, and one dispatch's partial sums. The fields are declared in reverse
+/// order of creation, so that they are dropped in it.
+struct SumBuffers<'d> {
+    out: Buffer<'d>,
+    spans: Buffer<'d>,
+    params: Buffer<'d>,
+}
+
+impl<'d> SumBuffers<'d> {
+    /// Creates the buffers on `gpu`'s device and writes `blocks` and the spans.
+    fn new(
+        gpu: &'d Gpu,
+        blocks: &[Vec<u8>],
+        spans: &SpanList,
+        plan: &DispatchPlan,
+    ) -> Result<SumBuffers<'d>> {
         let params: Vec<u8> = blocks.concat();
-        let mut param_buf = Buffer::new(&self.dev, params.len() as u64, "parameter")?;
+        let mut param_buf = Buffer::new(&gpu.dev, params.len() as u64, "parameter")?;
         param_buf.write(&params)?;
-        let mut span_buf = Buffer::new(&self.dev, span_bytes as u64, "albedo span")?;
-        span_buf.write(bytemuck::cast_slice(&spans))?;
-        let out_buf = Buffer::output(
-            &self.dev,
-            16 * (partials_per_span * per_dispatch) as u64,
+        let mut span_buf = Buffer::new(&gpu.dev, plan.span_bytes as u64, "albedo span")?;
+        span_buf.write(bytemuck::cast_slice(&spans.spans))?;
+        let out = Buffer::output(
+            &gpu.dev,
+            16 * (plan.partials_per_span * plan.per_dispatch) as u64,
             "albedo partial sum",
         )?;
-        let node_buf = &nodes.buf;
-        let dispatcher = Dispatcher::new(
-            &pipe,
-            &[&param_buf, node_buf, &span_buf, &out_buf, node_buf],
-        )?;
-        let per_group = (LOCAL_SIZE * pipe.evals_per_invocation) as usize;
-        for first in (0..spans.len()).step_by(per_dispatch) {
-            let groups = per_dispatch.min(spans.len() - first);
-            let push = AlbedoPush {
-                first_span: first as u32,
-                dispatch_count: (groups * per_group) as u32,
-                pad: [0; 2],
-            };
-            dispatcher.run_one(&bytemuck::cast::<AlbedoPush, ChunkPush>(push))?;
-            let partials = out_buf.read_f32(4 * partials_per_span * groups);
-            // The kernel counts invalid values in each partial's w (docs/design.md §2.1).
-            let invalid = partials.chunks_exact(4).map(|q| q[3] as f64).sum::<f64>();
-            if invalid != 0.0 {
-                let bad = partials
-                    .chunks_exact(4 * partials_per_span)
-                    .position(|p| p.chunks_exact(4).any(|q| q[3] != 0.0))
-                    .unwrap_or(0);
-                let evaluated = spans[..first + groups]
-                    .iter()
-                    .map(|s| (s.end - s.begin) as u64)
-                    .sum();
-                return Err(self.invalid_in_span(
-                    model,
-                    blocks,
-                    white_furnace,
-                    nodes,
-                    &spans[first + bad],
-                    (invalid as u64, evaluated),
-                ));
-            }
-            for (p, &i) in partials
-                .chunks_exact(4 * partials_per_span)
-                .zip(&owner[first..first + groups])
-            {
-                let mut sum = [0.0f64; 3];
-                for q in p.chunks_exact(4) {
-                    sum[0] += q[0] as f64;
-                    sum[1] += q[1] as f64;
-                    sum[2] += q[2] as f64;
-                }
-                for (o, s) in out[i].iter_mut().zip(sum) {
-                    *o += s;
-                }
-            }
+        Ok(SumBuffers {
+            out,
+            spans: span_buf,
+            params: param_buf,
+        })
+    }
+}
+
+/// The invalid values the kernel counted in a dispatch's `partials` (`per_span` vec4s a span;
+/// each partial's w counts them, docs/design.md §2.1) and the index of the first span that holds
+/// one; None where there are none.
+fn first_invalid(partials: &[f32], per_span: usize) -> Option<(u64, usize)> {
+    let invalid = partials.chunks_exact(4).map(|q| q[3] as f64).sum::<f64>();
+    if invalid == 0.0 {
+        return None;
+    }
+    let bad = partials
+        .chunks_exact(4 * per_span)
+        .position(|p| p.chunks_exact(4).any(|q| q[3] != 0.0))
+        .unwrap_or(0);
+    Some((invalid as u64, bad))
+}
+
+/// Adds each span's `per_span` partials in f64 to its sum's total in `out`, span k's sum being
+/// `owners[k]`.
+fn add_partials(out: &mut [[f64; 3]], partials: &[f32], per_span: usize, owners: &[usize]) {
+    for (p, &i) in partials.chunks_exact(4 * per_span).zip(owners) {
+        let mut sum = [0.0f64; 3];
+        for q in p.chunks_exact(4) {
+            sum[0] += q[0] as f64;
+            sum[1] += q[1] as f64;
+            sum[2] += q[2] as f64;
         }
-        Ok(out)
+        for (o, s) in out[i].iter_mut().zip(sum) {
+            *o += s;
+        }
     }
 }
 

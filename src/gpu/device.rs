@@ -44,7 +44,7 @@ pub struct DeviceOptions {
     /// partial output) can be tested without crashing a GPU.
     pub inject_device_lost: bool,
     /// Stage every buffer through a copy, as where device-local memory is not host-visible
-    /// (see `src/gpu/buffer.rs`), even on a device that maps it directly: tests the staging
+    /// (see `src/gpu/buffer/`), even on a device that maps it directly: tests the staging
     /// path on lavapipe. The command line sets it with `LOBE_STAGING=1`.
     pub force_staging: bool,
     /// Make a GPU's kernel choices (one evaluation per invocation, lists read from storage
@@ -57,7 +57,7 @@ pub struct DeviceOptions {
 pub struct Device {
     _entry: ash::Entry,
     pub(crate) instance: ash::Instance,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    debug: Option<Messenger>,
     pub(crate) device: ash::Device,
     pub(crate) queue: vk::Queue,
     pub(crate) queue_family: u32,
@@ -138,6 +138,79 @@ fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
     }
 }
 
+/// The validation layer's messenger, with the loader of its extension.
+type Messenger = (ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT);
+
+/// What [`Device::finish_open`] has created, in order, before it describes the device.
+struct Opened {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug: Option<Messenger>,
+    validation_messages: Arc<AtomicUsize>,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+    device: ash::Device,
+}
+
+/// Creates the messenger that prints and counts, in `counter`, the validation layer's warnings
+/// and errors.
+fn create_messenger(
+    entry: &ash::Entry,
+    instance: &ash::Instance,
+    counter: &Arc<AtomicUsize>,
+) -> Result<Messenger> {
+    let loader = ash::ext::debug_utils::Instance::new(entry, instance);
+    let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(on_validation_message))
+        .user_data(Arc::as_ptr(counter) as *mut c_void);
+    // SAFETY: the callback is a plain function that lives for the whole program.
+    match unsafe { loader.create_debug_utils_messenger(&info, None) } {
+        Ok(m) => Ok((loader, m)),
+        Err(r) => Err(GpuError::Vk {
+            what: "creating the validation messenger".into(),
+            result: r,
+        }),
+    }
+}
+
+/// Creates the logical device on `physical` with one queue of `queue_family`.
+fn create_logical_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+) -> Result<ash::Device> {
+    let priorities = [1.0f32];
+    let queue_info = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&priorities)];
+    let info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+    // SAFETY: physical comes from this instance; the create info outlives the call.
+    unsafe { instance.create_device(physical, &info, None) }.map_err(|r| GpuError::Vk {
+        what: "creating the logical device".into(),
+        result: r,
+    })
+}
+
+/// Releases the messenger, then the instance (a later step of opening failed).
+///
+/// # Safety
+/// Nothing else created from the instance is still alive.
+unsafe fn destroy_instance(instance: &ash::Instance, debug: &Option<Messenger>) {
+    if let Some((loader, m)) = debug {
+        loader.destroy_debug_utils_messenger(*m, None);
+    }
+    instance.destroy_instance(None);
+}
+
 impl Device {
     /// Opens the best device (a real GPU before a CPU driver), or the one `opts` names.
     pub fn open(opts: &DeviceOptions) -> Result<Device> {
@@ -180,6 +253,8 @@ impl Device {
         Self::finish_open(entry, instance, validation, opts)
     }
 
+    /// Opens the device on `instance`: the validation messenger where asked, the device
+    /// `opts` picks, its queue and what the device says about itself.
     fn finish_open(
         entry: ash::Entry,
         instance: ash::Instance,
@@ -188,99 +263,79 @@ impl Device {
     ) -> Result<Device> {
         let validation_messages = Arc::new(AtomicUsize::new(0));
         let debug = if validation {
-            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-                )
-                .message_type(
-                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-                )
-                .pfn_user_callback(Some(on_validation_message))
-                .user_data(Arc::as_ptr(&validation_messages) as *mut c_void);
-            // SAFETY: the callback is a plain function that lives for the whole program.
-            match unsafe { loader.create_debug_utils_messenger(&info, None) } {
-                Ok(m) => Some((loader, m)),
-                Err(r) => {
+            match create_messenger(&entry, &instance, &validation_messages) {
+                Ok(m) => Some(m),
+                Err(e) => {
+                    // SAFETY: nothing else was created from the instance.
                     unsafe { instance.destroy_instance(None) };
-                    return Err(GpuError::Vk {
-                        what: "creating the validation messenger".into(),
-                        result: r,
-                    });
+                    return Err(e);
                 }
             }
         } else {
             None
         };
-        let destroy_instance = |debug: &Option<(
-            ash::ext::debug_utils::Instance,
-            vk::DebugUtilsMessengerEXT,
-        )>| unsafe {
-            if let Some((loader, m)) = debug {
-                loader.destroy_debug_utils_messenger(*m, None);
-            }
-            instance.destroy_instance(None);
-        };
-        match Self::pick(&instance, opts) {
-            Ok((physical, queue_family)) => {
-                let priorities = [1.0f32];
-                let queue_info = [vk::DeviceQueueCreateInfo::default()
-                    .queue_family_index(queue_family)
-                    .queue_priorities(&priorities)];
-                let info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
-                // SAFETY: physical comes from this instance; the create info outlives the call.
-                let device = match unsafe { instance.create_device(physical, &info, None) } {
-                    Ok(d) => d,
-                    Err(r) => {
-                        destroy_instance(&debug);
-                        return Err(GpuError::Vk {
-                            what: "creating the logical device".into(),
-                            result: r,
-                        });
-                    }
-                };
-                let timestamp_bits =
-                    unsafe { instance.get_physical_device_queue_family_properties(physical) }
-                        [queue_family as usize]
-                        .timestamp_valid_bits;
-                // SAFETY: queue 0 of a family we asked one queue of.
-                let queue = unsafe { device.get_device_queue(queue_family, 0) };
-                let (memory, props) = unsafe {
-                    (
-                        instance.get_physical_device_memory_properties(physical),
-                        instance.get_physical_device_properties(physical),
-                    )
-                };
-                let driver = driver_name(&instance, physical, &props);
-                Ok(Device {
-                    _entry: entry,
+        let opened = Self::pick(&instance, opts).and_then(|(physical, queue_family)| {
+            create_logical_device(&instance, physical, queue_family)
+                .map(|device| (physical, queue_family, device))
+        });
+        match opened {
+            Ok((physical, queue_family, device)) => Ok(Self::describe(
+                Opened {
+                    entry,
                     instance,
                     debug,
-                    device,
-                    queue,
-                    queue_family,
-                    timestamp_bits,
-                    memory,
-                    limits: props.limits,
-                    name: device_name(&props),
-                    driver,
-                    device_type: props.device_type,
-                    queue_lock: Mutex::new(()),
-                    inject_device_lost: opts.inject_device_lost,
-                    force_staging: opts.force_staging,
-                    gpu_kernels: opts.gpu_kernels,
-                    staging_copies: Default::default(),
                     validation_messages,
-                    hung: Default::default(),
-                })
-            }
+                    physical,
+                    queue_family,
+                    device,
+                },
+                opts,
+            )),
             Err(e) => {
-                destroy_instance(&debug);
+                // SAFETY: no device was created from the instance; the messenger goes first.
+                unsafe { destroy_instance(&instance, &debug) };
                 Err(e)
             }
+        }
+    }
+
+    /// The [`Device`] of what was opened: its queue, the queue's timestamp bits, the memory
+    /// types, limits, name and driver, and the options that stay with it.
+    fn describe(o: Opened, opts: &DeviceOptions) -> Device {
+        let instance = &o.instance;
+        // SAFETY: queries on a live instance and a physical device of it; queue 0 of a family
+        // we asked one queue of.
+        let (timestamp_bits, queue, memory, props) = unsafe {
+            (
+                instance.get_physical_device_queue_family_properties(o.physical)
+                    [o.queue_family as usize]
+                    .timestamp_valid_bits,
+                o.device.get_device_queue(o.queue_family, 0),
+                instance.get_physical_device_memory_properties(o.physical),
+                instance.get_physical_device_properties(o.physical),
+            )
+        };
+        let driver = driver_name(instance, o.physical, &props);
+        Device {
+            _entry: o.entry,
+            instance: o.instance,
+            debug: o.debug,
+            device: o.device,
+            queue,
+            queue_family: o.queue_family,
+            timestamp_bits,
+            memory,
+            limits: props.limits,
+            name: device_name(&props),
+            driver,
+            device_type: props.device_type,
+            queue_lock: Mutex::new(()),
+            inject_device_lost: opts.inject_device_lost,
+            force_staging: opts.force_staging,
+            gpu_kernels: opts.gpu_kernels,
+            staging_copies: Default::default(),
+            validation_messages: o.validation_messages,
+            hung: Default::default(),
         }
     }
 

@@ -36,7 +36,6 @@ impl<'p> Dispatcher<'p> {
         let bindings = &pipe.bindings()[..];
         let data = pipe.data.as_ref().map(|d| &d.buffer);
         let buffers: &[&Buffer<'_>] = &buffers.iter().copied().chain(data).collect::<Vec<_>>();
-        let d = &pipe.dev.device;
         let mut s = Dispatcher {
             pipe,
             pool: vk::DescriptorPool::null(),
@@ -51,109 +50,176 @@ impl<'p> Dispatcher<'p> {
         };
         // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
         unsafe {
-            let sizes: Vec<vk::DescriptorPoolSize> = [
-                vk::DescriptorType::STORAGE_BUFFER,
-                vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
-            ]
-            .into_iter()
-            .map(|ty| vk::DescriptorPoolSize {
-                ty,
-                descriptor_count: bindings.iter().filter(|b| b.1 == ty).count() as u32,
-            })
-            .filter(|p| p.descriptor_count > 0)
-            .collect();
-            s.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(1)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .ctx("creating a descriptor pool")?;
-            let layouts = [pipe.set_layout];
-            s.set = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(s.pool)
-                        .set_layouts(&layouts),
-                )
-                .ctx("allocating a descriptor set")?[0];
-            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
-                .iter()
-                .map(|b| {
-                    [vk::DescriptorBufferInfo {
-                        buffer: b.buffer,
-                        offset: 0,
-                        range: vk::WHOLE_SIZE,
-                    }]
-                })
-                .collect();
-            // A texel buffer's view covers at most maxTexelBufferElements texels; the kernel
-            // reads through it only where the host found the list fits (TEXEL_DIRECTIONS).
-            let max_texels = pipe.dev.limits.max_texel_buffer_elements as u64;
-            let mut views: Vec<[vk::BufferView; 1]> = Vec::new();
-            for (&(_, ty), b) in bindings.iter().zip(buffers) {
-                if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
-                    let range = (b.size / 16).min(max_texels) * 16;
-                    let info = vk::BufferViewCreateInfo::default()
-                        .buffer(b.buffer)
-                        .format(TEXEL_FORMAT)
-                        .offset(0)
-                        .range(range);
-                    let view = d
-                        .create_buffer_view(&info, None)
-                        .ctx("creating a texel buffer view")?;
-                    s.views.push(view);
-                    views.push([view]);
-                } else {
-                    views.push([vk::BufferView::null()]);
-                }
-            }
-            let writes: Vec<_> = bindings
-                .iter()
-                .zip(infos.iter().zip(&views))
-                .map(|(&(b, ty), (info, view))| {
-                    let w = vk::WriteDescriptorSet::default()
-                        .dst_set(s.set)
-                        .dst_binding(b)
-                        .descriptor_type(ty);
-                    if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
-                        w.texel_buffer_view(view)
-                    } else {
-                        w.buffer_info(info)
-                    }
-                })
-                .collect();
-            d.update_descriptor_sets(&writes, &[]);
-            s.cmd_pool = d
-                .create_command_pool(
-                    &vk::CommandPoolCreateInfo::default()
-                        .queue_family_index(pipe.dev.queue_family)
-                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                    None,
-                )
-                .ctx("creating a command pool")?;
-            s.cmd = d
-                .allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(s.cmd_pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
-                )
-                .ctx("allocating a command buffer")?[0];
-            s.fence = d
-                .create_fence(&vk::FenceCreateInfo::default(), None)
-                .ctx("creating a fence")?;
-            if pipe.dev.timestamp_bits > 0 {
-                let info = vk::QueryPoolCreateInfo::default()
-                    .query_type(vk::QueryType::TIMESTAMP)
-                    .query_count(2);
-                s.queries = d
-                    .create_query_pool(&info, None)
-                    .ctx("creating a timestamp query pool")?;
-            }
+            s.create_descriptor_set(bindings)?;
+            s.create_command_buffer()?;
+            s.create_timestamp_queries()?;
+            s.bind_buffers(bindings, buffers)?;
         }
         Ok(s)
+    }
+
+    /// Creates a descriptor pool sized for `bindings` and allocates the one set from it.
+    ///
+    /// # Safety
+    /// Called once, on a dispatcher under construction.
+    unsafe fn create_descriptor_set(
+        &mut self,
+        bindings: &[(u32, vk::DescriptorType)],
+    ) -> Result<()> {
+        let d = &self.pipe.dev.device;
+        let sizes: Vec<vk::DescriptorPoolSize> = [
+            vk::DescriptorType::STORAGE_BUFFER,
+            vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        ]
+        .into_iter()
+        .map(|ty| vk::DescriptorPoolSize {
+            ty,
+            descriptor_count: bindings.iter().filter(|b| b.1 == ty).count() as u32,
+        })
+        .filter(|p| p.descriptor_count > 0)
+        .collect();
+        self.pool = d
+            .create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(1)
+                    .pool_sizes(&sizes),
+                None,
+            )
+            .ctx("creating a descriptor pool")?;
+        let layouts = [self.pipe.set_layout];
+        self.set = d
+            .allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(self.pool)
+                    .set_layouts(&layouts),
+            )
+            .ctx("allocating a descriptor set")?[0];
+        Ok(())
+    }
+
+    /// Creates the command pool, its one command buffer (reset and recorded again per chunk)
+    /// and the fence each submission signals.
+    ///
+    /// # Safety
+    /// Called once, on a dispatcher under construction.
+    unsafe fn create_command_buffer(&mut self) -> Result<()> {
+        let d = &self.pipe.dev.device;
+        self.cmd_pool = d
+            .create_command_pool(
+                &vk::CommandPoolCreateInfo::default()
+                    .queue_family_index(self.pipe.dev.queue_family)
+                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                None,
+            )
+            .ctx("creating a command pool")?;
+        self.cmd = d
+            .allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(self.cmd_pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1),
+            )
+            .ctx("allocating a command buffer")?[0];
+        self.fence = d
+            .create_fence(&vk::FenceCreateInfo::default(), None)
+            .ctx("creating a fence")?;
+        Ok(())
+    }
+
+    /// Creates the pool of the two timestamps around each dispatch, where the queue has
+    /// timestamps.
+    ///
+    /// # Safety
+    /// Called once, on a dispatcher under construction.
+    unsafe fn create_timestamp_queries(&mut self) -> Result<()> {
+        if self.pipe.dev.timestamp_bits > 0 {
+            let info = vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::TIMESTAMP)
+                .query_count(2);
+            self.queries = self
+                .pipe
+                .dev
+                .device
+                .create_query_pool(&info, None)
+                .ctx("creating a timestamp query pool")?;
+        }
+        Ok(())
+    }
+
+    /// Points the descriptor set's `bindings` at `buffers` (in the same order), through a texel
+    /// view for each texel-buffer binding.
+    ///
+    /// # Safety
+    /// Called once, after [`Dispatcher::create_descriptor_set`]; the buffers outlive the
+    /// dispatcher.
+    unsafe fn bind_buffers(
+        &mut self,
+        bindings: &[(u32, vk::DescriptorType)],
+        buffers: &[&Buffer<'_>],
+    ) -> Result<()> {
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| {
+                [vk::DescriptorBufferInfo {
+                    buffer: b.buffer,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }]
+            })
+            .collect();
+        let views = self.create_texel_views(bindings, buffers)?;
+        let writes: Vec<_> = bindings
+            .iter()
+            .zip(infos.iter().zip(&views))
+            .map(|(&(b, ty), (info, view))| {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(b)
+                    .descriptor_type(ty);
+                if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                    w.texel_buffer_view(view)
+                } else {
+                    w.buffer_info(info)
+                }
+            })
+            .collect();
+        self.pipe.dev.device.update_descriptor_sets(&writes, &[]);
+        Ok(())
+    }
+
+    /// A view per binding of `bindings`: a texel view of its buffer (kept in `views`, released
+    /// with the dispatcher) for a texel-buffer binding, a null view for any other.
+    ///
+    /// # Safety
+    /// The buffers outlive the dispatcher.
+    unsafe fn create_texel_views(
+        &mut self,
+        bindings: &[(u32, vk::DescriptorType)],
+        buffers: &[&Buffer<'_>],
+    ) -> Result<Vec<[vk::BufferView; 1]>> {
+        let d = &self.pipe.dev.device;
+        // A texel buffer's view covers at most maxTexelBufferElements texels; the kernel
+        // reads through it only where the host found the list fits (TEXEL_DIRECTIONS).
+        let max_texels = self.pipe.dev.limits.max_texel_buffer_elements as u64;
+        let mut views: Vec<[vk::BufferView; 1]> = Vec::new();
+        for (&(_, ty), b) in bindings.iter().zip(buffers) {
+            if ty == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                let range = (b.size / 16).min(max_texels) * 16;
+                let info = vk::BufferViewCreateInfo::default()
+                    .buffer(b.buffer)
+                    .format(TEXEL_FORMAT)
+                    .offset(0)
+                    .range(range);
+                let view = d
+                    .create_buffer_view(&info, None)
+                    .ctx("creating a texel buffer view")?;
+                self.views.push(view);
+                views.push([view]);
+            } else {
+                views.push([vk::BufferView::null()]);
+            }
+        }
+        Ok(views)
     }
 
     /// Dispatches one chunk and waits for it.

@@ -198,28 +198,7 @@ impl Pipeline {
         upper_triangle: bool,
     ) -> Result<Pipeline> {
         let start = Instant::now();
-        let model = source.model;
-        let bytes = source.spirv;
-        let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).map_err(|e| {
-            GpuError::Limit(format!("embedded SPIR-V for {model} is unreadable: {e}"))
-        })?;
-        let evals_per_invocation = evals_per_invocation(kernel, dev.cpu_kernels());
-        let label = format!(
-            "{}/{}{}{}",
-            kernel.name(),
-            source.label,
-            if white_furnace {
-                " (white furnace)"
-            } else {
-                ""
-            },
-            if upper_triangle {
-                " (upper triangle)"
-            } else {
-                ""
-            }
-        );
-        let d = &dev.device;
+        let words = read_spirv(source)?;
         let mut p = Pipeline {
             dev: dev.clone(),
             kernel,
@@ -227,104 +206,105 @@ impl Pipeline {
             set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
-            evals_per_invocation,
+            evals_per_invocation: evals_per_invocation(kernel, dev.cpu_kernels()),
             texel_directions,
             build_time: Duration::ZERO,
-            label,
+            label: pipeline_label(kernel, source, white_furnace, upper_triangle),
             gpu_ns: AtomicU64::new(0),
             model_timeout: source.timeout,
             data: None,
         };
         if let Some(bytes) = source.data {
-            p.data = Some(ModelData::new(dev, model, bytes)?);
+            p.data = Some(ModelData::new(dev, source.model, bytes)?);
         }
+        let spec = SpecConstants::of(&p, source, white_furnace, fast_pow, upper_triangle);
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
-            p.module = d
-                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
-                .ctx("creating a shader module")?;
-            let bindings: Vec<_> = p
-                .bindings()
-                .iter()
-                .map(|&(b, ty)| {
-                    vk::DescriptorSetLayoutBinding::default()
-                        .binding(b)
-                        .descriptor_type(ty)
-                        .descriptor_count(1)
-                        .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                })
-                .collect();
-            p.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .ctx("creating a descriptor set layout")?;
-            let push = [vk::PushConstantRange::default()
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                .offset(0)
-                .size(std::mem::size_of::<ChunkPush>() as u32)];
-            let set_layouts = [p.set_layout];
-            p.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&push),
-                    None,
-                )
-                .ctx("creating a pipeline layout")?;
-            // Constants 0-2 and FAST_POW_ID are every kernel's; 3.. are the model's component
-            // choices (glsl/common.glsl, glsl/brdf/<model>.glsl).
-            let mut ids: Vec<u32> = vec![0, 1, 2, FAST_POW_ID];
-            let mut spec_data: Vec<u32> = vec![
-                white_furnace as u32,
-                LOCAL_SIZE,
-                evals_per_invocation,
-                fast_pow as u32,
-            ];
-            if matches!(kernel, Kernel::Table | Kernel::Albedo) {
-                ids.push(TEXEL_DIRECTIONS_ID);
-                spec_data.push(texel_directions as u32);
-            }
-            if kernel == Kernel::Table {
-                ids.push(UPPER_TRIANGLE_ID);
-                spec_data.push(upper_triangle as u32);
-            }
-            if kernel == Kernel::Albedo {
-                ids.push(LANE_PARTIALS_ID);
-                spec_data.push(albedo_lane_partials(dev.cpu_kernels()) as u32);
-            }
-            for (k, &v) in source.spec_constants.iter().enumerate() {
-                ids.push(3 + k as u32);
-                spec_data.push(v);
-            }
-            let entries: Vec<_> = ids
-                .iter()
-                .enumerate()
-                .map(|(k, &id)| vk::SpecializationMapEntry {
-                    constant_id: id,
-                    offset: 4 * k as u32,
-                    size: 4,
-                })
-                .collect();
-            let spec = vk::SpecializationInfo::default()
-                .map_entries(&entries)
-                .data(bytemuck::cast_slice(&spec_data));
-            let stage = vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::COMPUTE)
-                .module(p.module)
-                .name(c"main")
-                .specialization_info(&spec);
-            let info = [vk::ComputePipelineCreateInfo::default()
-                .stage(stage)
-                .layout(p.layout)];
-            p.pipeline = d
-                .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
-                .map_err(|(_, r)| r)
-                .ctx(&format!("creating the compute pipeline {}", p.label))?[0];
+            p.create_shader_module(&words)?;
+            p.create_layouts()?;
+            p.create_compute_pipeline(&spec)?;
         }
         p.build_time = start.elapsed();
         Ok(p)
+    }
+
+    /// Creates the shader module of `words`.
+    ///
+    /// # Safety
+    /// Called once, on a pipeline under construction.
+    unsafe fn create_shader_module(&mut self, words: &[u32]) -> Result<()> {
+        self.module = self
+            .dev
+            .device
+            .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(words), None)
+            .ctx("creating a shader module")?;
+        Ok(())
+    }
+
+    /// Creates the descriptor set layout of the pipeline's bindings and the pipeline layout
+    /// (that set and the [`ChunkPush`] push constants).
+    ///
+    /// # Safety
+    /// Called once, on a pipeline under construction.
+    unsafe fn create_layouts(&mut self) -> Result<()> {
+        let d = &self.dev.device;
+        let bindings: Vec<_> = self
+            .bindings()
+            .iter()
+            .map(|&(b, ty)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        self.set_layout = d
+            .create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )
+            .ctx("creating a descriptor set layout")?;
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(std::mem::size_of::<ChunkPush>() as u32)];
+        let set_layouts = [self.set_layout];
+        self.layout = d
+            .create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )
+            .ctx("creating a pipeline layout")?;
+        Ok(())
+    }
+
+    /// Creates the compute pipeline from the module and layout, specialised by `spec`.
+    ///
+    /// # Safety
+    /// Called once, after [`Pipeline::create_shader_module`] and [`Pipeline::create_layouts`].
+    unsafe fn create_compute_pipeline(&mut self, spec: &SpecConstants) -> Result<()> {
+        let entries = spec.map_entries();
+        let info = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(&spec.data));
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(self.module)
+            .name(c"main")
+            .specialization_info(&info);
+        let infos = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(self.layout)];
+        self.pipeline = self
+            .dev
+            .device
+            .create_compute_pipelines(vk::PipelineCache::null(), &infos, None)
+            .map_err(|(_, r)| r)
+            .ctx(&format!("creating the compute pipeline {}", self.label))?[0];
+        Ok(())
     }
 
     /// The kernel's bindings, and [`MODEL_DATA_BINDING`] where the model has a data table.
@@ -356,5 +336,98 @@ impl Drop for Pipeline {
             d.destroy_descriptor_set_layout(self.set_layout, None);
             d.destroy_shader_module(self.module, None);
         }
+    }
+}
+
+/// The words of a model's SPIR-V.
+fn read_spirv(source: &KernelSource) -> Result<Vec<u32>> {
+    ash::util::read_spv(&mut std::io::Cursor::new(source.spirv)).map_err(|e| {
+        GpuError::Limit(format!(
+            "embedded SPIR-V for {} is unreadable: {e}",
+            source.model
+        ))
+    })
+}
+
+/// `kernel/model-label`, with " (white furnace)" and " (upper triangle)" where they apply.
+fn pipeline_label(
+    kernel: Kernel,
+    source: &KernelSource,
+    white_furnace: bool,
+    upper_triangle: bool,
+) -> String {
+    format!(
+        "{}/{}{}{}",
+        kernel.name(),
+        source.label,
+        if white_furnace {
+            " (white furnace)"
+        } else {
+            ""
+        },
+        if upper_triangle {
+            " (upper triangle)"
+        } else {
+            ""
+        }
+    )
+}
+
+/// A pipeline's specialization constants: their ids and, in the same order, their values.
+struct SpecConstants {
+    ids: Vec<u32>,
+    data: Vec<u32>,
+}
+
+impl SpecConstants {
+    /// The constants of pipeline `p` (its kernel, evaluations per invocation and texel switch
+    /// already set) for a model's `source` and the switches given.
+    fn of(
+        p: &Pipeline,
+        source: &KernelSource,
+        white_furnace: bool,
+        fast_pow: bool,
+        upper_triangle: bool,
+    ) -> SpecConstants {
+        let kernel = p.kernel;
+        // Constants 0-2 and FAST_POW_ID are every kernel's; 3.. are the model's component
+        // choices (glsl/common.glsl, glsl/brdf/<model>.glsl).
+        let mut ids: Vec<u32> = vec![0, 1, 2, FAST_POW_ID];
+        let mut data: Vec<u32> = vec![
+            white_furnace as u32,
+            LOCAL_SIZE,
+            p.evals_per_invocation,
+            fast_pow as u32,
+        ];
+        if matches!(kernel, Kernel::Table | Kernel::Albedo) {
+            ids.push(TEXEL_DIRECTIONS_ID);
+            data.push(p.texel_directions as u32);
+        }
+        if kernel == Kernel::Table {
+            ids.push(UPPER_TRIANGLE_ID);
+            data.push(upper_triangle as u32);
+        }
+        if kernel == Kernel::Albedo {
+            ids.push(LANE_PARTIALS_ID);
+            data.push(albedo_lane_partials(p.dev.cpu_kernels()) as u32);
+        }
+        for (k, &v) in source.spec_constants.iter().enumerate() {
+            ids.push(3 + k as u32);
+            data.push(v);
+        }
+        SpecConstants { ids, data }
+    }
+
+    /// One map entry per constant: constant k's 4 bytes at offset 4k of the data.
+    fn map_entries(&self) -> Vec<vk::SpecializationMapEntry> {
+        self.ids
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| vk::SpecializationMapEntry {
+                constant_id: id,
+                offset: 4 * k as u32,
+                size: 4,
+            })
+            .collect()
     }
 }
