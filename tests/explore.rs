@@ -16,7 +16,7 @@ mod server;
 mod stale;
 
 use serde_json::{json, Value};
-use server::{floats, http, http_claiming, manifest, Server};
+use server::{floats, http, http_chunked, http_claiming, manifest, Server};
 use std::io::Read;
 use std::net::TcpStream;
 use std::path::PathBuf;
@@ -193,6 +193,25 @@ fn refuses_oversized_requests_with_a_sentence() {
         "a".repeat(lobe::explore::MAX_URI_BYTES)
     );
     assert_eq!(http(&server.addr, "GET", &long, &[], b"").status, 414);
+    // A body sent chunked declares no length: it is refused at the bound as it arrives.
+    let padded = format!(
+        "{{\"model\": \"lambert\"{}}}",
+        " ".repeat(lobe::explore::MAX_BODY_BYTES)
+    );
+    let r = http_chunked(
+        &server.addr,
+        "POST",
+        "/api/polar",
+        &token,
+        padded.as_bytes(),
+    );
+    assert_eq!(r.status, 413, "{}", r.text());
+    assert!(
+        r.text()
+            .contains(&lobe::explore::MAX_BODY_BYTES.to_string()),
+        "{}",
+        r.text()
+    );
     let brdf = lobe::explore::MAX_BRDF_BYTES + 1;
     let r = http_claiming(
         &server.addr,
@@ -240,6 +259,31 @@ fn refuses_oversized_requests_with_a_sentence() {
         assert_eq!(r.status, 422, "{path} {body}: {}", r.text());
         assert!(r.text().contains(says), "{path} {body}: {}", r.text());
     }
+}
+
+#[test]
+fn a_file_that_does_not_load_is_not_kept() {
+    let server = Server::start(&["lambert"]);
+    let token = [("x-lobe-token", server.token.as_str())];
+    let text = std::fs::read(manifest().join("testdata/brdf/bad/typo.brdf")).unwrap();
+    for _ in 0..3 {
+        let r = http(
+            &server.addr,
+            "POST",
+            "/api/brdf?name=typo.brdf",
+            &token,
+            &text,
+        );
+        assert_eq!(r.status, 400, "{}", r.text());
+        assert!(r.text().contains("typo.brdf"), "{}", r.text());
+    }
+    // The server's one folder holds no file of the three.
+    let kept: Vec<PathBuf> = std::fs::read_dir(server.tmp.path())
+        .unwrap()
+        .flat_map(|e| std::fs::read_dir(e.unwrap().path()).unwrap())
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(kept.is_empty(), "kept: {kept:?}");
 }
 
 #[test]

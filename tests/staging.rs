@@ -1,4 +1,4 @@
-//! The staging path of discrete GPUs (src/gpu/buffer.rs): kernels bind device-local buffers,
+//! The staging path of discrete GPUs (src/gpu/buffer/): kernels bind device-local buffers,
 //! inputs reach them through an upload copy and outputs come back through a copy to host-cached
 //! memory. `DeviceOptions::force_staging` takes that path on any device; on lavapipe, which maps
 //! its one memory type directly, it is the only way to run it. Copies move bytes, so every value

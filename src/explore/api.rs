@@ -48,17 +48,19 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/sphere", post(sphere))
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
-        .route("/api/brdf", post(upload::brdf))
-        .route("/api/merl", post(upload::merl))
         .route("/api/table", post(download::table))
         .route("/api/plot", post(download::polar_svg))
+        // The routes above read a small JSON body; the guard bounds it (a declared length before
+        // it is read, a chunked body as it arrives), and so does this, should the guard change.
+        .layer(DefaultBodyLimit::max(MAX_BODY_BYTES))
+        .route("/api/brdf", post(upload::brdf))
+        .route("/api/merl", post(upload::merl))
         .fallback(|r: Request| async move {
             refuse(
                 StatusCode::NOT_FOUND,
                 format!("no such page: {}", r.uri().path()),
             )
         })
-        .layer(DefaultBodyLimit::max(MAX_BRDF_BYTES))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             guard::guard,

@@ -18,9 +18,40 @@ pub(crate) async fn guard(
     request: Request,
     next: Next,
 ) -> Response {
-    match check(&state, &request) {
-        Ok(()) => next.run(request).await,
+    if let Err((status, message)) = check(&state, &request) {
+        return refuse(status, message);
+    }
+    match bounded(request).await {
+        Ok(request) => next.run(request).await,
         Err((status, message)) => refuse(status, message),
+    }
+}
+
+/// The request with its body read within the route's bound where it came without a
+/// Content-Length (chunked): `check` refuses a declared length above the bound before anything
+/// is read, and this refuses an undeclared one at the first byte past it, with the same sentence.
+async fn bounded(request: Request) -> Result<Request, (StatusCode, String)> {
+    if request.headers().contains_key(header::CONTENT_LENGTH) {
+        return Ok(request);
+    }
+    let path = request.uri().path().to_string();
+    let limit = body_limit(&path);
+    let (parts, body) = request.into_parts();
+    let bytes = axum::body::to_bytes(body, limit).await.map_err(|_| {
+        (
+            StatusCode::PAYLOAD_TOO_LARGE,
+            format!("the request body is over {limit} bytes; {path} takes at most {limit}"),
+        )
+    })?;
+    Ok(Request::from_parts(parts, axum::body::Body::from(bytes)))
+}
+
+/// The largest body a route takes: a model file for the two upload routes, else a view request.
+fn body_limit(path: &str) -> usize {
+    match path {
+        "/api/brdf" => MAX_BRDF_BYTES,
+        "/api/merl" => MAX_MERL_BYTES,
+        _ => MAX_BODY_BYTES,
     }
 }
 
@@ -85,11 +116,7 @@ fn check(state: &State, request: &Request) -> Result<(), (StatusCode, String)> {
             "missing or wrong session token: open the URL that `lobe explore` printed, with its ?token=".to_string(),
         ));
     }
-    let limit = match uri.path() {
-        "/api/brdf" => MAX_BRDF_BYTES,
-        "/api/merl" => MAX_MERL_BYTES,
-        _ => MAX_BODY_BYTES,
-    };
+    let limit = body_limit(uri.path());
     let length = request
         .headers()
         .get(header::CONTENT_LENGTH)

@@ -81,7 +81,11 @@ async fn open(state: Arc<State>, request: Request, kind: Kind) -> Result<Respons
             format!("loading {label}: {e}"),
         )
     })?;
-    let (model, notes) = loaded.map_err(|e| bad(format!("{e:#}").replace(&shown, &label)))?;
+    let (model, notes) = loaded.map_err(|e| {
+        // A file that did not load is not kept: only the models a page opened hold disk space.
+        let _ = std::fs::remove_file(&shown);
+        bad(format!("{e:#}").replace(&shown, &label))
+    })?;
     if let Ok(mut list) = state.uploaded.lock() {
         list.push((model, label.clone(), shown.clone()));
     }

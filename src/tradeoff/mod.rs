@@ -43,13 +43,12 @@
 //! two albedo sections share (set-up, reference, error); `integration.rs` and `resolution.rs`
 //! those two sections; `output.rs` the report as text tables, CSV and JSON.
 
-mod setup;
 mod eval;
 mod integration;
 mod output;
 mod resolution;
+mod setup;
 
-pub use setup::{albedo_errors, reference_albedos, AlbedoSetup};
 pub use eval::{
     as_microfacet, conductor_of, error_grid_for, eval_variants, measure_eval, relative_errors,
     truth_table, variant_table, EvalVariant, REL_FLOOR,
@@ -58,6 +57,7 @@ pub use integration::{
     integration_variants, measure_integration, rule_albedo_once, IntegrationVariant,
 };
 pub use resolution::{measure_tables, table_albedo, table_grid};
+pub use setup::{albedo_errors, reference_albedos, AlbedoSetup};
 
 use crate::backend::Precision;
 use crate::eval::Evaluator;

@@ -157,6 +157,41 @@ pub fn http_claiming(
     req += &format!("Content-Length: {length}\r\n\r\n");
     s.write_all(req.as_bytes()).unwrap();
     s.write_all(body).unwrap();
+    read_reply(&mut s)
+}
+
+/// [`http`] with the body sent chunked (no `Content-Length`), in chunks of 8 KiB.
+pub fn http_chunked(
+    addr: &str,
+    method: &str,
+    target: &str,
+    headers: &[(&str, &str)],
+    body: &[u8],
+) -> Reply {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(ANSWER_TIMEOUT)).unwrap();
+    let mut req = format!("{method} {target} HTTP/1.1\r\nConnection: close\r\nHost: {addr}\r\n");
+    for (k, v) in headers {
+        req += &format!("{k}: {v}\r\n");
+    }
+    req += "Transfer-Encoding: chunked\r\n\r\n";
+    s.write_all(req.as_bytes()).unwrap();
+    for chunk in body.chunks(8192) {
+        // The server may answer and close before the whole body is sent.
+        if s.write_all(format!("{:x}\r\n", chunk.len()).as_bytes())
+            .is_err()
+            || s.write_all(chunk).is_err()
+            || s.write_all(b"\r\n").is_err()
+        {
+            break;
+        }
+    }
+    let _ = s.write_all(b"0\r\n\r\n");
+    read_reply(&mut s)
+}
+
+/// The status, head and body of the answer on `s`.
+fn read_reply(s: &mut TcpStream) -> Reply {
     let mut raw = Vec::new();
     let _ = s.read_to_end(&mut raw);
     let split = raw
