@@ -274,7 +274,7 @@ fn a_file_that_does_not_load_is_not_kept() {
             &token,
             &text,
         );
-        assert_eq!(r.status, 400, "{}", r.text());
+        assert_eq!(r.status, 422, "{}", r.text());
         assert!(r.text().contains("typo.brdf"), "{}", r.text());
     }
     // The server's one folder holds no file of the three.

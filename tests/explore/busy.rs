@@ -64,11 +64,13 @@ fn an_endless_shader_shows_busy_and_never_stops_the_server() {
     );
 
     // The shader again: a fresh device, the same limit (not a device that takes no more work).
-    // As many values as a polar curve may have: under a driver's cap on loop iterations a
-    // handful of values could finish in time.
+    // The largest hemisphere image: lavapipe ends a loop this long early (with undefined
+    // values) after about half a millisecond a value, so what keeps a request there past the
+    // limit is its number of values: 256² cells, half a minute, far past 3 s, where a polar
+    // curve's 4096 took 3 to 5 s.
     let r = server.post(
-        "/api/polar",
-        &json!({"model": name, "theta_i_deg": 30, "samples": 4096}),
+        "/api/hemisphere",
+        &json!({"model": name, "theta_i_deg": 30, "samples": lobe::explore::MAX_IMAGE_RES}),
     );
     assert!(
         r.status == 422 && r.text().contains("did not finish within"),
