@@ -353,23 +353,37 @@ pub fn compare(
     };
     drop((fa, fb, bins, cell_of));
     if let Some(settings) = &opts.albedo {
-        let settings = Settings {
-            white_furnace: opts.white_furnace,
-            ..*settings
-        };
-        let points: Vec<(f64, f64)> = opts.mus.iter().map(|&m| (m, 0.0)).collect();
-        let ea = integrate::directional(eval, &a.params, &settings, &points)?;
-        let eb = integrate::directional(eval, &b.params, &settings, &points)?;
-        out.directional = ea
-            .iter()
-            .zip(&eb)
-            .map(|(x, y)| AlbedoPair::new(x.mu, x.albedo, y.albedo))
-            .collect();
-        let ha = integrate::hemispherical(eval, &a.params, &settings, 0.0)?;
-        let hb = integrate::hemispherical(eval, &b.params, &settings, 0.0)?;
-        out.hemispherical = Some(AlbedoPair::new(f64::NAN, ha.albedo, hb.albedo));
+        let (directional, hemispherical) = albedo_pairs(eval, a, b, opts, settings)?;
+        out.directional = directional;
+        out.hemispherical = Some(hemispherical);
     }
     Ok(out)
+}
+
+/// The directional albedo of both sides at `opts.mus` and their hemispherical albedo, with
+/// `settings`' integrator under the comparison's white-furnace switch.
+fn albedo_pairs(
+    eval: &Evaluator,
+    a: &Side,
+    b: &Side,
+    opts: &Options,
+    settings: &Settings,
+) -> Result<(Vec<AlbedoPair>, AlbedoPair)> {
+    let settings = Settings {
+        white_furnace: opts.white_furnace,
+        ..*settings
+    };
+    let points: Vec<(f64, f64)> = opts.mus.iter().map(|&m| (m, 0.0)).collect();
+    let ea = integrate::directional(eval, &a.params, &settings, &points)?;
+    let eb = integrate::directional(eval, &b.params, &settings, &points)?;
+    let directional = ea
+        .iter()
+        .zip(&eb)
+        .map(|(x, y)| AlbedoPair::new(x.mu, x.albedo, y.albedo))
+        .collect();
+    let ha = integrate::hemispherical(eval, &a.params, &settings, 0.0)?;
+    let hb = integrate::hemispherical(eval, &b.params, &settings, 0.0)?;
+    Ok((directional, AlbedoPair::new(f64::NAN, ha.albedo, hb.albedo)))
 }
 
 impl Comparison {
