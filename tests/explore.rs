@@ -10,6 +10,8 @@ mod cdp;
 mod downloads;
 #[path = "explore/merl.rs"]
 mod merl;
+#[path = "explore/optional.rs"]
+mod optional;
 #[path = "explore/server.rs"]
 mod server;
 #[path = "explore/stale.rs"]

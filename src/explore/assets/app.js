@@ -207,8 +207,35 @@ function card(i) {
   remove.addEventListener('click', () => { state.m.splice(i, 1); probe.params.splice(i, 1); changed(true); });
   head.append(model, material, dup, remove);
   div.append(head);
-  modelInfo(entry.model).params.filter((p) => !p.optional || entry.sets[p.key] !== undefined)
-    .forEach((p) => div.append(paramRow(i, p)));
+  const params = modelInfo(entry.model).params;
+  params.filter((p) => !p.optional || entry.sets[p.key] !== undefined).forEach((p) => {
+    const row = paramRow(i, p);
+    if (p.optional) {
+      // An optional parameter set by hand: unset, the model derives it again.
+      const unset = Object.assign(document.createElement('button'), { type: 'button', textContent: '×', title: `unset ${p.key}` });
+      unset.className = 'unset';
+      unset.addEventListener('click', () => { delete entry.sets[p.key]; changed(true); });
+      row.querySelector('label').prepend(unset);
+    }
+    div.append(row);
+  });
+  // Optional parameters the model derives when they are not given: a button each sets one, at
+  // its default, and shows its control.
+  const unsetKeys = params.filter((p) => p.optional && entry.sets[p.key] === undefined);
+  if (unsetKeys.length > 0) {
+    const more = document.createElement('div');
+    more.className = 'optional';
+    unsetKeys.forEach((p) => {
+      const add = Object.assign(document.createElement('button'), { type: 'button', textContent: `+ ${p.key}`, title: p.doc });
+      add.dataset.key = p.key;
+      add.addEventListener('click', () => {
+        entry.sets[p.key] = Array.isArray(p.default) ? p.default.join(',') : String(p.default);
+        changed(true);
+      });
+      more.append(add);
+    });
+    div.append(more);
+  }
   return div;
 }
 
@@ -465,7 +492,12 @@ async function start() {
   $('white-furnace').addEventListener('change', () => { state.wf = $('white-furnace').checked; changed(false); });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
-  $('copy').addEventListener('click', () => navigator.clipboard.writeText(commandLines().join('\n')).catch((e) => showError(`copy: ${e.message}`)));
+  // The clipboard exists only on a secure origin (localhost is one; --host's other addresses are
+  // not): there the lines stay shown under the button, to be selected by hand.
+  $('copy').addEventListener('click', () => {
+    if (!navigator.clipboard) { showError('copy: this address has no clipboard access; select the command lines shown below'); return; }
+    navigator.clipboard.writeText(commandLines().join('\n')).catch((e) => showError(`copy: ${e.message}`));
+  });
   $('download-png').addEventListener('click', () => download('polar.png', $('polar').toDataURL('image/png')));
   $('download-svg').addEventListener('click', downloadSvg);
   $('download-npy').addEventListener('click', () => downloadTables('npy'));
