@@ -4,9 +4,9 @@
 //! beside a picture holds the numbers it was drawn from.
 
 use lobe::model::Model;
-use lobe::plot::albedo::AlbedoOptions;
+use lobe::plot::albedo_curve::AlbedoOptions;
 use lobe::plot::polar::PolarOptions;
-use lobe::plot::{self, Common, Plotted, Request, Subject};
+use lobe::plot::{self, PlotSettings, Plotted, Request, Subject};
 use lobe::Evaluator;
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -144,7 +144,7 @@ fn subject(model: &str, material: Option<&str>, sets: &[&str]) -> Subject {
     Subject::new(params, material)
 }
 
-fn draw_svg(subjects: &[Subject], common: &Common, request: &Request) -> (String, Plotted) {
+fn draw_svg(subjects: &[Subject], common: &PlotSettings, request: &Request) -> (String, Plotted) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plot.svg");
     let plotted = plot::plot(&Evaluator::cpu(), subjects, common, request, &path)
@@ -162,7 +162,7 @@ fn legend_labels_and_titles_stay_whole_and_inside_the_canvas() {
             .into();
     let mut b = subject("microfacet", Some("gold"), &[]);
     b.label = format!("B: {}", "microfacet_with_a_very_long_name_".repeat(6));
-    let common = Common::default();
+    let common = PlotSettings::default();
     let request = Request::Polar(PolarOptions {
         theta_i_deg: vec![30.0, 60.0],
         samples: 64,
@@ -192,7 +192,7 @@ fn a_polar_plot_shows_its_smallest_lobe() {
         samples: 720,
         ..PolarOptions::default()
     });
-    let (svg, plotted) = draw_svg(&[s], &Common::default(), &request);
+    let (svg, plotted) = draw_svg(&[s], &PlotSettings::default(), &request);
     let Plotted::Polar(data) = plotted else {
         panic!("not a polar plot")
     };
@@ -240,7 +240,7 @@ fn ten_albedo_curves_differ_in_colour_or_pattern() {
         n_mu: 8,
         ..AlbedoOptions::default()
     });
-    let (svg, _) = draw_svg(&subjects, &Common::default(), &request);
+    let (svg, _) = draw_svg(&subjects, &PlotSettings::default(), &request);
     let curves: Vec<(String, String)> = polylines(&svg)
         .into_iter()
         .filter(|l| l.2 == "2" && l.3.len() >= 8)
@@ -270,7 +270,7 @@ fn the_csv_beside_a_plot_holds_the_plotted_values() {
     let plotted = plot::plot(
         &Evaluator::cpu(),
         &subjects,
-        &Common::default(),
+        &PlotSettings::default(),
         &request,
         &path,
     )
@@ -325,10 +325,10 @@ fn png_size(bytes: &[u8]) -> (u32, u32) {
 
 /// A polar plot of phong in `style` on the canvas for `pixels` written pixels, to `name`.
 fn polar_in_style(dir: &Path, name: &str, style: plot::Style, pixels: (u32, u32)) -> Vec<u8> {
-    let common = Common {
+    let common = PlotSettings {
         style,
         size: style.canvas_for(pixels),
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let request = Request::Polar(PolarOptions {
         theta_i_deg: vec![0.0, 45.0],

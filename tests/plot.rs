@@ -11,7 +11,7 @@ use lobe::plot::hemisphere::{HemisphereOptions, Projection};
 use lobe::plot::polar::PolarOptions;
 use lobe::plot::slice::{half_diff_to_pair, SliceOptions};
 use lobe::plot::surface3d::Surface3dOptions;
-use lobe::plot::{self, albedo::AlbedoOptions, Common, Plotted, Request, Subject};
+use lobe::plot::{self, albedo_curve::AlbedoOptions, PlotSettings, Plotted, Request, Subject};
 use lobe::Evaluator;
 use std::path::Path;
 
@@ -68,7 +68,13 @@ fn png_size(path: &Path) -> (u32, u32) {
     (be(&bytes[16..20]), be(&bytes[20..24]))
 }
 
-fn run(e: &Evaluator, subjects: &[Subject], common: &Common, r: &Request, path: &Path) -> Plotted {
+fn run(
+    e: &Evaluator,
+    subjects: &[Subject],
+    common: &PlotSettings,
+    r: &Request,
+    path: &Path,
+) -> Plotted {
     plot::plot(e, subjects, common, r, path).unwrap_or_else(|err| panic!("{err:#}"))
 }
 
@@ -85,9 +91,9 @@ fn with_gpu(test: &str, f: impl FnOnce(&Evaluator)) {
 
 fn check_polar_peaks(e: &Evaluator, dir: &Path, name: &str) {
     let path = dir.join(name);
-    let common = Common {
+    let common = PlotSettings {
         size: (900, 600),
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let opts = PolarOptions {
         theta_i_deg: vec![0.0, 30.0, 60.0, 75.0],
@@ -146,9 +152,9 @@ fn polar_overlay_marks_delta_lobes_with_their_albedo_and_svg_holds_the_title() {
             Some("gold"),
         ),
     ];
-    let common = Common {
+    let common = PlotSettings {
         log: true,
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let opts = PolarOptions {
         theta_i_deg: vec![0.0, 60.0],
@@ -196,10 +202,10 @@ fn polar_overlay_marks_delta_lobes_with_their_albedo_and_svg_holds_the_title() {
 
 fn check_hemisphere(e: &Evaluator, dir: &Path, reverse: bool, projection: Projection) {
     let path = dir.join(format!("hemi-{reverse}-{}.png", projection.name()));
-    let common = Common {
+    let common = PlotSettings {
         log: true,
         size: (1000, 420),
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let opts = HemisphereOptions {
         theta_deg: vec![30.0, 60.0],
@@ -305,9 +311,9 @@ fn check_slice(e: &Evaluator, dir: &Path) {
         ),
         Subject::new(params(Model::Lambert, &["albedo=0.5"]), None),
     ];
-    let common = Common {
+    let common = PlotSettings {
         size: (1100, 600),
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let Plotted::Slice(data) = run(
         e,
@@ -368,7 +374,7 @@ fn surface3d_lobe_points_along_the_mirror_direction_gpu() {
         let Plotted::Surface3d(data) = run(
             e,
             &[glossy_phong()],
-            &Common::default(),
+            &PlotSettings::default(),
             &Request::Surface3d(opts),
             &path,
         ) else {
@@ -401,7 +407,7 @@ fn albedo_curves_show_lambert_exactly_and_the_smooth_layered_gain() {
     let Plotted::Albedo(data) = run(
         &Evaluator::cpu(),
         &subjects,
-        &Common::default(),
+        &PlotSettings::default(),
         &Request::Albedo(opts),
         &path,
     ) else {
@@ -432,7 +438,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
     let err = plot::plot(
         &Evaluator::cpu(),
         &[glossy_phong()],
-        &Common::default(),
+        &PlotSettings::default(),
         &Request::Polar(PolarOptions::default()),
         &bad,
     )
@@ -442,7 +448,7 @@ fn a_bad_extension_or_angle_fails_and_leaves_no_file() {
     let err = plot::plot(
         &Evaluator::cpu(),
         &[glossy_phong()],
-        &Common::default(),
+        &PlotSettings::default(),
         &Request::Polar(PolarOptions {
             theta_i_deg: vec![95.0],
             ..PolarOptions::default()
@@ -530,10 +536,10 @@ fn is_partial_cover(p: [u8; 3], c: [u8; 3]) -> bool {
 #[test]
 fn pngs_are_anti_aliased_and_byte_stable_and_svg_keeps_sub_pixel_coordinates() {
     let dir = tempfile::tempdir().unwrap();
-    let common = Common {
+    let common = PlotSettings {
         log: true,
         size: (600, 400),
-        ..Common::default()
+        ..PlotSettings::default()
     };
     let request = Request::Polar(PolarOptions {
         theta_i_deg: vec![30.0],

@@ -3,8 +3,8 @@
 
 use crate::errors::{from_anyhow, invalid};
 use crate::{job, model, settings, PySession};
-use lobe::plot::{albedo, hemisphere, polar};
-use lobe::plot::{Channel, Common, Request, Subject};
+use lobe::plot::{albedo_curve, hemisphere, polar};
+use lobe::plot::{Channel, PlotSettings, Request, Subject};
 use pyo3::prelude::*;
 
 /// Draws `kind` ("polar", "hemisphere" or "albedo") of `models` into `path`; returns the title.
@@ -46,7 +46,7 @@ pub fn plot(
             theta_deg: angles,
             ..Default::default()
         }),
-        "albedo" => Request::Albedo(albedo::AlbedoOptions {
+        "albedo" => Request::Albedo(albedo_curve::AlbedoOptions {
             method: settings(method, None, false)?.method,
             ..Default::default()
         }),
@@ -74,14 +74,14 @@ pub fn plot(
         }
         _ => (1200, 800),
     };
-    let common = Common {
+    let common = PlotSettings {
         size,
         white_furnace,
         cos,
         // The hemisphere's colours are logarithmic unless asked otherwise, as on the command line.
         log: log || kind == "hemisphere",
         channel: Channel::from_name(channel).map_err(|e| from_anyhow("channel", e))?,
-        ..Common::default()
+        ..PlotSettings::default()
     };
     common.check().map_err(|e| from_anyhow("plot", e))?;
     let s = &session.get().inner;

@@ -410,7 +410,7 @@ fn write_plots(
 ) -> Result<()> {
     let plot_opts = difference::PlotOptions {
         theta_i_deg: a.theta_i_deg.clone(),
-        common: lobe::plot::Common {
+        common: lobe::plot::PlotSettings {
             white_furnace: a.white_furnace,
             ..difference::PlotOptions::default().common
         },

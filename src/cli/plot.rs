@@ -6,7 +6,7 @@ use super::{
 };
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use lobe::plot::{self, hemisphere::Projection, Channel, Common, Request, Subject};
+use lobe::plot::{self, hemisphere::Projection, Channel, PlotSettings, Request, Subject};
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq)]
@@ -247,7 +247,7 @@ pub fn run(mut a: PlotArgs) -> Result<()> {
     check_curves(&a, subjects.len(), (models.len(), materials.len()))?;
     let style: plot::Style = a.style.into();
     let size = canvas_size(&a, style, models.len() * materials.len())?;
-    let common = Common {
+    let common = PlotSettings {
         white_furnace: a.white_furnace,
         cos: a.cos,
         log: a.log || (a.kind == PlotKind::Hemisphere && !a.linear),
@@ -410,7 +410,7 @@ fn request(a: &PlotArgs) -> Request {
                 n_phi: 2 * rings,
             })
         }
-        PlotKind::Albedo => Request::Albedo(plot::albedo::AlbedoOptions {
+        PlotKind::Albedo => Request::Albedo(plot::albedo_curve::AlbedoOptions {
             n_mu: a.res.unwrap_or(48),
             method: a.method.into(),
             samples: a.samples,

@@ -46,7 +46,7 @@ pub(super) fn draw_lut(
         log: false,
     };
     let draw = |root: &DrawingArea<SVGBackend, plotters::coord::Shift>,
-                ink: &mut crate::plot::Ink|
+                ink: &mut crate::plot::Overlay|
      -> Result<()> {
         let body = header(root, &title, &lines)?;
         let (w, _) = body.dim_in_pixel();

@@ -5,7 +5,7 @@ use super::{Settings, PLOT_SIZE};
 use crate::integrate::Method;
 use crate::material;
 use crate::model::Model;
-use crate::plot::{self, Common, Request, Subject};
+use crate::plot::{self, PlotSettings, Request, Subject};
 use anyhow::Result;
 
 /// One plot the demo draws.
@@ -19,7 +19,7 @@ pub struct PlannedPlot {
     /// The models drawn, with their parameters.
     pub subjects: Vec<Subject>,
     /// Settings every kind shares: size, scale and channel.
-    pub common: Common,
+    pub common: PlotSettings,
     /// The kind of plot with its own options.
     pub request: Request,
 }
@@ -47,10 +47,10 @@ fn subject(mat: &str, model: Model) -> Result<Subject> {
 }
 
 /// The canvas and scale of the line charts.
-fn line_common() -> Common {
-    Common {
+fn line_common() -> PlotSettings {
+    PlotSettings {
         size: PLOT_SIZE,
-        ..Common::default()
+        ..PlotSettings::default()
     }
 }
 
@@ -59,7 +59,7 @@ fn line_common() -> Common {
 fn polar_plots(settings: &Settings, materials: &[&'static str]) -> Result<Vec<PlannedPlot>> {
     let line = line_common();
     // A half disc is twice as wide as tall: polar plots get a lower canvas.
-    let log = Common {
+    let log = PlotSettings {
         log: true,
         size: POLAR_SIZE,
         ..line.clone()
@@ -106,7 +106,7 @@ fn polar_plots(settings: &Settings, materials: &[&'static str]) -> Result<Vec<Pl
             caption: "Glazed ceramic under Cook–Torrance at θi = 0°, 30°, 60°, 80°, linear radius: the lobe grows and tilts off-specular towards grazing.".into(),
             material: None,
             subjects: vec![subject("glazed_ceramic", Model::CookTorrance)?],
-            common: Common {
+            common: PlotSettings {
                 size: POLAR_SIZE,
                 ..line.clone()
             },
@@ -127,10 +127,10 @@ fn hemisphere_plot(settings: &Settings) -> Result<PlannedPlot> {
         file: "plots/hemisphere_gold_tin.png".into(),
         caption: "f over every ωo for ωi at θi = 0°, 30°, 60°, 80° (φi = 0), equal-area projection, log colour: gold Cook–Torrance (isotropic) and tin Ashikhmin–Shirley (anisotropic, brushed).".into(),
         material: None,
-        common: Common {
+        common: PlotSettings {
             log: true,
             size: (1200, 150 + hemi_subjects.len() as u32 * (side + 30)),
-            ..Common::default()
+            ..PlotSettings::default()
         },
         subjects: hemi_subjects,
         request: Request::Hemisphere(plot::hemisphere::HemisphereOptions {
@@ -151,7 +151,7 @@ fn albedo_plot(settings: &Settings, mat: &'static str, models: &[Model]) -> Resu
             .map(|&m| subject(mat, m))
             .collect::<Result<_>>()?,
         common: line_common(),
-        request: Request::Albedo(plot::albedo::AlbedoOptions {
+        request: Request::Albedo(plot::albedo_curve::AlbedoOptions {
             n_mu: settings.curve_mu,
             method: Method::Peak,
             samples: Some(settings.curve_samples),

@@ -8,7 +8,7 @@ use super::State;
 use crate::backend::Query;
 use crate::grid::Grid;
 use crate::model::ParamSet;
-use crate::plot::{self, polar, Channel, Common, Request, Subject};
+use crate::plot::{self, polar, Channel, PlotSettings, Request, Subject};
 use axum::body::Bytes;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -148,7 +148,7 @@ async fn polar_file(state: Arc<State>, body: Bytes) -> Result<Response, Refusal>
         .map(|m| Ok(m.subject(m.params()?)))
         .collect::<Result<Vec<_>, Refusal>>()?;
     // `lobe plot`'s defaults for a polar plot on the screen (1200 × 680, 4 decades, luminance).
-    let common = Common {
+    let common = PlotSettings {
         white_furnace: req.white_furnace,
         cos: req.cos,
         log: req.log,

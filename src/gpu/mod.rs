@@ -2,7 +2,7 @@
 //! one buffer binding or one dispatch is split into chunks; buffers are sized for one chunk, so
 //! memory stays bounded whatever the job's size.
 
-pub mod albedo;
+pub mod albedo_kernel;
 mod backend;
 pub mod buffer;
 pub mod device;

@@ -1,7 +1,7 @@
 //! Sums of hemispherical rules on the GPU: node lists into the node buffer, batches of view
 //! directions within the buffer's and a dispatch's budgets, and the albedo kernel's reductions.
 
-use super::albedo::{mirror_node, span_nodes, AlbedoSum, DISPATCH_NODES};
+use super::albedo_kernel::{mirror_node, span_nodes, AlbedoSum, DISPATCH_NODES};
 use super::Gpu;
 use crate::backend::{NodeRule, RowSums};
 use crate::interrupt::CancelToken;

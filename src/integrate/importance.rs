@@ -1,10 +1,10 @@
 //! The `importance` rule: a mixture of the cosine density and power-cosine lobes about the
 //! mirror direction, sampled by low-discrepancy points in independently shifted replicates.
 
-use super::kept::Kept;
+use super::cache::RecentCache;
 use super::peak::PeakFrame;
 use super::{Node, PLASTIC};
-use crate::model::quadrature::SamplingLobes;
+use crate::model::sampling::SamplingLobes;
 use crate::model::ParamSet;
 use glam::DVec3;
 use std::f64::consts::{PI, TAU};
@@ -212,7 +212,8 @@ const KEPT_POINT_SETS: usize = 16;
 /// that does not depend on ωo worked out once (the R2 sequence, its shift, the inverse CDFs'
 /// sines, cosines and powers) and kept for the other view directions.
 fn unit_points(n: usize, mix: &Mixture, replicate: u32) -> Arc<Vec<UnitPoint>> {
-    static KEPT: Kept<(usize, Mixture, u32), Vec<UnitPoint>> = Kept::new(KEPT_POINT_SETS);
+    static KEPT: RecentCache<(usize, Mixture, u32), Vec<UnitPoint>> =
+        RecentCache::new(KEPT_POINT_SETS);
     KEPT.get_or_make(&(n, *mix, replicate), || {
         make_unit_points(n, mix, replicate)
     })

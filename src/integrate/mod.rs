@@ -35,9 +35,9 @@
 
 mod albedo;
 mod backend;
+mod cache;
 mod estimate;
 mod importance;
-mod kept;
 mod peak;
 mod reference;
 mod report;

@@ -2,9 +2,9 @@
 //! its coarse twin for the error estimate, and the node generators of the rules that need no
 //! model knowledge (midpoint, Gauss–Legendre × trapezoid, cosine-weighted QMC).
 
+use super::cache::RecentCache;
 use super::gauss::{gauss_legendre, gauss_on};
 use super::importance::{importance_node_count, importance_nodes, Mixture, REPLICATES};
-use super::kept::Kept;
 use super::peak::{peak_node_count, peak_nodes, peak_nodes_each};
 use super::{Node, PLASTIC};
 use crate::backend::NodeRule;
@@ -107,7 +107,7 @@ impl Rule {
     /// every view direction, and repeated jobs (a sweep, a benchmark) ask for the same lists
     /// again. None for rules that depend on ωo. The last `SHARED_RULES` (four) lists are kept.
     pub fn shared_nodes(&self) -> Option<Arc<Vec<Node>>> {
-        static KEPT: Kept<Rule, Vec<Node>> = Kept::new(SHARED_RULES);
+        static KEPT: RecentCache<Rule, Vec<Node>> = RecentCache::new(SHARED_RULES);
         if self.depends_on_wo() {
             return None;
         }

@@ -3,7 +3,7 @@
 
 use super::info::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
-use super::quadrature::SamplingLobes;
+use super::sampling::SamplingLobes;
 use super::terms::{
     half_vector_from_sum, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular,
 };

@@ -3,7 +3,7 @@
 
 use super::info::{always_isotropic, no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
-use super::quadrature::SamplingLobes;
+use super::sampling::SamplingLobes;
 use super::terms::{log1m, one_minus_cos_theta, pow1m};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

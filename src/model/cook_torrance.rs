@@ -3,7 +3,7 @@
 
 use super::info::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
-use super::quadrature::{beckmann_exponent, SamplingLobes};
+use super::sampling::{beckmann_exponent, SamplingLobes};
 use super::terms::{half_vector_from_sum, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

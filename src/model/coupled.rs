@@ -3,7 +3,7 @@
 
 use super::info::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::params::{ParamError, ParamSpec, Value};
-use super::quadrature::no_lobes;
+use super::sampling::no_lobes;
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;

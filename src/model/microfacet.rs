@@ -13,7 +13,7 @@ pub use super::components::{
 use super::info::{white_specular_alone, LutAxis, ModelInfo};
 use super::kulla_conty;
 use super::params::ParamSpec;
-use super::quadrature::{beckmann_exponent, SamplingLobes};
+use super::sampling::{beckmann_exponent, SamplingLobes};
 use super::terms::{
     alpha_tan2, half_vector_from_sum, lambda_beckmann, lambda_ggx, r0_from_ior, D_beckmann, D_ggx,
     F_conductor, F_dielectric, F_schlick, G1_beckmann_rational, G_v_cavity,

@@ -12,7 +12,7 @@
 
 use super::hemisphere::{self, draw_panel, HemisphereData, HemisphereOptions};
 use super::polar::{self, PolarData, PolarOptions};
-use super::{colour_bar, header_in, Common, Format, Subject};
+use super::{colour_bar, header_in, Format, PlotSettings, Subject};
 use crate::eval::Evaluator;
 use crate::loss::RELATIVE_FLOOR;
 use crate::output::FileSet;
@@ -38,7 +38,7 @@ pub fn difference_data(
     eval: &Evaluator,
     a: &Subject,
     b: &Subject,
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
 ) -> Result<HemisphereData> {
     let both = [a.clone(), b.clone()];
@@ -105,7 +105,7 @@ pub fn difference_picture(
     data: &HemisphereData,
     a: &Subject,
     b: &Subject,
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
     format: Format,
 ) -> Result<Vec<u8>> {
@@ -116,11 +116,11 @@ pub fn difference_picture(
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut super::Ink,
+    ink: &mut super::Overlay,
     data: &HemisphereData,
     a: &Subject,
     b: &Subject,
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
 ) -> Result<()> {
     let mut lines = vec![a.describe(), b.describe()];
@@ -152,7 +152,7 @@ pub struct PlotOptions {
     /// θi of the polar curves and of the difference panels, in degrees, each in [0, 90).
     pub theta_i_deg: Vec<f64>,
     /// The plotted channel, switches and the polar picture's size.
-    pub common: Common,
+    pub common: PlotSettings,
     /// Cells across each difference panel.
     pub res: usize,
     /// The difference picture's size in pixels.
@@ -163,9 +163,9 @@ impl Default for PlotOptions {
     fn default() -> PlotOptions {
         PlotOptions {
             theta_i_deg: vec![0.0, 30.0, 60.0],
-            common: Common {
+            common: PlotSettings {
                 size: (1200, 680),
-                ..Common::default()
+                ..PlotSettings::default()
             },
             res: 128,
             difference_size: (1200, 560),
@@ -276,7 +276,7 @@ pub fn write_plots(
         res: opts.res,
         ..HemisphereOptions::default()
     };
-    let common = Common {
+    let common = PlotSettings {
         size: opts.difference_size,
         log: false,
         ..opts.common.clone()

@@ -12,8 +12,8 @@
 
 use super::{
     bad, check_deg, check_finite_deg, colour_bar, describe_subjects, draw_placed, fmt_value,
-    header_in, pixel_map, rad, render, text_style, Common, Dash, Drawn, Ink, Placed, Scale, Style,
-    Subject, LABEL_GAP,
+    header_in, pixel_map, rad, render, text_style, Dash, Drawn, Overlay, Placed, PlotSettings,
+    Scale, Style, Subject, LABEL_GAP,
 };
 use crate::eval::Evaluator;
 pub use crate::grid::angles_deg;
@@ -167,7 +167,7 @@ pub fn cell_direction(projection: Projection, x: f64, y: f64) -> Option<DVec3> {
 pub fn hemisphere_data(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
 ) -> Result<HemisphereData> {
     check_request(subjects, common, opts)?;
@@ -251,7 +251,11 @@ pub fn hemisphere_data(
 }
 
 /// The options and subjects of a hemisphere plot, checked before any evaluation.
-fn check_request(subjects: &[Subject], common: &Common, opts: &HemisphereOptions) -> Result<()> {
+fn check_request(
+    subjects: &[Subject],
+    common: &PlotSettings,
+    opts: &HemisphereOptions,
+) -> Result<()> {
     common.check()?;
     if subjects.is_empty() {
         bail!("a hemisphere plot needs at least one model");
@@ -297,7 +301,7 @@ fn peak_direction(values: &[f64], cells: &[Option<DVec3>]) -> (f64, f64) {
 pub fn plot_hemisphere(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
     path: &Path,
 ) -> Result<HemisphereData> {
@@ -311,10 +315,10 @@ pub fn plot_hemisphere(
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &HemisphereData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &HemisphereOptions,
 ) -> Result<()> {
     let mut lines = describe_subjects(subjects);
@@ -369,7 +373,7 @@ pub fn panel_columns(width: u32, n_angles: usize) -> usize {
 /// beside the disc and draws its cells at sub-pixel precision ([`draw_cells`]).
 pub(crate) fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     panel: &HemispherePanel,
     data: &HemisphereData,
     subjects: &[Subject],

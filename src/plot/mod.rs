@@ -10,7 +10,7 @@
 //!   equal-area or Nusselt projection;
 //! - [`slice`](mod@slice): the θh × θd image of Rusinkiewicz's half/difference coordinates at one φd;
 //! - [`surface3d`]: the lobe r(ωo) = f·ωo as a 3D wireframe for one ωi;
-//! - [`albedo`]: directional albedo E(μ) curves with E = 1 drawn;
+//! - [`albedo_curve`]: directional albedo E(μ) curves with E = 1 drawn;
 //! - [`difference`]: two models overlaid in the plane of incidence and their relative difference
 //!   over the hemisphere (`lobe compare`, `lobe fit`);
 //! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
@@ -20,7 +20,7 @@
 //!
 //! The plotted scalar is one channel of the RGB value ([`Channel`]); luminance by default.
 
-pub mod albedo;
+pub mod albedo_curve;
 mod canvas;
 pub mod csv;
 pub mod difference;
@@ -55,7 +55,7 @@ pub enum Kind {
     Slice,
     /// The lobe as a 3D wireframe for one ωi ([`surface3d`]); named `3d`.
     Surface3d,
-    /// Directional albedo curves E(μ) ([`albedo`]).
+    /// Directional albedo curves E(μ) ([`albedo_curve`]).
     Albedo,
 }
 
@@ -194,7 +194,7 @@ impl Channel {
 
 /// Settings every kind shares.
 #[derive(Clone, Debug)]
-pub struct Common {
+pub struct PlotSettings {
     /// Evaluate with every Fresnel factor of a specular lobe set to 1 (docs/design.md §3.5).
     pub white_furnace: bool,
     /// Plot f·cosθi instead of f.
@@ -212,7 +212,7 @@ pub struct Common {
     pub style: Style,
 }
 
-impl Common {
+impl PlotSettings {
     /// What a plot evaluates of `params`: the parameter set with the white-furnace switch.
     pub fn query<'a>(&self, params: &'a ParamSet) -> Query<'a> {
         Query::one(params).with_white_furnace(self.white_furnace)
@@ -288,9 +288,9 @@ impl Style {
     }
 }
 
-impl Default for Common {
-    fn default() -> Common {
-        Common {
+impl Default for PlotSettings {
+    fn default() -> PlotSettings {
+        PlotSettings {
             white_furnace: false,
             cos: false,
             log: false,
@@ -302,7 +302,7 @@ impl Default for Common {
     }
 }
 
-impl Common {
+impl PlotSettings {
     /// How the canvas is written: [`Style::page`] of `size`.
     pub fn page(&self) -> Page {
         self.style.page(self.size)
@@ -369,8 +369,8 @@ pub enum Request {
     Slice(slice::SliceOptions),
     /// A 3D wireframe of the lobe ([`surface3d::plot_surface3d`]).
     Surface3d(surface3d::Surface3dOptions),
-    /// Directional albedo curves ([`albedo::plot_albedo`]).
-    Albedo(albedo::AlbedoOptions),
+    /// Directional albedo curves ([`albedo_curve::plot_albedo`]).
+    Albedo(albedo_curve::AlbedoOptions),
 }
 
 /// What a plot drew, by kind.
@@ -384,8 +384,8 @@ pub enum Plotted {
     Slice(slice::SliceData),
     /// What [`surface3d::plot_surface3d`] drew.
     Surface3d(surface3d::Surface3dData),
-    /// What [`albedo::plot_albedo`] drew.
-    Albedo(albedo::AlbedoData),
+    /// What [`albedo_curve::plot_albedo`] drew.
+    Albedo(albedo_curve::AlbedoData),
 }
 
 impl Plotted {
@@ -416,7 +416,7 @@ impl Plotted {
 pub fn plot(
     eval: &crate::eval::Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     request: &Request,
     path: &Path,
 ) -> Result<Plotted> {
@@ -430,7 +430,7 @@ pub fn plot(
             Plotted::Surface3d(surface3d::plot_surface3d(eval, subjects, common, o, path)?)
         }
         Request::Albedo(o) => {
-            Plotted::Albedo(albedo::plot_albedo(eval, subjects, common, o, path)?)
+            Plotted::Albedo(albedo_curve::plot_albedo(eval, subjects, common, o, path)?)
         }
     })
 }
@@ -470,7 +470,7 @@ pub(crate) fn check_finite_deg(option: &'static str, name: &str, v: f64) -> Resu
 /// model and at least one θi, each in [0°, 90°).
 pub(crate) fn check_curves(
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     kind: &str,
     theta_i_deg: &[f64],
 ) -> Result<()> {

@@ -7,8 +7,8 @@
 
 use super::{
     bad, check_curves, fmt_value, header_in, legend, legend_width, palette, pixel_map, rad, render,
-    subject_styles, text_style, Common, Dash, Drawn, Ink, LegendEntry, Marker, Scale, SeriesStyle,
-    Subject,
+    subject_styles, text_style, Dash, Drawn, LegendEntry, Marker, Overlay, PlotSettings, Scale,
+    SeriesStyle, Subject,
 };
 use crate::eval::Evaluator;
 use crate::model::Reference;
@@ -36,7 +36,7 @@ pub struct PolarOptions {
     pub theta_i_deg: Vec<f64>,
     /// View angles per curve.
     pub samples: usize,
-    /// How values map to the radius; [`Common::log`] forces [`Radius::Log`].
+    /// How values map to the radius; [`PlotSettings::log`] forces [`Radius::Log`].
     pub radius: Radius,
 }
 
@@ -57,7 +57,7 @@ pub enum Radius {
     Auto,
     /// Linear from 0 to the largest value.
     Linear,
-    /// Logarithmic over [`Common::decades`] below the largest value.
+    /// Logarithmic over [`PlotSettings::decades`] below the largest value.
     Log,
     /// Each curve divided by its own peak, linear from 0 to 1: shapes compared, sizes not.
     Normalised,
@@ -142,7 +142,7 @@ pub fn view_direction(s: f64) -> DVec3 {
 pub fn polar_data(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &PolarOptions,
 ) -> Result<PolarData> {
     check_request(subjects, common, opts)?;
@@ -230,7 +230,7 @@ pub fn polar_data(
 }
 
 /// The options and subjects of a polar plot, checked before any evaluation.
-fn check_request(subjects: &[Subject], common: &Common, opts: &PolarOptions) -> Result<()> {
+fn check_request(subjects: &[Subject], common: &PlotSettings, opts: &PolarOptions) -> Result<()> {
     check_curves(subjects, common, "polar", &opts.theta_i_deg)?;
     if !(16..=1 << 20).contains(&opts.samples) {
         return Err(bad(
@@ -246,7 +246,7 @@ fn check_request(subjects: &[Subject], common: &Common, opts: &PolarOptions) -> 
 
 /// The radius a polar plot draws with, and the words that say so: `Auto` resolves by the
 /// decades between the largest and the smallest positive peak.
-fn resolve_radius(asked: Radius, common: &Common, peaks: &[f64]) -> (Radius, String) {
+fn resolve_radius(asked: Radius, common: &PlotSettings, peaks: &[f64]) -> (Radius, String) {
     let log_note = format!("log radius, {} decades", fmt_value(common.decades));
     let positive: Vec<f64> = peaks.iter().copied().filter(|p| *p > 0.0).collect();
     let hi = positive.iter().copied().fold(0.0, f64::max);
@@ -275,7 +275,7 @@ fn resolve_radius(asked: Radius, common: &Common, peaks: &[f64]) -> (Radius, Str
 pub fn plot_polar(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &PolarOptions,
     path: &Path,
 ) -> Result<PolarData> {
@@ -292,7 +292,7 @@ pub fn plot_polar(
 pub fn polar_picture(
     data: &PolarData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &PolarOptions,
     format: super::Format,
 ) -> Result<Vec<u8>> {
@@ -412,10 +412,10 @@ fn radius(data: &PolarData, peak: f64, v: f64) -> f64 {
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &PolarData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &PolarOptions,
 ) -> Result<()> {
     if common.style == super::Style::Paper {

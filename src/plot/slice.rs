@@ -10,7 +10,7 @@
 
 use super::{
     anchored, bad, check_finite_deg, colour_bar, colour_map, fmt_value, header_in, pixel_map, rad,
-    render, wrap_to_width, Common, Drawn, Ink, Scale, Subject,
+    render, wrap_to_width, Drawn, Overlay, PlotSettings, Scale, Subject,
 };
 use crate::eval::Evaluator;
 use anyhow::{bail, Result};
@@ -80,7 +80,7 @@ pub use crate::grid::half_diff_to_pair;
 pub fn slice_data(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &SliceOptions,
 ) -> Result<SliceData> {
     common.check()?;
@@ -146,7 +146,7 @@ pub fn slice_data(
 pub fn plot_slice(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &SliceOptions,
     path: &Path,
 ) -> Result<SliceData> {
@@ -168,10 +168,10 @@ const ZERO_GREY: RGBColor = RGBColor(215, 215, 215);
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &SliceData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
 ) -> Result<()> {
     let mut lines = super::describe_subjects(subjects);
     let mut note = format!(
@@ -275,7 +275,7 @@ const PAPER_CAPTION_LINE: i32 = 14;
 /// drawn at sub-pixel precision so that the zoomed picture rasterises them at its own resolution.
 fn paper_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     panel: &SlicePanel,
     data: &SliceData,
     subjects: &[Subject],

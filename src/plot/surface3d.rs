@@ -6,8 +6,8 @@
 
 use super::{
     bad, check_curves, check_finite_deg, fmt_value, header_in, legend, rad, render, subject_styles,
-    text_style, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, Scale, SeriesStyle,
-    Subject,
+    text_style, Dash, Drawn, LegendEntry, LegendRows, Marker, Overlay, PlotSettings, Scale,
+    SeriesStyle, Subject,
 };
 use crate::eval::Evaluator;
 use crate::grid::direction;
@@ -94,7 +94,7 @@ fn phi_o_deg(l: usize, n: usize) -> f64 {
 pub fn surface3d_data(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &Surface3dOptions,
 ) -> Result<Surface3dData> {
     check_request(subjects, common, opts)?;
@@ -184,7 +184,11 @@ pub fn surface3d_data(
 }
 
 /// The options and subjects of a 3d plot, checked before any evaluation.
-fn check_request(subjects: &[Subject], common: &Common, opts: &Surface3dOptions) -> Result<()> {
+fn check_request(
+    subjects: &[Subject],
+    common: &PlotSettings,
+    opts: &Surface3dOptions,
+) -> Result<()> {
     check_curves(subjects, common, "3d", &opts.theta_i_deg)?;
     check_finite_deg("phi_i_deg", "phi_i", opts.phi_i_deg)?;
     if !(4..=1024).contains(&opts.n_theta) || !(4..=2048).contains(&opts.n_phi) {
@@ -203,7 +207,7 @@ fn check_request(subjects: &[Subject], common: &Common, opts: &Surface3dOptions)
 pub fn plot_surface3d(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &Surface3dOptions,
     path: &Path,
 ) -> Result<Surface3dData> {
@@ -217,10 +221,10 @@ pub fn plot_surface3d(
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &Surface3dData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
 ) -> Result<()> {
     let mut lines = super::describe_subjects(subjects);
     let unit = if data.scale.log {

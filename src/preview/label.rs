@@ -198,7 +198,7 @@ mod tests {
             inked.iter().any(|p| p.2 > 0 && p.2 < 255),
             "no partly covered pixel: not anti-aliased"
         );
-        // Ink stays within the line box (2 px margin each side), descender of '_' included.
+        // Overlay stays within the line box (2 px margin each side), descender of '_' included.
         for &(x, y, _) in &inked {
             assert!(
                 (2..c.width - 2).contains(&x) && (2..c.height - 2).contains(&y),

@@ -3,7 +3,7 @@
 use super::Session;
 use crate::error::{IntoLobe, Result};
 use crate::plot::difference::{PlotOptions, Plots};
-use crate::plot::{Common, Format, Plotted, Request, Subject};
+use crate::plot::{Format, PlotSettings, Plotted, Request, Subject};
 use crate::preview::{Scene, Sheet, SheetImage};
 use std::path::Path;
 
@@ -34,19 +34,19 @@ impl Session {
     /// ([`crate::plot::plot`]).
     ///
     /// ```
-    /// use lobe::plot::{polar::PolarOptions, Common, Plotted, Request, Subject};
+    /// use lobe::plot::{polar::PolarOptions, PlotSettings, Plotted, Request, Subject};
     /// let dir = tempfile::tempdir().unwrap();
     /// let path = dir.path().join("polar.svg");
     /// let subject = Subject { label: "lambert".into(), params: lobe::ParamSet::for_model("lambert")? };
     /// let request = Request::Polar(PolarOptions { theta_i_deg: vec![30.0], samples: 90, ..PolarOptions::default() });
-    /// let plotted = lobe::Session::cpu().plot(&[subject], &Common::default(), &request, &path)?;
+    /// let plotted = lobe::Session::cpu().plot(&[subject], &PlotSettings::default(), &request, &path)?;
     /// assert!(matches!(plotted, Plotted::Polar(_)) && path.exists());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn plot(
         &self,
         subjects: &[Subject],
-        common: &Common,
+        common: &PlotSettings,
         request: &Request,
         path: &Path,
     ) -> Result<Plotted> {

@@ -29,7 +29,7 @@ pub enum Kernel {
     Preview,
     /// Directional albedo as a workgroup reduction over quadrature nodes (bindings 0 params,
     /// 1 nodes, 2 entries, 3 partial sums, 4 the nodes as a texel buffer); see
-    /// glsl/kernels/albedo.comp and src/gpu/albedo.rs.
+    /// glsl/kernels/albedo.comp and src/gpu/albedo_kernel.rs.
     Albedo,
 }
 

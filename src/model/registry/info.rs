@@ -2,7 +2,7 @@
 //! and the small functions many of them share in it; the registry (`registry/mod.rs`) answers
 //! the rest of the crate's questions from these.
 
-use super::quadrature::SamplingLobes;
+use super::sampling::SamplingLobes;
 use crate::axis::Mapping;
 use crate::model::params::{ParamError, ParamSpec, Value};
 use crate::model::{Layout, Model, ParamSet};

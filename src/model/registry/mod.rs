@@ -9,8 +9,8 @@ pub mod catalogue;
 pub mod components;
 pub mod info;
 pub mod kernels;
-pub mod quadrature;
 pub mod runtime;
+pub mod sampling;
 
 use crate::model::params::ParamError;
 use crate::model::{Model, ModelInfo, ParamSet};

@@ -8,7 +8,7 @@
 //! [`Model`] stays a small `Copy` value whatever defined it.
 
 use super::info::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
-use super::quadrature::no_lobes;
+use super::sampling::no_lobes;
 use crate::axis::Mapping;
 use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
 use crate::model::{Model, ParamSet};

@@ -48,7 +48,7 @@ const LINE: i32 = 16;
 /// its label, wrapped to the column's width (never shortened).
 pub(crate) fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     entries: &[LegendEntry],
 ) -> Result<()> {
     let size = LEGEND_TEXT;
@@ -177,7 +177,7 @@ impl LegendRows {
     pub fn draw<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
-        ink: &mut Ink,
+        ink: &mut Overlay,
         entries: &[LegendEntry],
     ) -> Result<()> {
         let (w, _) = area.dim_in_pixel();

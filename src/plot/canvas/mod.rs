@@ -1,8 +1,8 @@
-//! The canvas every plot kind draws on: scales, palette, text, legends, the sub-pixel [`Ink`]
+//! The canvas every plot kind draws on: scales, palette, text, legends, the sub-pixel [`Overlay`]
 //! layer, SVG output, its rasterisation and its conversion to PDF.
 
-mod ink;
 mod legend;
+mod overlay;
 mod palette;
 mod pdf;
 mod raster;
@@ -10,8 +10,8 @@ mod scale;
 mod svg;
 mod text;
 
-pub use ink::*;
 pub use legend::*;
+pub use overlay::*;
 pub use palette::*;
 pub use pdf::*;
 pub use raster::*;

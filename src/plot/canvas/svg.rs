@@ -89,13 +89,13 @@ fn fmt_coord(v: f64) -> String {
 
 /// Draws with `draw` on an SVG canvas of `page` and writes it to `path`: as SVG, for a `.png`
 /// rasterised, anti-aliased, by resvg, or for a `.pdf` converted by svg2pdf (one drawing for
-/// every format). `draw` gets the plotters canvas and an [`Ink`] layer that is drawn over it.
+/// every format). `draw` gets the plotters canvas and an [`Overlay`] layer that is drawn over it.
 /// The picture is written to a temporary file beside `path` and renamed over it only when
 /// complete: a failed plot leaves no file. The same input gives the same bytes.
 pub(crate) fn render(
     path: &Path,
     page: impl Into<Page>,
-    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Overlay) -> Result<()>,
 ) -> Result<()> {
     let bytes = render_bytes(Format::of(path)?, page, draw)?;
     crate::output::write_atomic(path, |w| {
@@ -108,7 +108,7 @@ pub(crate) fn render(
 pub(crate) fn render_bytes(
     format: Format,
     page: impl Into<Page>,
-    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Overlay) -> Result<()>,
 ) -> Result<Vec<u8>> {
     let page = page.into();
     let svg = draw_svg(page.canvas, draw)?;
@@ -132,14 +132,14 @@ pub(crate) fn render_bytes(
     })
 }
 
-/// The SVG text of what `draw` draws on a white canvas of `size`, its [`Ink`] on top.
+/// The SVG text of what `draw` draws on a white canvas of `size`, its [`Overlay`] on top.
 pub fn draw_svg(
     size: (u32, u32),
-    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Ink) -> Result<()>,
+    draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>, &mut Overlay) -> Result<()>,
 ) -> Result<String> {
     register_fonts()?;
     let mut svg = String::new();
-    let mut ink = Ink::default();
+    let mut ink = Overlay::default();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         root.fill(&WHITE).drawing("the background")?;

@@ -1,7 +1,7 @@
 //! A panel's heat map: on paper drawn cell by cell at sub-pixel precision, on a screen in runs
 //! of one colour.
 
-use super::super::{colour_map, Drawn, Ink, Scale};
+use super::super::{colour_map, Drawn, Overlay, Scale};
 use anyhow::Result;
 use plotters::coord::cartesian::Cartesian2d;
 use plotters::coord::types::RangedCoordf64;
@@ -13,7 +13,7 @@ use plotters::prelude::*;
 /// and lower neighbours, which are drawn over it: no seam of background shows between
 /// anti-aliased edges.
 pub(super) fn draw_cells(
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     n: usize,
     value: &dyn Fn(usize, usize) -> f64,

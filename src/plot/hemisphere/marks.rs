@@ -48,7 +48,7 @@ pub(super) fn draw_azimuth_labels<DB: DrawingBackend>(
 /// The mirror direction as a red × and the fixed direction as a ring, both outlined in white;
 /// `c` and `edge` are the horizon circle's centre and right edge in canvas pixels.
 pub(super) fn draw_directions(
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     panel: &HemispherePanel,
     opts: &HemisphereOptions,

@@ -1,7 +1,7 @@
 //! The curves of a polar plot, drawn alike on the screen and the paper layout.
 
 use super::{radius, style_of, PolarData, SeriesStyle};
-use crate::plot::{rad, Ink};
+use crate::plot::{rad, Overlay};
 
 /// The plane point at radius `rho` along the signed angle `s_deg` from the normal.
 pub(super) fn at(rho: f64, s_deg: f64) -> (f64, f64) {
@@ -12,7 +12,7 @@ pub(super) fn at(rho: f64, s_deg: f64) -> (f64, f64) {
 /// Draws every curve (θi of `theta_i_deg` set its colour or pattern), its line and then markers every `marker_step` pixels along it, through
 /// `px` (a plane point to canvas pixels); returns the points drawn.
 pub(super) fn draw_curves(
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &PolarData,
     styles: &[SeriesStyle],
     theta_i_deg: &[f64],

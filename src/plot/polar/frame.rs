@@ -70,7 +70,7 @@ impl Frame {
 
 /// Rings at the scale's ticks, the horizon circle, spokes every 15° and the diameter, through
 /// `px` (a plane point to canvas pixels).
-pub(super) fn draw_frame(ink: &mut Ink, px: &dyn Fn((f64, f64)) -> (f64, f64), scale: &Scale) {
+pub(super) fn draw_frame(ink: &mut Overlay, px: &dyn Fn((f64, f64)) -> (f64, f64), scale: &Scale) {
     let arc = |rho: f64| -> Vec<(f64, f64)> {
         (0..=360)
             .map(|k| px(at(rho, -90.0 + k as f64 / 2.0)))
@@ -101,7 +101,7 @@ pub(super) fn draw_frame(ink: &mut Ink, px: &dyn Fn((f64, f64)) -> (f64, f64), s
 /// horizon, in the plane's coordinates of `pa`.
 pub(super) fn draw_rings_and_spokes<DB: DrawingBackend>(
     pa: &Chart<DB>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     scale: &Scale,
 ) -> Result<()> {
@@ -137,7 +137,7 @@ fn angle_index(theta_i_deg: &[f64], t: f64) -> usize {
 /// Incidence directions: thin lines towards the light, labelled with θi.
 pub(super) fn draw_incidence<DB: DrawingBackend>(
     pa: &Chart<DB>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     subjects: &[Subject],
     theta_i_deg: &[f64],
@@ -163,10 +163,10 @@ pub(super) fn draw_incidence<DB: DrawingBackend>(
 /// spike's albedo (it has no finite value to plot).
 pub(super) fn draw_deltas<DB: DrawingBackend>(
     pa: &Chart<DB>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     (data, subjects, styles): (&PolarData, &[Subject], &[SeriesStyle]),
-    common: &Common,
+    common: &PlotSettings,
     theta_i_deg: &[f64],
 ) -> Result<()> {
     for d in &data.deltas {

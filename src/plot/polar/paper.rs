@@ -61,7 +61,7 @@ fn entries(
 }
 
 /// The one-line caption: the plotted quantity, its unit and the radius mapping.
-fn caption(data: &PolarData, common: &Common) -> String {
+fn caption(data: &PolarData, common: &PlotSettings) -> String {
     let q = if common.cos { "f·cosθi" } else { "f" };
     let unit = match common.channel {
         super::super::Channel::Luminance => "1/sr".to_string(),
@@ -77,10 +77,10 @@ fn caption(data: &PolarData, common: &Common) -> String {
 /// Draws the paper figure of `data` on `root`.
 pub(super) fn draw_paper<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &PolarData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &PolarOptions,
 ) -> Result<()> {
     let styles = subject_styles(subjects);
@@ -213,10 +213,10 @@ fn ring_labels(
 #[allow(clippy::too_many_arguments)]
 fn draw_deltas<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &PolarData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     styles: &[SeriesStyle],
     fixed: &mut Vec<Placed>,
     (centre, r): ((f64, f64), f64),

@@ -3,16 +3,16 @@
 
 use std::sync::{Arc, Mutex};
 
-/// The last `capacity` values made by [`Kept::get_or_make`], oldest dropped first.
-pub(super) struct Kept<K, V> {
+/// The last `capacity` values made by [`RecentCache::get_or_make`], oldest dropped first.
+pub(super) struct RecentCache<K, V> {
     entries: Mutex<Vec<(K, Arc<V>)>>,
     capacity: usize,
 }
 
-impl<K: PartialEq + Clone, V> Kept<K, V> {
+impl<K: PartialEq + Clone, V> RecentCache<K, V> {
     /// An empty store of at most `capacity` values.
-    pub(super) const fn new(capacity: usize) -> Kept<K, V> {
-        Kept {
+    pub(super) const fn new(capacity: usize) -> RecentCache<K, V> {
+        RecentCache {
             entries: Mutex::new(Vec::new()),
             capacity,
         }
@@ -50,7 +50,7 @@ mod tests {
 
     #[test]
     fn keeps_the_last_values_and_makes_the_others_again() {
-        let kept: Kept<u32, u32> = Kept::new(2);
+        let kept: RecentCache<u32, u32> = RecentCache::new(2);
         let made = std::cell::Cell::new(0);
         let get = |k: u32| {
             *kept.get_or_make(&k, || {

@@ -7,8 +7,8 @@
 
 use super::{
     bad, check_finite_deg, describe_subjects, header_in, legend, legend_width, pixel_map, render,
-    subject_styles, Common, Dash, Drawn, Ink, LegendEntry, LegendRows, Marker, SeriesStyle,
-    Subject,
+    subject_styles, Dash, Drawn, LegendEntry, LegendRows, Marker, Overlay, PlotSettings,
+    SeriesStyle, Subject,
 };
 use crate::eval::Evaluator;
 use crate::integrate::{directional, Method, Settings};
@@ -75,7 +75,7 @@ pub struct AlbedoData {
 pub fn albedo_data(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &AlbedoOptions,
 ) -> Result<AlbedoData> {
     common.check()?;
@@ -142,7 +142,7 @@ pub fn albedo_data(
 pub fn plot_albedo(
     eval: &Evaluator,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
     opts: &AlbedoOptions,
     path: &Path,
 ) -> Result<AlbedoData> {
@@ -160,10 +160,10 @@ const MARKER_SPACING: f64 = 36.0;
 
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    ink: &mut Ink,
+    ink: &mut Overlay,
     data: &AlbedoData,
     subjects: &[Subject],
-    common: &Common,
+    common: &PlotSettings,
 ) -> Result<()> {
     let mut lines = describe_subjects(subjects);
     let mut note = "delta lobes included exactly; top axis: θo in degrees".to_string();
@@ -268,7 +268,7 @@ fn legend_entries(subjects: &[Subject], styles: &[SeriesStyle]) -> Vec<LegendEnt
 
 /// Every E(μ) curve through `px` (a chart point to canvas pixels), with its markers.
 fn draw_curves(
-    ink: &mut Ink,
+    ink: &mut Overlay,
     px: &dyn Fn((f64, f64)) -> (f64, f64),
     data: &AlbedoData,
     styles: &[SeriesStyle],

@@ -1,4 +1,4 @@
-//! The [`Ink`] layer: SVG elements with sub-pixel coordinates drawn over plotters' picture.
+//! The [`Overlay`] layer: SVG elements with sub-pixel coordinates drawn over plotters' picture.
 
 use super::*;
 use plotters::prelude::*;
@@ -23,11 +23,11 @@ fn coord(v: f64) -> String {
 /// curves, markers and masks whose shape matters (plotters rounds every coordinate to a whole
 /// pixel). PNG and SVG share them: the PNG is the SVG rasterised.
 #[derive(Debug, Default)]
-pub struct Ink {
+pub struct Overlay {
     pub(super) svg: String,
 }
 
-impl Ink {
+impl Overlay {
     /// A polyline through `points` (canvas pixels); non-finite points break it into pieces.
     pub fn line(
         &mut self,
