@@ -176,7 +176,7 @@ fn main() {
             std::process::exit(BROKEN_PIPE_STATUS);
         }
         eprintln!("lobe: error: {e:#}");
-        if let Some(hint) = cli::gpu_hint(&e) {
+        if let Some(hint) = cli::gpu_hint(&e).or_else(|| cli::flag_hint(&e)) {
             eprintln!("lobe: hint: {hint}");
         }
         // 128 + SIGINT, as shells report a command stopped by Ctrl-C.

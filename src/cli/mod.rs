@@ -269,6 +269,14 @@ pub fn with_flag<T>(r: anyhow::Result<T>, flag_of: impl Fn(&str) -> Option<Strin
     })
 }
 
+/// The flag that answers a library refusal no command's own flags name: files in the way of a
+/// run's outputs (`replace`) are replaced with `--replace`.
+pub fn flag_hint(e: &anyhow::Error) -> Option<&'static str> {
+    (option_tag(e) == Some("replace")).then_some(
+        "--replace lets this run replace them (and every other member of their sets, whole)",
+    )
+}
+
 /// The option a refusal in `e`'s chain came from: a job's [`lobe::input::BadInput`], or a
 /// [`Session`] call's [`lobe::Error::Input`].
 fn option_tag(e: &anyhow::Error) -> Option<&'static str> {

@@ -115,13 +115,13 @@ impl Space {
                 ParamKind::Scalar => false,
                 ParamKind::Choice(options) => {
                     return Err(refuse(format!(
-                        "free key '{name}': it is a choice ({}), not a number; set it with --set {name}=VALUE and fit the numbers",
+                        "free key '{name}': it is a choice ({}), not a number; give it a fixed value ({name}=VALUE) and fit the numbers",
                         options.join(" | ")
                     )))
                 }
                 ParamKind::Flag => {
                     return Err(refuse(format!(
-                        "free key '{name}': it is a switch (0 or 1), not a number; set it with --set {name}=0 or 1"
+                        "free key '{name}': it is a switch (0 or 1), not a number; give it a fixed value ({name}=0 or 1)"
                     )))
                 }
             };
@@ -130,7 +130,7 @@ impl Space {
             }
             if fixed.iter().any(|f| f == name) {
                 return Err(refuse(format!(
-                    "free key '{name}' is also given a value (--set or the model spec): a key is either fixed or fitted, not both"
+                    "free key '{name}' is also given a value (an assignment or the model spec): a key is either fixed or fitted, not both"
                 )));
             }
             if !base.is_active(name) {

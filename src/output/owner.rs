@@ -13,7 +13,7 @@
 //! ([`replace_sets`]: the command line's `--replace`).
 
 use super::{folder_of, resolve};
-use anyhow::{bail, Result};
+use anyhow::Result;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -231,12 +231,17 @@ pub(super) fn plan(group: &Group, claimed: &dyn Fn(&Path) -> bool) -> Result<Vec
                 .collect::<Vec<_>>()
                 .join(", "),
         };
-        bail!(
-            "cannot write {what}: {}; lobe replaces a set only with one of the same kind and \
-             name (remove the other files, write elsewhere, or pass --replace to replace them, \
-             and every other member of their sets, whole)",
-            conflicts.join("; ")
-        );
+        // Tagged `replace`: the command line names its flag for letting a run replace them.
+        return Err(crate::input::BadInput::new(
+            "replace",
+            format!(
+                "cannot write {what}: {}; lobe replaces a set only with one of the same kind \
+                 and name (remove the other files, write elsewhere, or let this run replace \
+                 them, and every other member of their sets, whole)",
+                conflicts.join("; ")
+            ),
+        )
+        .into());
     }
     Ok(removals)
 }

@@ -403,9 +403,7 @@ fn inside_output_folder(text: &str) -> Result<PathBuf, &'static str> {
                 return Err("has a '..' part: outputs stay inside the output folder, so write the path from there down");
             }
             Component::RootDir | Component::Prefix(_) => {
-                return Err(
-                    "is an absolute path: outputs are relative to the output folder (--output-dir)",
-                );
+                return Err("is an absolute path: outputs are relative to the output folder");
             }
         }
     }
