@@ -24,10 +24,11 @@ pub enum BenchTask {
 #[derive(Args)]
 pub struct BenchArgs {
     /// Models to measure (default: all), comma-separated; each at its defaults, then --material
-    /// and --set.
-    #[arg(long, value_delimiter = ',', conflicts_with = "model")]
+    /// and --set, then its own {KEY=VALUE,...}: --models 'phong{shininess=50},microfacet'.
+    #[arg(long, conflicts_with = "model")]
     models: Vec<String>,
-    /// One model to measure (the same as --models MODEL).
+    /// One model to measure (the same as --models MODEL), optionally with its own parameters:
+    /// --model 'microfacet{distribution=beckmann,alpha=0.3}'.
     #[arg(long)]
     model: Option<String>,
     /// Set a parameter, KEY=VALUE; rgb values as r,g,b or one number. Repeatable; applied after
@@ -70,11 +71,18 @@ pub struct BenchArgs {
 
 pub fn run(a: BenchArgs) -> Result<()> {
     let names: Vec<String> = a.model.iter().cloned().chain(a.models.clone()).collect();
-    let models = super::models_or_all(&names)?;
+    // Split on the commas outside braces, so that a model's own {KEY=VALUE,...} stays whole.
+    let specs: Vec<String> = match names.is_empty() {
+        true => super::models_or_all(&[])?
+            .iter()
+            .map(|m| m.name().to_string())
+            .collect(),
+        false => super::split_specs(&names),
+    };
     // Every parameter set is resolved before anything is timed, so a bad --set fails at once.
-    let sets: Vec<ParamSet> = models
+    let sets: Vec<ParamSet> = specs
         .iter()
-        .map(|m| super::resolve(m.name(), a.material.as_deref(), &a.sets))
+        .map(|spec| super::resolve(spec, a.material.as_deref(), &a.sets))
         .collect::<Result<_>>()?;
     let grid = Grid::parse("isotropic", &a.res).map_err(|e| anyhow!("--res: {e}"))?;
     super::check_held_cells("--res", &grid)?;
