@@ -163,6 +163,10 @@ impl<'a> Evaluator<'a> {
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<[f64; 3]>> {
         let query = query.into();
+        anyhow::ensure!(
+            !query.sets.is_empty(),
+            "f needs a parameter set; the query has none"
+        );
         let f = self.eval_pairs_unchecked(query, pairs)?;
         let mut count = InvalidCount::default();
         count.add_pairs(0, &f, pairs);
@@ -207,6 +211,10 @@ impl<'a> Evaluator<'a> {
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
         let query = query.into();
+        anyhow::ensure!(
+            !query.sets.is_empty(),
+            "a table needs a parameter set; the query has none"
+        );
         let params = query.params();
         let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
             let mut count = InvalidCount::default();
@@ -248,6 +256,10 @@ impl<'a> Evaluator<'a> {
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<u64> {
         let query = query.into();
+        anyhow::ensure!(
+            !query.sets.is_empty(),
+            "a table needs a parameter set; the query has none"
+        );
         let params = query.params();
         let reciprocal = (self.assume_reciprocal || params.model().is_reciprocal())
             // The mirrors take isotropy too (f even in Δφ; the grids refuse other sets).

@@ -44,13 +44,9 @@ fn bench_names_the_gpu_driver() {
     assert!(out.status.success() && text.contains(": driver "), "{text}");
 }
 
-/// A model spec with its own parameters (commas inside the braces) is one model to `lobe bench`,
-/// as to every command that takes `--model`: the row names the model, a list splits only on the
-/// commas outside braces, and the spec's own parameters are applied (a bad value among them is
-/// refused, naming its key).
-#[test]
-fn bench_takes_a_model_with_its_own_parameters() {
-    let spec = "microfacet{distribution=beckmann,masking=smith_separable,alpha=0.3}";
+/// The JSON rows of `lobe bench` timing one tiny table on the CPU reference of the models `models`
+/// (`--model SPEC` or `--models LIST`).
+fn cpu_table_rows(models: &[&str]) -> Vec<serde_json::Value> {
     let args = [
         "bench",
         "--res",
@@ -61,37 +57,29 @@ fn bench_takes_a_model_with_its_own_parameters() {
         "table",
         "--backend",
         "cpu",
-        "--model",
-        spec,
         "--format",
         "json",
     ];
-    let v = common::lobe_json(&args);
-    let rows = v.as_array().expect("a list of rows");
-    assert_eq!(rows.len(), 1, "{v}");
-    assert_eq!(rows[0]["model"], "microfacet", "{v}");
-    let two = common::lobe_json(&[
-        "bench",
-        "--res",
-        "4,4,4",
-        "--repeats",
-        "1",
-        "--tasks",
-        "table",
-        "--backend",
-        "cpu",
+    let v = common::lobe_json(&[&args[..], models].concat());
+    v.as_array().expect("a list of rows").clone()
+}
+
+/// A model spec with its own parameters (commas inside the braces) is one model to `lobe bench`,
+/// as to every command that takes `--model`: the row names the model, a list splits only on the
+/// commas outside braces, and the spec's own parameters are applied (a bad value among them is
+/// refused, naming its key).
+#[test]
+fn bench_takes_a_model_with_its_own_parameters() {
+    let spec = "microfacet{distribution=beckmann,masking=smith_separable,alpha=0.3}";
+    let rows = cpu_table_rows(&["--model", spec]);
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(rows[0]["model"], "microfacet", "{rows:?}");
+    let two = cpu_table_rows(&[
         "--models",
         "phong{shininess=50},lambert{albedo=0.5,0.4,0.3}",
-        "--format",
-        "json",
     ]);
-    let models: Vec<&str> = two
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["model"].as_str().unwrap())
-        .collect();
-    assert_eq!(models, ["phong", "lambert"], "{two}");
+    let models: Vec<&str> = two.iter().map(|r| r["model"].as_str().unwrap()).collect();
+    assert_eq!(models, ["phong", "lambert"], "{two:?}");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_lobe"))
         .args([
             "bench",

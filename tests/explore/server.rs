@@ -145,6 +145,26 @@ pub fn http_claiming(
     length: usize,
     body: &[u8],
 ) -> Reply {
+    let mut s = open(
+        addr,
+        method,
+        target,
+        headers,
+        &format!("Content-Length: {length}"),
+    );
+    s.write_all(body).unwrap();
+    read_reply(&mut s)
+}
+
+/// A connection to `addr` with the request's head sent: `Host` is `addr` unless `headers` gives
+/// one, and `framing` says how the body comes (`Content-Length` or `Transfer-Encoding`).
+fn open(
+    addr: &str,
+    method: &str,
+    target: &str,
+    headers: &[(&str, &str)],
+    framing: &str,
+) -> TcpStream {
     let mut s = TcpStream::connect(addr).unwrap();
     s.set_read_timeout(Some(ANSWER_TIMEOUT)).unwrap();
     let mut req = format!("{method} {target} HTTP/1.1\r\nConnection: close\r\n");
@@ -154,10 +174,9 @@ pub fn http_claiming(
     for (k, v) in headers {
         req += &format!("{k}: {v}\r\n");
     }
-    req += &format!("Content-Length: {length}\r\n\r\n");
+    req += &format!("{framing}\r\n\r\n");
     s.write_all(req.as_bytes()).unwrap();
-    s.write_all(body).unwrap();
-    read_reply(&mut s)
+    s
 }
 
 /// [`http`] with the body sent chunked (no `Content-Length`), in chunks of 8 KiB.
@@ -168,14 +187,7 @@ pub fn http_chunked(
     headers: &[(&str, &str)],
     body: &[u8],
 ) -> Reply {
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(ANSWER_TIMEOUT)).unwrap();
-    let mut req = format!("{method} {target} HTTP/1.1\r\nConnection: close\r\nHost: {addr}\r\n");
-    for (k, v) in headers {
-        req += &format!("{k}: {v}\r\n");
-    }
-    req += "Transfer-Encoding: chunked\r\n\r\n";
-    s.write_all(req.as_bytes()).unwrap();
+    let mut s = open(addr, method, target, headers, "Transfer-Encoding: chunked");
     for chunk in body.chunks(8192) {
         // The server may answer and close before the whole body is sent.
         if s.write_all(format!("{:x}\r\n", chunk.len()).as_bytes())
