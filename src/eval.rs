@@ -1,7 +1,7 @@
 //! The jobs' handle on a backend: the [`Backend`] behind one interface with the cancellation
 //! token, the invalid-value policy and the speed-for-accuracy switches.
 
-use crate::backend::{Backend, CpuBackend, Precision, Query};
+use crate::backend::{Backend, CpuBackend, Precision, Query, UpperTriangle};
 use crate::finite::InvalidCount;
 use crate::gpu::Gpu;
 use crate::grid::Grid;
@@ -215,14 +215,7 @@ impl<'a> Evaluator<'a> {
             !query.sets.is_empty(),
             "a table needs a parameter set; the query has none"
         );
-        let params = query.params();
-        let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
-            let mut count = InvalidCount::default();
-            count.add_f32(first, values, |cell| grid.pair_at(cell));
-            self.check_invalid(params, count, "evaluating a table")?;
-            sink(first, values)
-        };
-        self.every_cell(query, grid, sink)
+        self.every_cell(query, grid, &mut self.checked(query.params(), grid, sink))
     }
 
     /// [`Evaluator::eval_table`] without the check of invalid values (its callers make it once).
@@ -264,38 +257,76 @@ impl<'a> Evaluator<'a> {
         let reciprocal = (self.assume_reciprocal || params.model().is_reciprocal())
             // The mirrors take isotropy too (f even in Δφ; the grids refuse other sets).
             && params.is_isotropic();
-        let sink = &mut |first: u64, values: &[f32]| -> Result<()> {
-            let mut count = InvalidCount::default();
-            count.add_f32(first, values, |cell| grid.pair_at(cell));
-            self.check_invalid(params, count, "evaluating a table")?;
-            sink(first, values)
-        };
         match *grid {
             Grid::Isotropic {
                 n_theta_i,
                 n_theta_o,
-                ..
-            } if reciprocal && n_theta_i == n_theta_o => {}
+                n_dphi,
+            } if reciprocal && n_theta_i == n_theta_o && self.backend.makes_upper_triangle() => {
+                let triangle = UpperTriangle::new(n_theta_i as u64, n_dphi as u64);
+                self.upper_triangle(query, grid, triangle, sink)?;
+                return Ok(triangle.cells());
+            }
             Grid::HalfDiff { n_phi_d, .. }
                 if reciprocal && self.backend.precision() == Precision::F32 =>
             {
-                let row = n_phi_d as u64;
-                return self.eval_table_by_pairs(query, grid, row, sink);
+                let sink = &mut self.checked(params, grid, sink);
+                return self.eval_table_by_pairs(query, grid, n_phi_d as u64, sink);
             }
-            _ => {
-                self.every_cell(query, grid, sink)?;
-                return grid
-                    .cells()
-                    .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"));
-            }
+            _ => {}
         }
-        self.backend.table_reciprocal(
+        self.every_cell(query, grid, &mut self.checked(params, grid, sink))?;
+        grid.cells()
+            .ok_or_else(|| anyhow::anyhow!("the grid has too many cells"))
+    }
+
+    /// `sink` behind the check of invalid values of each run of table cells.
+    fn checked<'s>(
+        &'s self,
+        params: &'s ParamSet,
+        grid: &'s Grid,
+        sink: &'s mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> impl FnMut(u64, &[f32]) -> Result<()> + 's {
+        move |first: u64, values: &[f32]| -> Result<()> {
+            let mut count = InvalidCount::default();
+            count.add_f32(first, values, |cell| grid.pair_at(cell));
+            self.check_invalid(params, count, "evaluating a table")?;
+            sink(first, values)
+        }
+    }
+
+    /// The reciprocal isotropic table from its upper triangle (docs/design.md §4.5): each packed
+    /// chunk the backend makes is handed to `sink` with its mirror images. The check of invalid
+    /// values reads the packed cells once; only a chunk with an invalid value is counted run by
+    /// run, so that counts and the first invalid cell speak of the table's cells.
+    fn upper_triangle(
+        &self,
+        query: Query,
+        grid: &Grid,
+        triangle: UpperTriangle,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<()> {
+        let params = query.params();
+        let (wi, wo) = (grid.wi_list(), grid.wo_list());
+        let mut scratch = Vec::new();
+        self.backend.table_upper_triangle(
             query,
-            &grid.wi_list(),
-            &grid.wo_list(),
+            &wi,
+            &wo,
             self.fast_pow,
             self.cancel,
-            sink,
+            &mut |first, values| {
+                if !crate::finite::all_valid_f32(values) {
+                    let sink = &mut self.checked(params, grid, sink);
+                    return triangle.scatter(first, values, &mut scratch, sink);
+                }
+                let mut count = InvalidCount::default();
+                triangle.scatter(first, values, &mut scratch, &mut |at, run| {
+                    count.evaluated += run.len() as u64 / 3;
+                    sink(at, run)
+                })?;
+                self.check_invalid(params, count, "evaluating a table")
+            },
         )
     }
 

@@ -254,6 +254,23 @@ fn a_table_with_invalid_values_records_them_and_never_replaces_a_good_one() {
     );
     assert_eq!(rec["first"]["index"], 48, "{rec}");
     assert_eq!(rec["first"]["angles"]["theta_i_deg"], 78.75, "{rec}");
+    // Declared reciprocal, the table is its theta_i <= theta_o half with the mirror images
+    // (docs/design.md §4.5): of the last theta_i row only the diagonal cells (theta_o = 78.75 deg,
+    // 4 dphi) are evaluated there, the other 12 are copies of cells at theta_i < 72.5 deg. The
+    // counts still speak of the table's 64 cells (40 evaluated), the first being cell (3, 3, 0).
+    let o = table(&shader("negative"), &["--allow-invalid", "--reciprocal"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rec = &sidecar(p)["invalid_values"];
+    assert_eq!(
+        (
+            rec["evaluated"].as_u64(),
+            rec["negative"].as_u64(),
+            rec["first"]["index"].as_u64()
+        ),
+        (Some(64), Some(4), Some(3 * 16 + 3 * 4)),
+        "{rec}"
+    );
+    assert_eq!(rec["first"]["angles"]["theta_o_deg"], 78.75, "{rec}");
     // Without an existing set, such a table is written, with the warning.
     for (name, _) in SHADERS {
         let sub = tempfile::tempdir().expect("tempdir");

@@ -1,5 +1,5 @@
 //! The f64 CPU reference as a backend: each model's f64 twin, rayon over every core. Tables
-//! evaluate every cell, reciprocal ones too (the default [`Backend::table_reciprocal`]): the
+//! evaluate every cell, reciprocal ones too ([`Backend::makes_upper_triangle`] is false): the
 //! reference makes each cell from its own directions.
 
 use super::scene::Scene;

@@ -110,9 +110,8 @@ pub trait NodeRule: Sync {
 /// One rule's sums for several parameter sets: `[set][ωo]` of (Σ w f, the number of nodes).
 pub type RowSums = Vec<Vec<(DVec3, u64)>>;
 
-/// Receives runs of a table's cells: the first cell's index and the RGB values. From
-/// [`Backend::table`] the runs are its chunks, in order; from [`Backend::table_reciprocal`] they
-/// come in any order, each cell once.
+/// Receives runs of a table's cells, in order, one chunk at a time: the first cell's index and the
+/// RGB values (from [`Backend::table_upper_triangle`], packed cells).
 pub type TableSink<'a> = dyn FnMut(u64, &[f32]) -> Result<()> + 'a;
 
 /// Where f is evaluated: the jobs' one way down to the CPU reference or the Vulkan kernels.
@@ -156,22 +155,28 @@ pub trait Backend: Send + Sync {
         sink: &mut TableSink<'_>,
     ) -> Result<()>;
 
-    /// The isotropic table of a reciprocal model with equal θ axes (docs/design.md §4.5):
-    /// `wi[i]` at (θ_i, φ = 0), `wo[o · NDPHI + d]` at (θ_o, Δφ_d), NDPHI = wo.len() / wi.len().
-    /// A backend may evaluate only the cells with o ≥ i and give each cell (o, i, d), o > i, the
-    /// value of (i, o, d); runs of cells go to `sink` in any order, each cell once. Returns the
-    /// BRDF evaluations made. By default every cell is evaluated ([`Backend::table`]).
-    fn table_reciprocal(
+    /// Whether [`Backend::table_upper_triangle`] is available: the backend can evaluate only the
+    /// upper triangle of a reciprocal model's isotropic table (docs/design.md §4.5). The f64
+    /// reference cannot: it makes every cell from its own directions.
+    fn makes_upper_triangle(&self) -> bool {
+        false
+    }
+
+    /// The packed upper triangle ([`UpperTriangle`]) of the isotropic table of the query's first
+    /// set with equal θ axes: `wi[i]` at (θ_i, φ = 0), `wo[o · NDPHI + d]` at (θ_o, Δφ_d),
+    /// NDPHI = wo.len() / wi.len(); the cells (i, o, d) with o ≥ i, handed to `sink` in order one
+    /// chunk at a time as (first packed cell, values). The caller fills the other cells from
+    /// these ([`UpperTriangle::scatter`]). Only where [`Backend::makes_upper_triangle`].
+    fn table_upper_triangle(
         &self,
-        query: Query,
-        wi: &[DVec3],
-        wo: &[DVec3],
-        fast_pow: bool,
-        cancel: Option<&CancelToken>,
-        sink: &mut TableSink<'_>,
-    ) -> Result<u64> {
-        self.table(query, wi, wo, fast_pow, cancel, sink)?;
-        Ok(wi.len() as u64 * wo.len() as u64)
+        _query: Query,
+        _wi: &[DVec3],
+        _wo: &[DVec3],
+        _fast_pow: bool,
+        _cancel: Option<&CancelToken>,
+        _sink: &mut TableSink<'_>,
+    ) -> Result<()> {
+        anyhow::bail!("{} evaluates every cell of a table", self.name())
     }
 
     /// Σ w f(ωi, ωo) over each rule's nodes, for each parameter set and each ωo:

@@ -3,7 +3,7 @@
 
 use super::{Gpu, GpuPair, TableSwitches};
 use crate::backend::scene::Scene;
-use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink, UpperTriangle};
+use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink};
 use crate::interrupt::CancelToken;
 use crate::model::{Brdf, Model, ParamSet};
 use anyhow::Result;
@@ -118,9 +118,12 @@ impl Backend for Gpu {
         run_table(self, &query, wi, wo, switches, sink)
     }
 
-    /// The upper triangle by the table kernel (UPPER_TRIANGLE), each chunk scattered as it comes
-    /// back, while the next runs: memory is the two output chunks and one chunk of mirror images.
-    fn table_reciprocal(
+    fn makes_upper_triangle(&self) -> bool {
+        true
+    }
+
+    /// The table kernel with UPPER_TRIANGLE.
+    fn table_upper_triangle(
         &self,
         query: Query,
         wi: &[DVec3],
@@ -128,23 +131,13 @@ impl Backend for Gpu {
         fast_pow: bool,
         _cancel: Option<&CancelToken>,
         sink: &mut TableSink<'_>,
-    ) -> Result<u64> {
-        if query.sets.is_empty() || wi.is_empty() || wo.is_empty() {
-            return Ok(0);
-        }
-        let triangle = UpperTriangle::new(wi.len() as u64, (wo.len() / wi.len()) as u64);
+    ) -> Result<()> {
         let switches = TableSwitches {
             fast_pow,
             upper_triangle: true,
             ..TableSwitches::default()
         };
-        let mut scratch = Vec::new();
-        let mut evaluations = 0;
-        run_table(self, &query, wi, wo, switches, &mut |first, values| {
-            evaluations += values.len() as u64 / 3;
-            triangle.scatter(first, values, &mut scratch, sink)
-        })?;
-        Ok(evaluations)
+        run_table(self, &query, wi, wo, switches, sink)
     }
 
     fn rule_sums(
