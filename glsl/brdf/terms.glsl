@@ -153,14 +153,15 @@ float lambda_beckmann(float q, float c) {
     return 0.5 * (exp(-a * a) / (a * 1.7724538509055160) - erfc_approx(a));
 }
 
-// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1, a = c / sqrt(q),
-// as (numerator, denominator), so that the caller folds the denominator into its own; (1, 1) where
-// G1 = 1.
+// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1 in a = c / sqrt(q),
+// (3.535 a + 2.181 a^2) / (1 + 2.276 a + 2.577 a^2), as (numerator, denominator), so that the caller
+// folds the denominator into its own; (1, 1) where G1 = 1 (a >= 1.6, i.e. c^2 >= 2.56 q).
+// Both multiplied by q, with r = sqrt(q): c (3.535 r + 2.181 c) / (q + 2.276 c r + 2.577 c^2), so
+// that a costs no division (the f64 twin, G1_beckmann_rational in terms.rs, keeps the form in a).
 vec2 G1_beckmann_rational(float q, float c) {
-    if (q <= 0.0) return vec2(1.0);
-    float a = c * inversesqrt(q);
-    if (a >= 1.6) return vec2(1.0);
-    return vec2(3.535 * a + 2.181 * a * a, 1.0 + 2.276 * a + 2.577 * a * a);
+    if (q <= 0.0 || c * c >= 2.56 * q) return vec2(1.0);
+    float r = sqrt(q);
+    return vec2(c * (3.535 * r + 2.181 * c), q + c * (2.276 * r + 2.577 * c));
 }
 
 // Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d), as

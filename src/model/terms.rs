@@ -112,7 +112,9 @@ pub fn lambda_beckmann(t2: f64) -> f64 {
     0.5 * ((-a * a).exp() / (a * PI.sqrt()) - libm::erfc(a))
 }
 
-/// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1.
+/// Walter et al. 2007, eq. 27: the rational approximation of Beckmann's Smith G1, a = 1/tan θ.
+/// The GLSL twin returns numerator and denominator, both multiplied by (α sinθ)², so that a
+/// costs it a square root and no division; this form is the readable one.
 #[allow(non_snake_case)]
 pub fn G1_beckmann_rational(t2: f64) -> f64 {
     if t2 <= 0.0 {
