@@ -33,10 +33,10 @@ struct MicrofacetParams {
     uint kc_row;             // the first of their four knots
 };
 
-// Smith Lambda of direction w (c = w.z > 0) for GGX or Beckmann's exact G1.
+// Smith Lambda of direction w (c = w.z > 0) for Beckmann's exact G1 (GGX needs none:
+// microfacet_vis).
 float microfacet_lambda(MicrofacetParams p, vec3 w) {
-    float q = alpha_sin2(w, p.alpha2_x, p.alpha2_y);
-    return MF_DISTRIBUTION == 1u ? lambda_ggx(q, w.z) : lambda_beckmann(q, w.z);
+    return lambda_beckmann(alpha_sin2(w, p.alpha2_x, p.alpha2_y), w.z);
 }
 
 // D as (numerator, denominator).
@@ -46,12 +46,12 @@ vec2 microfacet_d(MicrofacetParams p, vec3 h) {
     return vec2(p.d_norm, q * q);
 }
 
-// G as (numerator, denominator). With Walter's rational G1 = n/d, Lambda = d/n - 1, so
-// G_separable = n_i n_o / (d_i d_o) and G_correlated = 1/(1 + Lambda_i + Lambda_o)
-// = n_i n_o / (d_i n_o + d_o n_i - n_i n_o).
+// G as (numerator, denominator), for V-cavity and Beckmann's two G1. With Walter's rational
+// G1 = n/d, Lambda = d/n - 1, so G_separable = n_i n_o / (d_i d_o) and
+// G_correlated = 1/(1 + Lambda_i + Lambda_o) = n_i n_o / (d_i n_o + d_o n_i - n_i n_o).
 vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
     if (MF_MASKING == 0u) return G_v_cavity(h.z, c_d, wi.z, wo.z);
-    if (MF_DISTRIBUTION == 0u && MF_BECKMANN_G1 == 1u) {
+    if (MF_BECKMANN_G1 == 1u) {
         vec2 gi = G1_beckmann_rational(alpha_sin2(wi, p.alpha2_x, p.alpha2_y), wi.z);
         vec2 go = G1_beckmann_rational(alpha_sin2(wo, p.alpha2_x, p.alpha2_y), wo.z);
         float n = gi.x * go.x;
@@ -60,6 +60,26 @@ vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
     float lambda_i = microfacet_lambda(p, wi), lambda_o = microfacet_lambda(p, wo);
     if (MF_MASKING == 1u) return vec2(1.0, (1.0 + lambda_i) * (1.0 + lambda_o));
     return vec2(1.0, 1.0 + lambda_i + lambda_o);
+}
+
+// The visibility G / (4 c_i c_o) as (numerator, denominator), so that one division serves the
+// specular lobe. For GGX the Smith forms need no Lambda: with q = (alpha sin theta)^2 and
+// s = sqrt(c^2 + q), Lambda = (s - c)/(2c) (Heitz 2014, eq. 86), so 1 + Lambda = (c + s)/(2c) and
+// - separable: G/(4 c_i c_o) = 1/((c_i + s_i)(c_o + s_o));
+// - height-correlated: G/(4 c_i c_o) = 1/(2 (c_o s_i + c_i s_o)) (the form of Filament's
+//   V_SmithGGXCorrelated).
+// Neither divides nor cancels, and both stay finite as c_i or c_o goes to 0. The f64 twin
+// (microfacet.rs) keeps the form in Lambda.
+vec2 microfacet_vis(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
+    float c_i = wi.z, c_o = wo.z;
+    if (MF_MASKING != 0u && MF_DISTRIBUTION == 1u) {
+        float s_i = sqrt(c_i * c_i + alpha_sin2(wi, p.alpha2_x, p.alpha2_y));
+        float s_o = sqrt(c_o * c_o + alpha_sin2(wo, p.alpha2_x, p.alpha2_y));
+        if (MF_MASKING == 1u) return vec2(1.0, (c_i + s_i) * (c_o + s_o));
+        return vec2(0.5, c_o * s_i + c_i * s_o);
+    }
+    vec2 g = microfacet_g(p, h, c_d, wi, wo);
+    return vec2(g.x, 4.0 * c_i * c_o * g.y);
 }
 
 // The Fresnel factor at c_d, for fresnel = schlick, dielectric or conductor.
@@ -77,7 +97,11 @@ vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
     // specular F, multiplied only where there is a Fresnel factor.
     vec3 weight = p.specular;
     if (!WHITE_FURNACE && MF_FRESNEL != 0u) weight *= microfacet_fresnel(p, c_d);
-    float spec = specular_ratio(microfacet_d(p, h), microfacet_g(p, h, c_d, wi, wo), c_i, c_o);
+    // D G / (4 c_i c_o) with one division; for Beckmann (D's denominator 1) it rounds as
+    // specular_ratio does in cook_torrance.
+    vec2 d = microfacet_d(p, h);
+    vec2 v = microfacet_vis(p, h, c_d, wi, wo);
+    float spec = d.x * v.x / (d.y * v.y);
     // Summed in cook_torrance's order (specular * F first), so that cook_torrance equals its
     // microfacet configuration to the last bit; the f64 twin sums the same way.
     vec3 f_total = p.diffuse_over_pi + weight * spec;

@@ -128,13 +128,6 @@ float alpha_sin2(vec3 w, float alpha2_x, float alpha2_y) {
     return alpha2_x * w.x * w.x + alpha2_y * w.y * w.y;
 }
 
-// Smith Lambda for GGX (Heitz 2014, eq. 86): (sqrt(1 + t2) - 1) / 2 with t2 = q / c^2, written as
-// t2 / (2 (sqrt(1 + t2) + 1)) = q / (2 c (sqrt(c^2 + q) + c)) so that it does not cancel when t2
-// is small: one division.
-float lambda_ggx(float q, float c) {
-    return q / (2.0 * c * (sqrt(c * c + q) + c));
-}
-
 // erfc(x) for x >= 0 (Press et al., Numerical Recipes, 2nd ed., section 6.2, erfcc): a Chebyshev
 // fit with fractional error below 1.2e-7 everywhere, i.e. about one f32 ulp. GLSL has no erf.
 float erfc_approx(float x) {

@@ -97,7 +97,8 @@ pub fn alpha_tan2(w: DVec3, ax: f64, ay: f64) -> f64 {
     (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z)
 }
 
-/// Smith Λ for GGX (Heitz 2014, eq. 86), without cancellation for small t².
+/// Smith Λ for GGX (Heitz 2014, eq. 86), without cancellation for small t². The GLSL kernel forms
+/// G/(4 c_i c_o) from s = √(c² + (α sinθ)²) instead (`microfacet_vis`, docs/design.md §3).
 pub fn lambda_ggx(t2: f64) -> f64 {
     t2 / (2.0 * ((1.0 + t2).sqrt() + 1.0))
 }
