@@ -1,7 +1,7 @@
 //! The jobs' handle on a backend: the [`Backend`] behind one interface with the cancellation
 //! token, the invalid-value policy and the speed-for-accuracy switches.
 
-use crate::backend::{Backend, CpuBackend, Precision, Query, UpperTriangle};
+use crate::backend::{Backend, CpuBackend, Precision, Quadrants, Query, UpperTriangle};
 use crate::finite::InvalidCount;
 use crate::gpu::Gpu;
 use crate::grid::Grid;
@@ -267,6 +267,21 @@ impl<'a> Evaluator<'a> {
                 self.upper_triangle(query, grid, triangle, sink)?;
                 return Ok(triangle.cells());
             }
+            Grid::Full {
+                n_theta_i,
+                n_phi_i,
+                n_theta_o,
+                n_phi_o,
+            } if self.backend.precision() == Precision::F32
+                && (params.model().is_mirror_symmetric()
+                    || (params.model().is_reciprocal() && params.is_isotropic())) =>
+            {
+                let axes = [n_theta_i, n_phi_i, n_theta_o, n_phi_o].map(|n| n as u64);
+                if let Some(quadrants) = Quadrants::new(axes[0], axes[1], axes[2], axes[3]) {
+                    self.quadrants(query, grid, quadrants, sink)?;
+                    return Ok(quadrants.cells());
+                }
+            }
             Grid::HalfDiff { n_phi_d, .. }
                 if reciprocal && self.backend.precision() == Precision::F32 =>
             {
@@ -296,9 +311,7 @@ impl<'a> Evaluator<'a> {
     }
 
     /// The reciprocal isotropic table from its upper triangle (docs/design.md §4.5): each packed
-    /// chunk the backend makes is handed to `sink` with its mirror images. The check of invalid
-    /// values reads the packed cells once; only a chunk with an invalid value is counted run by
-    /// run, so that counts and the first invalid cell speak of the table's cells.
+    /// chunk the backend makes is handed to `sink` with its mirror images.
     fn upper_triangle(
         &self,
         query: Query,
@@ -306,7 +319,6 @@ impl<'a> Evaluator<'a> {
         triangle: UpperTriangle,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
-        let params = query.params();
         let (wi, wo) = (grid.wi_list(), grid.wo_list());
         let mut scratch = Vec::new();
         self.backend.table_upper_triangle(
@@ -316,18 +328,61 @@ impl<'a> Evaluator<'a> {
             self.fast_pow,
             self.cancel,
             &mut |first, values| {
-                if !crate::finite::all_valid_f32(values) {
-                    let sink = &mut self.checked(params, grid, sink);
-                    return triangle.scatter(first, values, &mut scratch, sink);
-                }
-                let mut count = InvalidCount::default();
-                triangle.scatter(first, values, &mut scratch, &mut |at, run| {
-                    count.evaluated += run.len() as u64 / 3;
-                    sink(at, run)
-                })?;
-                self.check_invalid(params, count, "evaluating a table")
+                self.spread_checked(query.params(), grid, values, sink, &mut |to| {
+                    triangle.scatter(first, values, &mut scratch, to)
+                })
             },
         )
+    }
+
+    /// The mirror-symmetric full table from the quarter with φi in the first quadrant
+    /// (docs/design.md §4.6): the backend's table of those light directions and every view
+    /// direction, each chunk handed to `sink` with its images.
+    fn quadrants(
+        &self,
+        query: Query,
+        grid: &Grid,
+        quadrants: Quadrants,
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+    ) -> Result<()> {
+        let all = grid.wi_list();
+        let wi: Vec<DVec3> = quadrants.light_cells().map(|k| all[k]).collect();
+        let mut scratch = Vec::new();
+        self.backend.table(
+            query,
+            &wi,
+            &grid.wo_list(),
+            self.fast_pow,
+            self.cancel,
+            &mut |first, values| {
+                self.spread_checked(query.params(), grid, values, sink, &mut |to| {
+                    quadrants.scatter(first, values, &mut scratch, to)
+                })
+            },
+        )
+    }
+
+    /// Evaluated cells `values` handed to `sink` by `spread`, as runs of table cells with their
+    /// copies, under the check of invalid values. The check reads the evaluated cells once;
+    /// only where one is invalid are the runs counted one by one, so that the counts and the
+    /// first invalid cell speak of the table's cells.
+    fn spread_checked(
+        &self,
+        params: &ParamSet,
+        grid: &Grid,
+        values: &[f32],
+        sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
+        spread: &mut dyn FnMut(&mut dyn FnMut(u64, &[f32]) -> Result<()>) -> Result<()>,
+    ) -> Result<()> {
+        if !crate::finite::all_valid_f32(values) {
+            return spread(&mut self.checked(params, grid, sink));
+        }
+        let mut count = InvalidCount::default();
+        spread(&mut |at, run| {
+            count.evaluated += run.len() as u64 / 3;
+            sink(at, run)
+        })?;
+        self.check_invalid(params, count, "evaluating a table")
     }
 
     /// A table on a grid that is not an outer product (`halfdiff`): each chunk's (ωi, ωo) pairs

@@ -1,5 +1,5 @@
-//! Properties of the CPU reference that hold for every model: reciprocity, finiteness and
-//! non-negativity on valid input. (The GPU's values are checked against this reference in
+//! Properties of the CPU reference that hold for every model: reciprocity, mirror symmetry,
+//! finiteness and non-negativity on valid input. (The GPU's values are checked against this reference in
 //! tests/parity.rs, which also checks they are finite and non-negative.)
 
 mod common;
@@ -34,6 +34,8 @@ fn parameter_sets(model: Model) -> Vec<ParamSet> {
         ("nv", "3"),
         ("roughness", "0.02"),
         ("smoothness", "0"),
+        ("alpha_x", "0.05"),
+        ("alpha_y", "0.7"),
     ] {
         let _ = extreme.set_text(&format!("{k}={v}")); // keys a model lacks are skipped
     }
@@ -84,6 +86,48 @@ fn every_model_is_reciprocal() {
                             a[ch],
                             b[ch]
                         );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Mirror symmetry in f64 (docs/design.md §4.6): mirroring negates components exactly, and the
+/// formulas read tangential components through squares and products of two mirrored vectors,
+/// so the values should agree exactly; the reciprocity tolerances above are kept as the bound
+/// (a formula may still group its products differently one day).
+#[test]
+fn every_built_in_model_is_mirror_symmetric() {
+    let mirrors: [(&str, fn(DVec3) -> DVec3); 2] = [
+        ("y -> -y", |w| DVec3::new(w.x, -w.y, w.z)),
+        ("x -> -x", |w| DVec3::new(-w.x, w.y, w.z)),
+    ];
+    let mut rng = common::Rng(11);
+    for model in Model::ALL {
+        assert!(model.is_mirror_symmetric(), "{}", model.name());
+        for p in parameter_sets(model) {
+            for wf in [false, true] {
+                let r = Reference::new(&p, wf);
+                for (wi, wo) in directions(&mut rng, 1000) {
+                    if wo.z <= 0.0 {
+                        continue;
+                    }
+                    let a = r.eval(wi, wo);
+                    for (name, m) in mirrors {
+                        let b = r.eval(m(wi), m(wo));
+                        for ch in 0..3 {
+                            let tol =
+                                RECIPROCITY_RTOL * a[ch].abs().max(b[ch].abs()) + RECIPROCITY_ATOL;
+                            assert!(
+                                (a[ch] - b[ch]).abs() <= tol,
+                                "{} {} wf={wf} {name}: f={} mirrored f={} at wi={wi:?} wo={wo:?}",
+                                model.name(),
+                                p.to_text(),
+                                a[ch],
+                                b[ch]
+                            );
+                        }
                     }
                 }
             }

@@ -525,3 +525,181 @@ fn a_halfdiff_table_of_a_brdf_file_or_on_the_cpu_evaluates_every_cell() {
         },
     );
 }
+
+/// The parameter sets checked on the full grid: every built-in at its defaults, and the
+/// anisotropic ones, where the mirror symmetries are not those of isotropy.
+fn full_grid_sets() -> Vec<ParamSet> {
+    let mut sets: Vec<ParamSet> = Model::ALL.into_iter().map(ParamSet::defaults).collect();
+    for (model, extra) in [
+        ("microfacet", vec!["alpha_x=0.08", "alpha_y=0.5"]),
+        (
+            "microfacet",
+            vec![
+                "distribution=beckmann",
+                "alpha_x=0.5",
+                "alpha_y=0.1",
+                "multiscatter=kulla_conty",
+            ],
+        ),
+        ("ashikhmin_shirley", vec!["nu=2000", "nv=20"]),
+    ] {
+        let extra: Vec<String> = extra.into_iter().map(String::from).collect();
+        sets.push(lobe::resolve_params(model, Some("gold"), &extra).unwrap());
+    }
+    sets
+}
+
+/// (NTHETA_I, NPHI_I, NTHETA_O, NPHI_O) of a full grid.
+fn full_sides(grid: &Grid) -> [usize; 4] {
+    match *grid {
+        Grid::Full {
+            n_theta_i,
+            n_phi_i,
+            n_theta_o,
+            n_phi_o,
+        } => [n_theta_i, n_phi_i, n_theta_o, n_phi_o],
+        _ => panic!("a full grid"),
+    }
+}
+
+/// Asserts that `copied` holds the plain table's bits wherever φi lies in the first quadrant
+/// (the evaluated cells), and everywhere else a value within the parity tolerance of §10 of
+/// the f64 reference at the cell's own directions (rounded to f32, as the kernel receives
+/// them). Returns the cells outside the first quadrant whose bits equal the plain table's.
+fn assert_quadrants_copied(params: &ParamSet, copied: &[f32], plain: &[f32], grid: &Grid) -> usize {
+    let [nti, npi, nto, npo] = full_sides(grid);
+    let label = format!("{} {} on {grid:?}", params.model().name(), params.to_text());
+    let row = nto * npo;
+    let p32 = params.rounded_to_f32();
+    let reference = Reference::new(&p32, false);
+    let f32_round = |v: DVec3| DVec3::new(v.x as f32 as f64, v.y as f32 as f64, v.z as f32 as f64);
+    let mut same_bits = 0;
+    for ti in 0..nti {
+        for a in 0..npi {
+            for v in 0..row {
+                let cell = (ti * npi + a) * row + v;
+                let (got, want) = (
+                    &copied[cell * 3..cell * 3 + 3],
+                    &plain[cell * 3..cell * 3 + 3],
+                );
+                let equal = got
+                    .iter()
+                    .zip(want)
+                    .all(|(g, w)| g.to_bits() == w.to_bits());
+                if a < npi / 4 {
+                    assert!(
+                        equal,
+                        "{label}: evaluated cell {cell} is not the plain table's"
+                    );
+                    continue;
+                }
+                same_bits += equal as usize;
+                let (wi, wo) = grid.pair_at(cell as u64);
+                let (wi, wo) = (f32_round(wi), f32_round(wo));
+                let c = reference.eval(wi, wo);
+                let allowed = tolerance::parity_tolerance(&p32, &reference, wi, wo, c);
+                for ch in 0..3 {
+                    assert!(
+                        (got[ch] as f64 - c[ch]).abs() <= allowed[ch],
+                        "{label}: copied cell {cell} (theta_i {ti}, phi_i {a}, view {v}) channel \
+                         {ch}: table {:e}, reference {:e}, allowed {:e}",
+                        got[ch],
+                        c[ch],
+                        allowed[ch]
+                    );
+                }
+            }
+        }
+    }
+    same_bits
+}
+
+/// Grids whose φ axes hold whole quadrants (NPHI_I a multiple of 4, NPHI_O even), one light
+/// cell per quadrant among them, and a view axis whose cells φo = π/2 ± … pair up across x = 0.
+fn full_tables_copy_three_quarters(gpu: &Gpu) {
+    let eval = Evaluator::gpu(gpu);
+    for grid in ["3,8,4,6", "2,4,3,2", "4,12,3,10"] {
+        let grid = Grid::parse("full", grid).unwrap();
+        for params in full_grid_sets() {
+            let before = plain(&eval, &params, &grid);
+            let (after, evaluations) = runs(&eval, &params, &grid);
+            assert_eq!(evaluations * 4, grid.cells().unwrap(), "{grid:?}");
+            let same = assert_quadrants_copied(&params, &after, &before, &grid);
+            eprintln!(
+                "{} {} on {grid:?}: {same} of {} copied cells bit-equal to the plain table",
+                params.model().name(),
+                params.to_text(),
+                grid.cells().unwrap() * 3 / 4
+            );
+        }
+    }
+}
+
+#[test]
+fn a_mirror_symmetric_full_table_evaluates_a_quarter() {
+    common::on_gpu(
+        "a_mirror_symmetric_full_table_evaluates_a_quarter",
+        false,
+        full_tables_copy_three_quarters,
+    );
+}
+
+#[test]
+fn with_a_gpus_kernel_choices_a_full_table_evaluates_a_quarter() {
+    common::on_gpu(
+        "with_a_gpus_kernel_choices_a_full_table_evaluates_a_quarter",
+        true,
+        full_tables_copy_three_quarters,
+    );
+}
+
+/// Several 4 MB chunks (lobe::gpu::CPU_TABLE_CHUNK_BYTES): 590k cells evaluated, chunks that
+/// start inside a light row and inside a view block.
+#[test]
+fn a_full_table_of_several_chunks_evaluates_a_quarter() {
+    common::on_gpu(
+        "a_full_table_of_several_chunks_evaluates_a_quarter",
+        false,
+        |gpu| {
+            let grid = Grid::parse("full", "24,64,24,64").unwrap();
+            let params =
+                lobe::resolve_params("microfacet", Some("gold"), &["alpha_x=0.1".into()]).unwrap();
+            let eval = Evaluator::gpu(gpu);
+            let before = plain(&eval, &params, &grid);
+            let (after, evaluations) = runs(&eval, &params, &grid);
+            assert_eq!(evaluations * 4, grid.cells().unwrap());
+            assert_quadrants_copied(&params, &after, &before, &grid);
+        },
+    );
+}
+
+/// Where the φ axes do not hold whole quadrants, for a `.brdf` file (not declared mirror
+/// symmetric, reciprocal or not) and on the CPU reference, every cell is evaluated.
+#[test]
+fn other_full_tables_evaluate_every_cell() {
+    let params = lobe::resolve_params("cook_torrance", None, &[]).unwrap();
+    let grid = Grid::parse("full", "3,8,3,6").unwrap();
+    let (after, evaluations) = runs(&Evaluator::cpu(), &params, &grid);
+    assert_eq!(evaluations, grid.cells().unwrap());
+    assert_eq!(after, plain(&Evaluator::cpu(), &params, &grid));
+    common::on_gpu("other_full_tables_evaluate_every_cell", false, |gpu| {
+        let eval = Evaluator::gpu(gpu);
+        for grid in ["3,6,3,6", "3,8,3,5"] {
+            let grid = Grid::parse("full", grid).unwrap();
+            let (after, evaluations) = runs(&eval, &params, &grid);
+            assert_eq!(evaluations, grid.cells().unwrap(), "{grid:?}");
+            assert_eq!(after, plain(&eval, &params, &grid), "{grid:?}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let model = brdf::load(&not_reciprocal_file(dir.path()), &LoadOptions::default())
+            .unwrap()
+            .model;
+        let params = ParamSet::defaults(model);
+        let grid = Grid::parse("full", "3,8,3,6").unwrap();
+        for eval in [eval.clone(), eval.assuming_reciprocity(true)] {
+            let (after, evaluations) = runs(&eval, &params, &grid);
+            assert_eq!(evaluations, grid.cells().unwrap());
+            assert_eq!(after, plain(&eval, &params, &grid));
+        }
+    });
+}

@@ -7,11 +7,13 @@
 
 mod cpu;
 mod mirror;
+mod quadrants;
 pub mod scene;
 pub mod shade;
 
 pub use cpu::CpuBackend;
 pub use mirror::UpperTriangle;
+pub use quadrants::Quadrants;
 
 use crate::interrupt::CancelToken;
 use crate::model::{Model, ParamSet};

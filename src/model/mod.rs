@@ -150,6 +150,18 @@ impl Model {
         }
     }
 
+    /// Whether f is unchanged, for every parameter set, when both directions are mirrored across
+    /// the xz plane (y → −y) or across the yz plane (x → −x), so that a full table may copy
+    /// three quarters of its cells (docs/design.md §4.6). Every built-in model is: its
+    /// anisotropic roughness runs along t = x and b = y, and it reads the tangential components
+    /// only through their squares or through dot products that either mirror keeps
+    /// (`tests/properties.rs` checks each). A model defined at run time is not declared so; an
+    /// isotropic and reciprocal one is even in Δφ, which gives the same (the evaluator checks
+    /// that).
+    pub fn is_mirror_symmetric(self) -> bool {
+        !matches!(self, Model::Runtime(_))
+    }
+
     /// The bound on each chunk's GPU wait that the model sets for itself (a model defined at
     /// run time may: [`runtime::RuntimeModel::with_chunk_timeout`]).
     pub fn chunk_timeout(self) -> Option<std::time::Duration> {
