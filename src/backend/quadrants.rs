@@ -52,6 +52,29 @@ impl Reflection {
     }
 }
 
+impl Reflection {
+    /// Appends to `out` the image of one whole view block (`block`: the 3 f32 of each of an
+    /// even number of φ cells), cell b of the image holding cell [`Reflection::cell`] of b: the
+    /// block reversed, each half reversed, or the halves swapped.
+    fn push_block(self, block: &[f32], out: &mut Vec<f32>) {
+        let half = block.len() / 2;
+        let reversed = |part: &[f32], out: &mut Vec<f32>| {
+            part.rchunks_exact(3).for_each(|c| out.extend_from_slice(c))
+        };
+        match self {
+            Reflection::Y => reversed(block, out),
+            Reflection::X => {
+                reversed(&block[..half], out);
+                reversed(&block[half..], out);
+            }
+            Reflection::Both => {
+                out.extend_from_slice(&block[half..]);
+                out.extend_from_slice(&block[..half]);
+            }
+        }
+    }
+}
+
 impl Quadrants {
     /// The quarter of an `n_theta_i` × `n_phi_i` × `n_theta_o` × `n_phi_o` full table, where
     /// the φ axes allow it: NPHI_I a multiple of 4 (the first quadrant holds whole cells) and
@@ -141,9 +164,8 @@ impl Quadrants {
             let b1 = np.min(b0 + cells - k);
             if b0 == 0 && b1 == np {
                 whole.get_or_insert(dest + o * np);
-                for b in 0..np {
-                    scratch.extend_from_slice(value(k + sigma.cell(b, np)));
-                }
+                let block = &segment[(k * 3) as usize..((k + np) * 3) as usize];
+                sigma.push_block(block, scratch);
             } else {
                 if let Some(at) = whole.take() {
                     sink(at, scratch)?;

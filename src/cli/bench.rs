@@ -1,5 +1,6 @@
 //! `lobe bench`: evaluations per second of every model, on each backend asked for.
 
+use super::table::GridArg;
 use super::{bar, open_session, BackendArg, BackendArgs, TableFormat};
 use anyhow::{anyhow, Result};
 use clap::{Args, ValueEnum};
@@ -41,9 +42,14 @@ pub struct BenchArgs {
     /// Replace every Fresnel factor of a specular lobe by 1 in every task.
     #[arg(long)]
     white_furnace: bool,
-    /// Isotropic grid NTHETA_I,NTHETA_O,NDPHI of each timed table.
-    #[arg(long, default_value = "128,128,256")]
-    res: String,
+    /// Grid of each timed table.
+    #[arg(long, value_enum, default_value_t = GridArg::Isotropic)]
+    grid: GridArg,
+    /// Resolution of each timed table, as `lobe table --res` reads it for --grid (default:
+    /// 128,128,256 isotropic; 32,128,32,128 full; 90,90,180 halfdiff, about 4e6 cells each but
+    /// halfdiff's 1.5e6).
+    #[arg(long)]
+    res: Option<String>,
     /// Timed runs per measurement (the median is reported), after one warm-up run.
     #[arg(long, default_value_t = 5)]
     repeats: usize,
@@ -84,7 +90,12 @@ pub fn run(a: BenchArgs) -> Result<()> {
         .iter()
         .map(|spec| super::resolve(spec, a.material.as_deref(), &a.sets))
         .collect::<Result<_>>()?;
-    let grid = Grid::parse("isotropic", &a.res).map_err(|e| anyhow!("--res: {e}"))?;
+    let res = a.res.as_deref().unwrap_or(match a.grid {
+        GridArg::Isotropic => "128,128,256",
+        GridArg::Full => "32,128,32,128",
+        GridArg::Halfdiff => "90,90,180",
+    });
+    let grid = Grid::parse(a.grid.name(), res).map_err(|e| anyhow!("--res: {e}"))?;
     super::check_held_cells("--res", &grid)?;
     super::check_repeats("--repeats", a.repeats)?;
     let tasks: Vec<BenchTask> = a
@@ -168,13 +179,14 @@ fn print_table(
     writeln!(
         out,
         "BRDF evaluations per second (wall, kernel) and table cells written per second (cells), \
-             median of {} runs: table = {} cells of an isotropic table (a reciprocal model's \
-             table with equal theta axes evaluates the cells with theta_i <= theta_o and copies \
-             the others); \
+             median of {} runs: table = {} cells on the {} grid (where a model's symmetries \
+             allow, docs/design.md 4.5-4.6, the GPU evaluates some cells and copies the others: \
+             evaluations count the first, cells both); \
              albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
              lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
         a.repeats,
         grid.cells().unwrap_or(0),
+        grid.name(),
         lobe::bench::ALBEDO_DIRECTIONS,
         lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
             + lobe::bench::ALBEDO_RULE
