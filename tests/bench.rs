@@ -96,3 +96,28 @@ fn bench_takes_a_model_with_its_own_parameters() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("shininess"), "{err}");
 }
+
+/// `--grid` times a table on the grid named, and the GPU row counts the table's cells apart from
+/// its evaluations: a mirror-symmetric model's full table with NPHI_I a multiple of 4 evaluates a
+/// quarter of its cells (docs/design.md §4.6); the CPU reference evaluates them all.
+#[test]
+fn bench_times_a_full_table_and_counts_its_copied_cells() {
+    if common::gpu_device("bench_times_a_full_table_and_counts_its_copied_cells").is_none() {
+        return;
+    }
+    let v = common::lobe_json(&[
+        "bench", "--grid", "full", "--res", "2,8,3,4", "--repeats", "1", "--tasks", "table",
+        "--model", "cook_torrance", "--format", "json",
+    ]);
+    let rows = v.as_array().expect("a list of rows");
+    assert_eq!(rows.len(), 2, "{v}");
+    for row in rows {
+        let gpu = row["backend"].as_str().unwrap_or_default().starts_with("gpu");
+        let evaluated = if gpu { 48 } else { 192 };
+        assert_eq!(
+            (row["cells"].as_u64(), row["evaluations"].as_u64()),
+            (Some(192), Some(evaluated)),
+            "{row}"
+        );
+    }
+}
