@@ -28,6 +28,10 @@ layout(constant_id = 20) const bool TEXEL_NODES = false;
 // turns it on for a CPU driver (src/gpu/pipeline.rs, albedo_lane_partials).
 layout(constant_id = 21) const bool LANE_PARTIALS = false;
 
+// Nodes per invocation of a whole span with LANE_PARTIALS: four running sums of 16 terms. Twin of
+// LANE_NODES_PER_INVOCATION (src/gpu/albedo_kernel.rs), which sizes the spans.
+const uint LANE_SPAN_NODES = 64u;
+
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
 // xyz = wi, w = weight (with cos(theta_i)), every sum's list back to back; in a span with
 // `mirror` set, xy = the tangential part of wi - r, r = (-wo.x, -wo.y, wo.z) the mirror direction
@@ -81,10 +85,15 @@ vec3 brdf(MODEL_PARAMS p, vec4 node, vec3 wo, bool mirror) {
 }
 
 // w * f in xyz, and in w 1 where f is invalid (a NaN, an infinity or a negative channel), so that
-// a sum of these counts them beside the weighted sum.
+// a sum of these counts them beside the weighted sum. A channel is valid exactly where
+// 0 <= f <= FLT_MAX: a NaN fails both comparisons, an infinity or a negative value one (-0
+// passes). Written without || (which compiles to branches, one per node): on lavapipe the
+// branchy test cost a quarter of a GGX LUT's time.
 vec4 term(vec4 node, vec3 f) {
-    bool bad = any(isnan(f)) || any(isinf(f)) || any(lessThan(f, vec3(0.0)));
-    return vec4(node.w * f, bad ? 1.0 : 0.0);
+    bvec3 low = greaterThanEqual(f, vec3(0.0));
+    bvec3 high = lessThanEqual(f, vec3(3.40282347e38));
+    bool valid = all(bvec3(uvec3(low) & uvec3(high)));
+    return vec4(node.w * f, valid ? 0.0 : 1.0);
 }
 
 vec4 node_at(uint k) {
@@ -104,6 +113,20 @@ void main() {
         // Four running sums over interleaved nodes (at most 16 terms each in a span of
         // 64 x 64 nodes), added pairwise: fewer partials per evaluation, the same rounding depth.
         vec4 a0 = vec4(0.0), a1 = vec4(0.0), a2 = vec4(0.0), a3 = vec4(0.0);
+        if (span.end - span.begin == LANE_SPAN_NODES * W) {
+            // A whole span (every span but a list's last): no bounds to test, which on lavapipe
+            // made a GGX LUT 12 % faster.
+            for (uint k = span.begin + lid; k < span.end; k += 4u * W) {
+                vec4 n0 = node_at(k), n1 = node_at(k + W), n2 = node_at(k + 2u * W),
+                     n3 = node_at(k + 3u * W);
+                a0 += term(n0, brdf(p, n0, wo, mirror));
+                a1 += term(n1, brdf(p, n1, wo, mirror));
+                a2 += term(n2, brdf(p, n2, wo, mirror));
+                a3 += term(n3, brdf(p, n3, wo, mirror));
+            }
+            partial_out[gl_GlobalInvocationID.x] = (a0 + a1) + (a2 + a3);
+            return;
+        }
         for (uint k = span.begin + lid; k < span.end; k += 4u * W) {
             vec4 n0 = node_at(k);
             a0 += term(n0, brdf(p, n0, wo, mirror));

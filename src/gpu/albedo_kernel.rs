@@ -18,7 +18,8 @@ pub const NODES_PER_INVOCATION: u32 = 16;
 /// Nodes one invocation sums on a CPU driver, where each invocation writes its own partial
 /// (LANE_PARTIALS): four running sums of at most 16 terms each, added pairwise (18 roundings at
 /// most), then the host's f64 sum. Four times the GPU's span means a quarter of the partials to
-/// read back and add.
+/// read back and add. Twin of LANE_SPAN_NODES in glsl/kernels/albedo.comp, whose loop over a
+/// whole span tests no bounds.
 pub const LANE_NODES_PER_INVOCATION: u32 = 64;
 
 /// Nodes one albedo dispatch sums at most: 64M, about 0.1–3 s on lavapipe here depending on the
