@@ -106,13 +106,27 @@ fn bench_times_a_full_table_and_counts_its_copied_cells() {
         return;
     }
     let v = common::lobe_json(&[
-        "bench", "--grid", "full", "--res", "2,8,3,4", "--repeats", "1", "--tasks", "table",
-        "--model", "cook_torrance", "--format", "json",
+        "bench",
+        "--grid",
+        "full",
+        "--res",
+        "2,8,3,4",
+        "--repeats",
+        "1",
+        "--tasks",
+        "table",
+        "--model",
+        "cook_torrance",
+        "--format",
+        "json",
     ]);
     let rows = v.as_array().expect("a list of rows");
     assert_eq!(rows.len(), 2, "{v}");
     for row in rows {
-        let gpu = row["backend"].as_str().unwrap_or_default().starts_with("gpu");
+        let gpu = row["backend"]
+            .as_str()
+            .unwrap_or_default()
+            .starts_with("gpu");
         let evaluated = if gpu { 48 } else { 192 };
         assert_eq!(
             (row["cells"].as_u64(), row["evaluations"].as_u64()),

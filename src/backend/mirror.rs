@@ -122,6 +122,7 @@ impl UpperTriangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::backend::scatter_tests::scattered;
 
     /// A value that names its cell (i, o, d) of an n × n × nd table, exact in f32 for the sizes
     /// used here.
@@ -169,22 +170,12 @@ mod tests {
                 })
                 .collect();
             for chunk in [1, 2, 3, 7, 13, t.cells() as usize] {
-                let mut table = vec![f32::NAN; (t.table_cells() * 3) as usize];
-                let mut seen = vec![0u32; t.table_cells() as usize];
-                let mut scratch = Vec::new();
-                for (c, values) in packed.chunks(chunk * 3).enumerate() {
-                    let first = (c * chunk) as u64;
-                    t.scatter(first, values, &mut scratch, &mut |at, run| {
-                        let at = at as usize;
-                        table[at * 3..at * 3 + run.len()].copy_from_slice(run);
-                        seen[at..at + run.len() / 3]
-                            .iter_mut()
-                            .for_each(|s| *s += 1);
-                        Ok(())
-                    })
-                    .unwrap();
-                    assert!(scratch.len() <= values.len());
-                }
+                let (table, seen) = scattered(
+                    t.table_cells() as usize,
+                    &packed,
+                    chunk,
+                    &mut |first, values, scratch, sink| t.scatter(first, values, scratch, sink),
+                );
                 assert!(seen.iter().all(|&s| s == 1), "n {n} nd {nd} chunk {chunk}");
                 for a in 0..n {
                     for b in 0..n {

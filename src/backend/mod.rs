@@ -206,3 +206,42 @@ pub trait Backend: Send + Sync {
         Vec::new()
     }
 }
+
+/// What the scatter tests of [`UpperTriangle`] and [`Quadrants`] share.
+#[cfg(test)]
+mod scatter_tests {
+    use super::TableSink;
+    use anyhow::Result;
+
+    /// A scatter: evaluated cells `first ..` in, runs of table cells out, with scratch memory.
+    pub type Scatter<'a> =
+        dyn FnMut(u64, &[f32], &mut Vec<f32>, &mut TableSink<'_>) -> Result<()> + 'a;
+
+    /// The table of `cells` cells that `scatter` fills from `evaluated` (3 f32 a cell) handed
+    /// over `chunk` cells at a time, and how many times each cell arrived. Asserts that the
+    /// scratch memory never outgrows the chunk.
+    pub fn scattered(
+        cells: usize,
+        evaluated: &[f32],
+        chunk: usize,
+        scatter: &mut Scatter<'_>,
+    ) -> (Vec<f32>, Vec<u32>) {
+        let mut table = vec![f32::NAN; cells * 3];
+        let mut seen = vec![0u32; cells];
+        let mut scratch = Vec::new();
+        for (c, values) in evaluated.chunks(chunk * 3).enumerate() {
+            let first = (c * chunk) as u64;
+            scatter(first, values, &mut scratch, &mut |at, run| {
+                let at = at as usize;
+                table[at * 3..at * 3 + run.len()].copy_from_slice(run);
+                seen[at..at + run.len() / 3]
+                    .iter_mut()
+                    .for_each(|s| *s += 1);
+                Ok(())
+            })
+            .unwrap();
+            assert!(scratch.len() <= values.len());
+        }
+        (table, seen)
+    }
+}

@@ -80,12 +80,13 @@ impl Quadrants {
     /// the φ axes allow it: NPHI_I a multiple of 4 (the first quadrant holds whole cells) and
     /// NPHI_O even.
     pub fn new(n_theta_i: u64, n_phi_i: u64, n_theta_o: u64, n_phi_o: u64) -> Option<Quadrants> {
-        (n_phi_i % 4 == 0 && n_phi_o % 2 == 0 && n_phi_i > 0 && n_phi_o > 0).then_some(Quadrants {
-            n_theta_i,
-            n_phi_i,
-            n_theta_o,
-            n_phi_o,
-        })
+        (n_phi_i.is_multiple_of(4) && n_phi_o.is_multiple_of(2) && n_phi_i > 0 && n_phi_o > 0)
+            .then_some(Quadrants {
+                n_theta_i,
+                n_phi_i,
+                n_theta_o,
+                n_phi_o,
+            })
     }
 
     /// Light cells per θi evaluated: NPHI_I/4.
@@ -199,6 +200,7 @@ impl Quadrants {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::backend::scatter_tests::scattered;
 
     /// A value that names its cell (ti, a, to, b), exact in f32 for the sizes used here.
     fn tag(ti: u64, a: u64, to: u64, b: u64) -> [f32; 3] {
@@ -243,21 +245,12 @@ mod tests {
             assert_eq!(evaluated.len() as u64, q.cells() * 3);
             let cells = (nti * npi * row) as usize;
             for chunk in [1, 2, 5, 7, npo as usize + 1, q.cells() as usize] {
-                let mut table = vec![f32::NAN; cells * 3];
-                let mut seen = vec![0u32; cells];
-                let mut scratch = Vec::new();
-                for (c, values) in evaluated.chunks(chunk * 3).enumerate() {
-                    let first = (c * chunk) as u64;
-                    q.scatter(first, values, &mut scratch, &mut |at, run| {
-                        let at = at as usize;
-                        table[at * 3..at * 3 + run.len()].copy_from_slice(run);
-                        seen[at..at + run.len() / 3]
-                            .iter_mut()
-                            .for_each(|s| *s += 1);
-                        Ok(())
-                    })
-                    .unwrap();
-                }
+                let (table, seen) = scattered(
+                    cells,
+                    &evaluated,
+                    chunk,
+                    &mut |first, values, scratch, sink| q.scatter(first, values, scratch, sink),
+                );
                 assert!(
                     seen.iter().all(|&s| s == 1),
                     "{nti},{npi},{nto},{npo} chunk {chunk}"
