@@ -1,7 +1,7 @@
 //! The jobs' handle on a backend: the [`Backend`] behind one interface with the cancellation
 //! token, the invalid-value policy and the speed-for-accuracy switches.
 
-use crate::backend::{Backend, CpuBackend, Precision, Quadrants, Query, UpperTriangle};
+use crate::backend::{Backend, CpuBackend, Precision, Quadrants, Query, TableSink, UpperTriangle};
 use crate::finite::InvalidCount;
 use crate::gpu::Gpu;
 use crate::grid::Grid;
@@ -372,7 +372,7 @@ impl<'a> Evaluator<'a> {
         grid: &Grid,
         values: &[f32],
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
-        spread: &mut dyn FnMut(&mut dyn FnMut(u64, &[f32]) -> Result<()>) -> Result<()>,
+        spread: &mut dyn FnMut(&mut TableSink<'_>) -> Result<()>,
     ) -> Result<()> {
         if !crate::finite::all_valid_f32(values) {
             return spread(&mut self.checked(params, grid, sink));
