@@ -240,8 +240,11 @@ impl<'a> Evaluator<'a> {
     /// parameter set, mirror cells are copied instead of evaluated (docs/design.md §4.5): on the
     /// isotropic grid with NTHETA_I = NTHETA_O the backend may evaluate only the cells with θi
     /// index ≤ θo index; on the three-axis half/difference grid the f32 backend evaluates the
-    /// φd cells k ≤ NPHI_D − 1 − k of each row. Otherwise this is [`Evaluator::eval_table`],
-    /// every cell evaluated, in order.
+    /// φd cells k ≤ NPHI_D − 1 − k of each row. On the full grid with NPHI_I a multiple of 4 and
+    /// NPHI_O even, the f32 backend evaluates only the light directions with φi in the first
+    /// quadrant for a mirror-symmetric model ([`Model::is_mirror_symmetric`], or a reciprocal
+    /// model with an isotropic set) and copies the rest (§4.6). Otherwise this is
+    /// [`Evaluator::eval_table`], every cell evaluated, in order.
     pub fn eval_table_runs<'q>(
         &self,
         query: impl Into<Query<'q>>,
