@@ -242,14 +242,19 @@ fn a_table_of_several_chunks_is_the_plain_one_reflected() {
         false,
         |gpu| {
             // 1.2e6 cells, 6.0e5 evaluated: several 4 MB chunks on a CPU driver
-            // (lobe::gpu::CPU_TABLE_CHUNK_BYTES), so chunks start inside rows and Δφ runs.
-            let grid = Grid::parse("isotropic", "67,67,263").unwrap();
+            // (lobe::gpu::CPU_TABLE_CHUNK_BYTES), so chunks start inside rows and Δφ runs. With
+            // NDPHI = 256 every row starts on an invocation (the kernel's ROW_ALIGNED), and the
+            // last chunk ends inside a workgroup (its padding stays on the last row).
             let params = lobe::resolve_params("cook_torrance", None, &[]).unwrap();
             let eval = Evaluator::gpu(gpu);
-            let before = plain(&eval, &params, &grid);
-            let (after, evaluations) = runs(&eval, &params, &grid);
-            assert_eq!(evaluations, promised_evaluations(&grid));
-            assert_upper_triangle_reflected("cook_torrance", &after, &before, &grid);
+            for grid in ["67,67,263", "70,70,256"] {
+                let grid = Grid::parse("isotropic", grid).unwrap();
+                let before = plain(&eval, &params, &grid);
+                let (after, evaluations) = runs(&eval, &params, &grid);
+                assert_eq!(evaluations, promised_evaluations(&grid));
+                assert_upper_triangle_reflected("cook_torrance", &after, &before, &grid);
+                assert_mirrors_within_parity(&params, &after, &grid);
+            }
         },
     );
 }

@@ -16,7 +16,7 @@ use crate::model::Model;
 use buffer::Buffer;
 pub use device::{Device, DeviceOptions};
 pub use error::{GpuError, Result, INSTALL_HINT};
-use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline};
+use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline, TableWalk};
 use std::collections::HashMap;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -53,8 +53,8 @@ pub struct GpuPair {
 }
 
 /// What tells pipelines apart: the kernel, the model (with its component choices), and the
-/// white-furnace, fast-pow, texel-directions and upper-triangle specialization constants.
-type PipelineKey = (Kernel, Model, bool, bool, bool, bool);
+/// white-furnace, fast-pow and texel-directions specialization constants, and the table walk.
+type PipelineKey = (Kernel, Model, bool, bool, bool, TableWalk);
 
 /// The specialization switches of a table pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -129,13 +129,13 @@ impl Gpu {
             white_furnace,
             fast_pow,
             texel_directions,
-            false,
+            TableWalk::default(),
         ))
     }
 
     /// The pipeline for `key`, built on first use (see [`Gpu::pipeline`]).
     fn pipeline_keyed(&self, key: PipelineKey) -> Result<Arc<Pipeline>> {
-        let (kernel, model, white_furnace, fast_pow, texel_directions, upper_triangle) = key;
+        let (kernel, model, white_furnace, fast_pow, texel_directions, walk) = key;
         let mut cache = lock(&self.pipelines);
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
@@ -153,7 +153,7 @@ impl Gpu {
             white_furnace,
             fast_pow,
             texel_directions,
-            upper_triangle,
+            walk,
         )?);
         if let Some(log) = &self.log {
             log(&format!(
@@ -263,13 +263,25 @@ impl Gpu {
             wi.len() as u64,
             wo.len() as u64,
         );
+        // A row: the view cells from one light direction on (NDPHI of them per θo with the upper
+        // triangle, whose rows hold whole θo blocks).
+        let row = if upper_triangle {
+            wo.len() / wi.len()
+        } else {
+            wo.len()
+        };
+        let evals = pipeline::evals_per_invocation(Kernel::Table, self.dev.cpu_kernels());
+        let walk = TableWalk {
+            upper_triangle,
+            row_aligned: row.is_multiple_of(evals as usize),
+        };
         let pipe = self.pipeline_keyed((
             Kernel::Table,
             model,
             white_furnace,
             fast_pow,
             choice.texel_directions,
-            upper_triangle,
+            walk,
         ))?;
         // Whole invocations per chunk, so that every chunk but the last starts on an
         // invocation's first cell (the kernel's `first` is a multiple of its evaluations).

@@ -116,6 +116,19 @@ pub const LANE_PARTIALS_ID: u32 = 21;
 /// with θo index ≥ θi index of a reciprocal isotropic table (docs/design.md §4.5).
 pub const UPPER_TRIANGLE_ID: u32 = 22;
 
+/// Specialization constant id of ROW_ALIGNED (glsl/kernels/table.comp): every invocation's cells
+/// lie in one row of the table.
+pub const ROW_ALIGNED_ID: u32 = 23;
+
+/// How the table kernel walks its cells: its UPPER_TRIANGLE and ROW_ALIGNED constants.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TableWalk {
+    /// The packed upper triangle of a reciprocal isotropic table (docs/design.md §4.5).
+    pub upper_triangle: bool,
+    /// A row's view cells are a multiple of the evaluations per invocation.
+    pub row_aligned: bool,
+}
+
 /// Whether the albedo kernel writes one partial sum per invocation (LANE_PARTIALS) rather than
 /// one per workgroup. On a CPU driver a barrier switches between the workgroup's SIMD slices,
 /// and the tree's seven barriers per workgroup cost more than storing 64 partials and adding
@@ -195,7 +208,7 @@ impl Pipeline {
         white_furnace: bool,
         fast_pow: bool,
         texel_directions: bool,
-        upper_triangle: bool,
+        walk: TableWalk,
     ) -> Result<Pipeline> {
         let start = Instant::now();
         let words = read_spirv(source)?;
@@ -209,7 +222,7 @@ impl Pipeline {
             evals_per_invocation: evals_per_invocation(kernel, dev.cpu_kernels()),
             texel_directions,
             build_time: Duration::ZERO,
-            label: pipeline_label(kernel, source, white_furnace, upper_triangle),
+            label: pipeline_label(kernel, source, white_furnace, walk),
             gpu_ns: AtomicU64::new(0),
             model_timeout: source.timeout,
             data: None,
@@ -217,7 +230,7 @@ impl Pipeline {
         if let Some(bytes) = source.data {
             p.data = Some(ModelData::new(dev, source.model, bytes)?);
         }
-        let spec = SpecConstants::of(&p, source, white_furnace, fast_pow, upper_triangle);
+        let spec = SpecConstants::of(&p, source, white_furnace, fast_pow, walk);
         // SAFETY: create infos outlive their calls; on failure `p` is dropped and releases what exists.
         unsafe {
             p.create_shader_module(&words)?;
@@ -349,15 +362,16 @@ fn read_spirv(source: &KernelSource) -> Result<Vec<u32>> {
     })
 }
 
-/// `kernel/model-label`, with " (white furnace)" and " (upper triangle)" where they apply.
+/// `kernel/model-label`, with " (white furnace)", " (upper triangle)" and " (rows aligned)"
+/// where they apply.
 fn pipeline_label(
     kernel: Kernel,
     source: &KernelSource,
     white_furnace: bool,
-    upper_triangle: bool,
+    walk: TableWalk,
 ) -> String {
     format!(
-        "{}/{}{}{}",
+        "{}/{}{}{}{}",
         kernel.name(),
         source.label,
         if white_furnace {
@@ -365,8 +379,13 @@ fn pipeline_label(
         } else {
             ""
         },
-        if upper_triangle {
+        if walk.upper_triangle {
             " (upper triangle)"
+        } else {
+            ""
+        },
+        if walk.row_aligned {
+            " (rows aligned)"
         } else {
             ""
         }
@@ -387,7 +406,7 @@ impl SpecConstants {
         source: &KernelSource,
         white_furnace: bool,
         fast_pow: bool,
-        upper_triangle: bool,
+        walk: TableWalk,
     ) -> SpecConstants {
         let kernel = p.kernel;
         // Constants 0-2 and FAST_POW_ID are every kernel's; 3.. are the model's component
@@ -404,8 +423,8 @@ impl SpecConstants {
             data.push(p.texel_directions as u32);
         }
         if kernel == Kernel::Table {
-            ids.push(UPPER_TRIANGLE_ID);
-            data.push(upper_triangle as u32);
+            ids.extend([UPPER_TRIANGLE_ID, ROW_ALIGNED_ID]);
+            data.extend([walk.upper_triangle as u32, walk.row_aligned as u32]);
         }
         if kernel == Kernel::Albedo {
             ids.push(LANE_PARTIALS_ID);
