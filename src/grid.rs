@@ -102,6 +102,19 @@ pub fn direction(theta: f64, phi: f64) -> DVec3 {
     )
 }
 
+/// The directions of every (θ, φ) pair of two axes, θ-major: [`direction`] of each pair, from
+/// each axis's sines and cosines taken once (the same products, so the same bits).
+fn direction_product(thetas: impl Iterator<Item = f64>, phis: &[f64]) -> Vec<DVec3> {
+    let phis: Vec<(f64, f64)> = phis.iter().map(|p| p.sin_cos()).collect();
+    thetas
+        .flat_map(|t| {
+            let (sin_t, cos_t) = t.sin_cos();
+            phis.iter()
+                .map(move |&(sin_p, cos_p)| DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t))
+        })
+        .collect()
+}
+
 impl Grid {
     /// Parses a resolution, comma-separated cell counts, for the grid kind `full`, `isotropic` or
     /// `halfdiff` (three numbers: the isotropic half; four: every angle).
@@ -257,12 +270,12 @@ impl Grid {
         match *self {
             Grid::Full {
                 n_theta_i, n_phi_i, ..
-            } => (0..n_theta_i)
-                .flat_map(|t| {
-                    (0..n_phi_i)
-                        .map(move |p| direction(theta_cell(t, n_theta_i), phi_cell(p, n_phi_i)))
-                })
-                .collect(),
+            } => direction_product(
+                (0..n_theta_i).map(|t| theta_cell(t, n_theta_i)),
+                &(0..n_phi_i)
+                    .map(|p| phi_cell(p, n_phi_i))
+                    .collect::<Vec<_>>(),
+            ),
             Grid::Isotropic { n_theta_i, .. } => (0..n_theta_i)
                 .map(|t| direction(theta_cell(t, n_theta_i), 0.0))
                 .collect(),
@@ -276,20 +289,20 @@ impl Grid {
         match *self {
             Grid::Full {
                 n_theta_o, n_phi_o, ..
-            } => (0..n_theta_o)
-                .flat_map(|t| {
-                    (0..n_phi_o)
-                        .map(move |p| direction(theta_cell(t, n_theta_o), phi_cell(p, n_phi_o)))
-                })
-                .collect(),
+            } => direction_product(
+                (0..n_theta_o).map(|t| theta_cell(t, n_theta_o)),
+                &(0..n_phi_o)
+                    .map(|p| phi_cell(p, n_phi_o))
+                    .collect::<Vec<_>>(),
+            ),
             Grid::Isotropic {
                 n_theta_o, n_dphi, ..
-            } => (0..n_theta_o)
-                .flat_map(|t| {
-                    (0..n_dphi)
-                        .map(move |d| direction(theta_cell(t, n_theta_o), dphi_cell(d, n_dphi)))
-                })
-                .collect(),
+            } => direction_product(
+                (0..n_theta_o).map(|t| theta_cell(t, n_theta_o)),
+                &(0..n_dphi)
+                    .map(|d| dphi_cell(d, n_dphi))
+                    .collect::<Vec<_>>(),
+            ),
             Grid::HalfDiff { .. } | Grid::HalfDiffFull { .. } => Vec::new(),
         }
     }
@@ -458,6 +471,64 @@ pub fn angles_deg(d: DVec3) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lists are [`direction`] of each cell's angles, to the bit, in row-major order.
+    #[test]
+    fn direction_lists_are_each_cells_direction() {
+        let grids = [
+            Grid::Full {
+                n_theta_i: 5,
+                n_phi_i: 12,
+                n_theta_o: 7,
+                n_phi_o: 9,
+            },
+            Grid::Isotropic {
+                n_theta_i: 6,
+                n_theta_o: 11,
+                n_dphi: 13,
+            },
+        ];
+        for grid in grids {
+            let (wi, wo) = (grid.wi_list(), grid.wo_list());
+            let [n_ti, n_pi, n_to, n_po] = match grid {
+                Grid::Full {
+                    n_theta_i,
+                    n_phi_i,
+                    n_theta_o,
+                    n_phi_o,
+                } => [n_theta_i, n_phi_i, n_theta_o, n_phi_o],
+                Grid::Isotropic {
+                    n_theta_i,
+                    n_theta_o,
+                    n_dphi,
+                } => [n_theta_i, 1, n_theta_o, n_dphi],
+                _ => unreachable!(),
+            };
+            let phi_o = |p| match grid {
+                Grid::Full { .. } => phi_cell(p, n_po),
+                _ => dphi_cell(p, n_po),
+            };
+            let phi_i = |p| match grid {
+                Grid::Full { .. } => phi_cell(p, n_pi),
+                _ => 0.0,
+            };
+            let want_i: Vec<DVec3> = (0..n_ti)
+                .flat_map(|t| (0..n_pi).map(move |p| (t, p)))
+                .map(|(t, p)| direction(theta_cell(t, n_ti), phi_i(p)))
+                .collect();
+            let want_o: Vec<DVec3> = (0..n_to)
+                .flat_map(|t| (0..n_po).map(move |p| (t, p)))
+                .map(|(t, p)| direction(theta_cell(t, n_to), phi_o(p)))
+                .collect();
+            let bits = |v: &[DVec3]| {
+                v.iter()
+                    .flat_map(|d| d.to_array().map(f64::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&wi), bits(&want_i), "{grid:?} light directions");
+            assert_eq!(bits(&wo), bits(&want_o), "{grid:?} view directions");
+        }
+    }
 
     /// Closed forms: sin and cos of the multiples of 90° are exactly 0 and ±1, and between
     /// them the reduced form agrees with the plain one to rounding.

@@ -16,12 +16,12 @@ struct CookTorranceParams {
 
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
 vec3 cook_torrance_from_sum(CookTorranceParams p, vec3 wi, vec3 wo, vec3 s) {
-    float c_d;
-    vec3 h = half_vector_from_sum(s, c_d);
+    float s2;
+    float c_d = half_sum(s, s2);
     float c_i = wi.z, c_o = wo.z;
     vec3 f = F_specular(c_d, vec3(p.r0), vec3(p.one_minus_r0));
-    vec2 d = vec2(D_beckmann(h, p.inv_alpha2, p.inv_alpha2, p.d_norm), 1.0);
-    float spec = specular_ratio(d, G_v_cavity(h.z, c_d, c_i, c_o), c_i, c_o);
+    vec2 d = vec2(D_beckmann(s, s2, p.inv_alpha2, p.inv_alpha2, p.d_norm), 1.0);
+    float spec = specular_ratio(d, G_v_cavity(s.z, c_d, c_i, c_o), c_i, c_o);
     return p.diffuse_over_pi + p.specular * f * spec;
 }
 

@@ -39,18 +39,22 @@ float microfacet_lambda(MicrofacetParams p, vec3 w) {
     return lambda_beckmann(alpha_sin2(w, p.alpha2_x, p.alpha2_y), w.z);
 }
 
-// D as (numerator, denominator).
-vec2 microfacet_d(MicrofacetParams p, vec3 h) {
-    if (MF_DISTRIBUTION == 0u) return vec2(D_beckmann(h, p.inv_alpha2_x, p.inv_alpha2_y, p.d_norm), 1.0);
-    float q = ggx_q(h, p.inv_alpha2_x, p.inv_alpha2_y);
+// D at h = s / |s| as (numerator, denominator), from s = wi + wo and s2 = |s|^2. For GGX,
+// ggx_q(h) = ggx_q(s) / s2: normalised by one division, since ggx_q(s)^2 and s2^2 apart scale as
+// |s|^4, which leaves f32's range where wi and wo are grazing and opposite (|s| ~ 1e-7).
+vec2 microfacet_d(MicrofacetParams p, vec3 s, float s2) {
+    if (MF_DISTRIBUTION == 0u) {
+        return vec2(D_beckmann(s, s2, p.inv_alpha2_x, p.inv_alpha2_y, p.d_norm), 1.0);
+    }
+    float q = ggx_q(s, p.inv_alpha2_x, p.inv_alpha2_y) / s2;
     return vec2(p.d_norm, q * q);
 }
 
 // G as (numerator, denominator), for V-cavity and Beckmann's two G1. With Walter's rational
 // G1 = n/d, Lambda = d/n - 1, so G_separable = n_i n_o / (d_i d_o) and
 // G_correlated = 1/(1 + Lambda_i + Lambda_o) = n_i n_o / (d_i n_o + d_o n_i - n_i n_o).
-vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
-    if (MF_MASKING == 0u) return G_v_cavity(h.z, c_d, wi.z, wo.z);
+vec2 microfacet_g(MicrofacetParams p, vec3 s, float c_d, vec3 wi, vec3 wo) {
+    if (MF_MASKING == 0u) return G_v_cavity(s.z, c_d, wi.z, wo.z);
     if (MF_BECKMANN_G1 == 1u) {
         vec2 gi = G1_beckmann_rational(alpha_sin2(wi, p.alpha2_x, p.alpha2_y), wi.z);
         vec2 go = G1_beckmann_rational(alpha_sin2(wo, p.alpha2_x, p.alpha2_y), wo.z);
@@ -70,7 +74,7 @@ vec2 microfacet_g(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
 //   V_SmithGGXCorrelated).
 // Neither divides nor cancels, and both stay finite as c_i or c_o goes to 0. The f64 twin
 // (microfacet.rs) keeps the form in Lambda.
-vec2 microfacet_vis(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
+vec2 microfacet_vis(MicrofacetParams p, vec3 s, float c_d, vec3 wi, vec3 wo) {
     float c_i = wi.z, c_o = wo.z;
     if (MF_MASKING != 0u && MF_DISTRIBUTION == 1u) {
         float s_i = sqrt(c_i * c_i + alpha_sin2(wi, p.alpha2_x, p.alpha2_y));
@@ -78,7 +82,7 @@ vec2 microfacet_vis(MicrofacetParams p, vec3 h, float c_d, vec3 wi, vec3 wo) {
         if (MF_MASKING == 1u) return vec2(1.0, (c_i + s_i) * (c_o + s_o));
         return vec2(0.5, c_o * s_i + c_i * s_o);
     }
-    vec2 g = microfacet_g(p, h, c_d, wi, wo);
+    vec2 g = microfacet_g(p, s, c_d, wi, wo);
     return vec2(g.x, 4.0 * c_i * c_o * g.y);
 }
 
@@ -91,16 +95,16 @@ vec3 microfacet_fresnel(MicrofacetParams p, float c_d) {
 
 // s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
 vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
-    float c_d;
-    vec3 h = half_vector_from_sum(s, c_d);
+    float s2;
+    float c_d = half_sum(s, s2);
     float c_i = wi.z, c_o = wo.z;
     // specular F, multiplied only where there is a Fresnel factor.
     vec3 weight = p.specular;
     if (!WHITE_FURNACE && MF_FRESNEL != 0u) weight *= microfacet_fresnel(p, c_d);
     // D G / (4 c_i c_o) with one division; for Beckmann (D's denominator 1) it rounds as
     // specular_ratio does in cook_torrance.
-    vec2 d = microfacet_d(p, h);
-    vec2 v = microfacet_vis(p, h, c_d, wi, wo);
+    vec2 d = microfacet_d(p, s, s2);
+    vec2 v = microfacet_vis(p, s, c_d, wi, wo);
     float spec = d.x * v.x / (d.y * v.y);
     // Summed in cook_torrance's order (specular * F first), so that cook_torrance equals its
     // microfacet configuration to the last bit; the f64 twin sums the same way.

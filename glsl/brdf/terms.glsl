@@ -61,6 +61,15 @@ vec3 half_vector(vec3 wi, vec3 wo, out float c_d) {
     return half_vector_from_sum(wi + wo, c_d);
 }
 
+// The sum s = wi + wo as the microfacet terms take it, not normalised: returns
+// c_d = wi.h = |s| / 2 (as half_vector_from_sum) with one square root, and |s|^2 in s2. D and
+// the V-cavity G below read h = s / |s| through s, so that no inverse square root is spent on h.
+// The f64 twin is half_vector_from_sum in terms.rs.
+float half_sum(vec3 s, out float s2) {
+    s2 = dot(s, s);
+    return 0.5 * sqrt(s2);
+}
+
 // D G / (4 c_i c_o) for D = d.x / d.y and G = g.x / g.y: one division for the specular lobe.
 float specular_ratio(vec2 d, vec2 g, float c_i, float c_o) {
     return d.x * g.x / (4.0 * c_i * c_o * d.y * g.y);
@@ -97,18 +106,22 @@ vec3 F_specular(float c, vec3 r0, vec3 one_minus_r0) {
 
 // Beckmann distribution (Beckmann & Spizzichino 1963; Cook & Torrance 1982, eq. 4), anisotropic
 // as in Heitz 2014 ("Understanding the masking-shadowing function", eq. 84), RMS slopes ax, ay:
-// D = exp(-(h_x^2/ax^2 + h_y^2/ay^2) / h_z^2) / (pi ax ay h_z^4).
-// The exponent is tan^2(theta_h) weighted by azimuth, taken from h_x^2 and h_y^2 over h_z^2
+// D = exp(-(h_x^2/ax^2 + h_y^2/ay^2) / h_z^2) / (pi ax ay h_z^4), at h = s / |s|, taken from
+// s = wi + wo (s.z > 0) and s2 = |s|^2 (half_sum) without forming h: the exponent is
+// (s_x^2/ax^2 + s_y^2/ay^2) / s_z^2 and 1/h_z^2 = s2 / s_z^2, so one reciprocal of s_z^2 serves
+// both. The exponent is tan^2(theta_h) weighted by azimuth, taken from the tangential components
 // rather than (1 - c_h^2) / c_h^2, which cancels catastrophically in f32 when h is close to n.
+// The f64 twin (D_beckmann in terms.rs) takes h.
 // The roughness enters through constants the host computes once per parameter set:
-// inv_alpha2_x = 1/ax^2, inv_alpha2_y = 1/ay^2 and d_norm = 1/(pi ax ay). One reciprocal of h_z^2
-// serves the exponent and the 1/h_z^4. Where exp(-e) underflows D is 0 (1/h_z^2 may be +inf
-// there, at a grazing h). Where exp(-e) > 0: e >= (1/h_z^2 - 1) / max(ax, ay)^2 and e < 104 bound
-// 1/h_z^2 by 1 + 104 max(ax, ay)^2 <= 105, so the product stays finite.
-float D_beckmann(vec3 h, float inv_alpha2_x, float inv_alpha2_y, float d_norm) {
-    float inv_ch2 = 1.0 / (h.z * h.z);
-    float e = (h.x * h.x * inv_alpha2_x + h.y * h.y * inv_alpha2_y) * inv_ch2;
+// inv_alpha2_x = 1/ax^2, inv_alpha2_y = 1/ay^2 and d_norm = 1/(pi ax ay). Where exp(-e)
+// underflows D is 0 (1/h_z^2 may be +inf there, at a grazing h). Where exp(-e) > 0:
+// e >= (1/h_z^2 - 1) / max(ax, ay)^2 and e < 104 bound 1/h_z^2 by 1 + 104 max(ax, ay)^2 <= 105,
+// so the product stays finite.
+float D_beckmann(vec3 s, float s2, float inv_alpha2_x, float inv_alpha2_y, float d_norm) {
+    float inv_sz2 = 1.0 / (s.z * s.z);
+    float e = (s.x * s.x * inv_alpha2_x + s.y * s.y * inv_alpha2_y) * inv_sz2;
     float peak = exp(-e);
+    float inv_ch2 = s2 * inv_sz2;
     return peak == 0.0 ? 0.0 : peak * d_norm * (inv_ch2 * inv_ch2);
 }
 
@@ -157,11 +170,13 @@ vec2 G1_beckmann_rational(float q, float c) {
     return vec2(c * (3.535 * r + 2.181 * c), q + c * (2.276 * r + 2.577 * c));
 }
 
-// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d), as
-// (numerator, denominator) = (min(c_d, 2 c_h min(c_i, c_o)), c_d), so that the caller folds c_d
-// into its own denominator.
-vec2 G_v_cavity(float c_h, float c_d, float c_i, float c_o) {
-    return vec2(min(c_d, 2.0 * c_h * min(c_i, c_o)), c_d);
+// Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d), from
+// s = wi + wo: with c_h = s_z / |s| = s_z / (2 c_d), as (numerator, denominator) =
+// (min(c_d^2, s_z min(c_i, c_o)), c_d^2), so that the caller folds c_d^2 into its own
+// denominator and no division is spent on c_h. The f64 twin (G_v_cavity in terms.rs) takes c_h.
+vec2 G_v_cavity(float s_z, float c_d, float c_i, float c_o) {
+    float c_d2 = c_d * c_d;
+    return vec2(min(c_d2, s_z * min(c_i, c_o)), c_d2);
 }
 
 // Exact unpolarized Fresnel reflectance of a dielectric with relative IOR eta (Walter et al.
