@@ -490,28 +490,20 @@ mod tests {
         ];
         for grid in grids {
             let (wi, wo) = (grid.wi_list(), grid.wo_list());
-            let [n_ti, n_pi, n_to, n_po] = match grid {
-                Grid::Full {
-                    n_theta_i,
-                    n_phi_i,
-                    n_theta_o,
-                    n_phi_o,
-                } => [n_theta_i, n_phi_i, n_theta_o, n_phi_o],
-                Grid::Isotropic {
-                    n_theta_i,
-                    n_theta_o,
-                    n_dphi,
-                } => [n_theta_i, 1, n_theta_o, n_dphi],
+            let full = matches!(grid, Grid::Full { .. });
+            let [n_ti, n_pi, n_to, n_po] = match grid.shape()[..] {
+                [a, b, c, d] => [a, b, c, d],
+                [a, c, d] => [a, 1, c, d],
                 _ => unreachable!(),
             };
-            let phi_o = |p| match grid {
-                Grid::Full { .. } => phi_cell(p, n_po),
-                _ => dphi_cell(p, n_po),
+            let phi_o = |p| {
+                if full {
+                    phi_cell(p, n_po)
+                } else {
+                    dphi_cell(p, n_po)
+                }
             };
-            let phi_i = |p| match grid {
-                Grid::Full { .. } => phi_cell(p, n_pi),
-                _ => 0.0,
-            };
+            let phi_i = |p| if full { phi_cell(p, n_pi) } else { 0.0 };
             let want_i: Vec<DVec3> = (0..n_ti)
                 .flat_map(|t| (0..n_pi).map(move |p| (t, p)))
                 .map(|(t, p)| direction(theta_cell(t, n_ti), phi_i(p)))
