@@ -165,9 +165,9 @@ float lambda_beckmann(float q, float c) {
 // Both multiplied by q, with r = sqrt(q): c (3.535 r + 2.181 c) / (q + 2.276 c r + 2.577 c^2), so
 // that a costs no division (the f64 twin, G1_beckmann_rational in terms.rs, keeps the form in a).
 vec2 G1_beckmann_rational(float q, float c) {
-    if (q <= 0.0 || c * c >= 2.56 * q) return vec2(1.0);
     float r = sqrt(q);
-    return vec2(c * (3.535 * r + 2.181 * c), q + c * (2.276 * r + 2.577 * c));
+    vec2 g = vec2(c * (3.535 * r + 2.181 * c), q + c * (2.276 * r + 2.577 * c));
+    return q <= 0.0 || c * c >= 2.56 * q ? vec2(1.0) : g;
 }
 
 // Cook-Torrance's V-cavity masking-shadowing: min(1, 2 c_h c_o / c_d, 2 c_h c_i / c_d), from

@@ -39,6 +39,12 @@ layout(constant_id = 22) const bool UPPER_TRIANGLE = false;
 // roughconductor table kernel ran x1.13 faster. A constant, not a test on the push constants:
 // a uniform branch between the two loops measured slower than either.
 layout(constant_id = 23) const bool ROW_ALIGNED = false;
+// With ROW_ALIGNED and 8 evaluations per invocation: the invocation's 8 view directions are read
+// first and its 8 evaluations follow as one stretch of straight code (brdf() has no branch), which
+// the compiler interleaves. On lavapipe from Mesa 22.3.6 the roughconductor table kernel ran x1.5
+// faster; Mesa 25.0.7's code for it spills and ran x0.85, so the host sets it only where it
+// measured a gain (src/gpu/mod.rs, table_interleaves).
+layout(constant_id = 24) const bool INTERLEAVED = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };
 layout(std430, set = 0, binding = 1) readonly buffer LightDirs { vec4 wi_list[]; };
@@ -52,10 +58,12 @@ layout(set = 0, binding = 5) uniform samplerBuffer wo_texels;
 // chunk; n_wo, n_wi: the lists' lengths. Twin of TablePush (src/gpu/pipeline.rs).
 layout(push_constant) uniform Chunk { uint first; uint count; uint n_wo; uint n_wi; } chunk;
 
-// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl).
+// docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0 (as in kernels/eval.glsl), chosen
+// after the model's value rather than branched around it, so that INTERLEAVED's evaluations are
+// one stretch of code.
 vec3 brdf(MODEL_PARAMS p, vec3 wi, vec3 wo) {
-    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);
-    return MODEL_EVAL(p, wi, wo);
+    vec3 f = MODEL_EVAL(p, wi, wo);
+    return wi.z > 0.0 && wo.z > 0.0 ? f : vec3(0.0);
 }
 
 vec3 light_dir(uint i) {
@@ -103,6 +111,24 @@ void main() {
     uint last_i = chunk.n_wi - 1u;
     vec3 wi = light_dir(min(i, last_i));
     uint out_index = 3u * (local0 / 4u);
+    if (INTERLEAVED && EVALS_PER_INVOCATION == 8u) {
+        // Every view direction first, then every evaluation, then the stores: one stretch of
+        // code without calls or branches, which the compiler interleaves, so that one
+        // evaluation's chain of square roots and divisions overlaps the others'.
+        vec3 wo0 = view_dir(o), wo1 = view_dir(o + 1u), wo2 = view_dir(o + 2u),
+             wo3 = view_dir(o + 3u), wo4 = view_dir(o + 4u), wo5 = view_dir(o + 5u),
+             wo6 = view_dir(o + 6u), wo7 = view_dir(o + 7u);
+        vec3 f0 = brdf(p, wi, wo0), f1 = brdf(p, wi, wo1), f2 = brdf(p, wi, wo2),
+             f3 = brdf(p, wi, wo3), f4 = brdf(p, wi, wo4), f5 = brdf(p, wi, wo5),
+             f6 = brdf(p, wi, wo6), f7 = brdf(p, wi, wo7);
+        f_out[out_index + 0u] = vec4(f0, f1.r);
+        f_out[out_index + 1u] = vec4(f1.gb, f2.rg);
+        f_out[out_index + 2u] = vec4(f2.b, f3);
+        f_out[out_index + 3u] = vec4(f4, f5.r);
+        f_out[out_index + 4u] = vec4(f5.gb, f6.rg);
+        f_out[out_index + 5u] = vec4(f6.b, f7);
+        return;
+    }
     for (uint q = 0u; q < EVALS_PER_INVOCATION / 4u; ++q) {
         vec3 f[4];
         for (uint r = 0u; r < 4u; ++r) {

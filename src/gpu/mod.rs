@@ -271,9 +271,13 @@ impl Gpu {
             wo.len()
         };
         let evals = pipeline::evals_per_invocation(Kernel::Table, self.dev.cpu_kernels());
+        let row_aligned = row.is_multiple_of(evals as usize);
         let walk = TableWalk {
             upper_triangle,
-            row_aligned: row.is_multiple_of(evals as usize),
+            row_aligned,
+            interleaved: row_aligned
+                && evals == 8
+                && table_interleaves(self.dev.cpu_kernels(), self.dev.driver()),
         };
         let pipe = self.pipeline_keyed((
             Kernel::Table,
@@ -366,6 +370,26 @@ fn table_cells(n_wi: u64, n_wo: u64, upper_triangle: bool) -> Result<u64> {
     Ok(crate::backend::UpperTriangle::new(n_wi, n_dphi).cells())
 }
 
+/// Whether the table kernel runs a row-aligned invocation's 8 evaluations as one interleaved
+/// stretch of code (INTERLEAVED in glsl/kernels/table.comp) on a device with this `driver`
+/// ("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"): on CPU drivers before Mesa 25, where it was measured
+/// faster (the out-of-order core then overlaps one evaluation's chain of square roots and
+/// divisions with the next one's). Mesa 25.0.7 compiles it with many more spills and ran it
+/// slower; on a GPU, other invocations hide that latency.
+pub fn table_interleaves(cpu_driver: bool, driver: &str) -> bool {
+    cpu_driver && mesa_major(driver).is_some_and(|major| major < 25)
+}
+
+/// The major release of Mesa named in a driver string ("llvmpipe Mesa 22.3.6 …" → 22).
+fn mesa_major(driver: &str) -> Option<u32> {
+    let after = driver.split_once("Mesa ")?.1;
+    after
+        .split(|c: char| !c.is_ascii_digit())
+        .next()?
+        .parse()
+        .ok()
+}
+
 /// How the table kernel runs on a device: the host's choices, made once per job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TableChoice {
@@ -400,5 +424,31 @@ pub fn table_choice(
             texel_directions: false,
             chunk_bytes: CHUNK_OUTPUT_BYTES,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The drivers this rule was measured on, and strings without a Mesa release.
+    #[test]
+    fn interleaving_follows_the_mesa_release() {
+        assert_eq!(mesa_major("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"), Some(22));
+        assert_eq!(
+            mesa_major("llvmpipe Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
+            Some(25)
+        );
+        assert_eq!(mesa_major("NVIDIA 560.35.03"), None);
+        assert!(table_interleaves(
+            true,
+            "llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"
+        ));
+        assert!(!table_interleaves(
+            true,
+            "llvmpipe Mesa 25.0.7 (LLVM 15.0.6)"
+        ));
+        assert!(!table_interleaves(false, "radv Mesa 22.3.6"));
+        assert!(!table_interleaves(true, "an unknown CPU driver"));
     }
 }

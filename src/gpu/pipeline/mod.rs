@@ -120,13 +120,21 @@ pub const UPPER_TRIANGLE_ID: u32 = 22;
 /// lie in one row of the table.
 pub const ROW_ALIGNED_ID: u32 = 23;
 
-/// How the table kernel walks its cells: its UPPER_TRIANGLE and ROW_ALIGNED constants.
+/// Specialization constant id of INTERLEAVED (glsl/kernels/table.comp): a row-aligned
+/// invocation's evaluations run as one interleaved stretch of code.
+pub const INTERLEAVED_ID: u32 = 24;
+
+/// How the table kernel walks its cells: its UPPER_TRIANGLE, ROW_ALIGNED and INTERLEAVED
+/// constants.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TableWalk {
     /// The packed upper triangle of a reciprocal isotropic table (docs/design.md §4.5).
     pub upper_triangle: bool,
     /// A row's view cells are a multiple of the evaluations per invocation.
     pub row_aligned: bool,
+    /// With `row_aligned`: the invocation reads its view directions first and evaluates them as
+    /// one stretch of code ([`crate::gpu::table_interleaves`] says where).
+    pub interleaved: bool,
 }
 
 /// Whether the albedo kernel writes one partial sum per invocation (LANE_PARTIALS) rather than
@@ -362,8 +370,8 @@ fn read_spirv(source: &KernelSource) -> Result<Vec<u32>> {
     })
 }
 
-/// `kernel/model-label`, with " (white furnace)", " (upper triangle)" and " (rows aligned)"
-/// where they apply.
+/// `kernel/model-label`, with " (white furnace)", " (upper triangle)", " (rows aligned)" and
+/// " (interleaved)" where they apply.
 fn pipeline_label(
     kernel: Kernel,
     source: &KernelSource,
@@ -371,7 +379,7 @@ fn pipeline_label(
     walk: TableWalk,
 ) -> String {
     format!(
-        "{}/{}{}{}{}",
+        "{}/{}{}{}{}{}",
         kernel.name(),
         source.label,
         if white_furnace {
@@ -386,6 +394,11 @@ fn pipeline_label(
         },
         if walk.row_aligned {
             " (rows aligned)"
+        } else {
+            ""
+        },
+        if walk.interleaved {
+            " (interleaved)"
         } else {
             ""
         }
@@ -423,8 +436,12 @@ impl SpecConstants {
             data.push(p.texel_directions as u32);
         }
         if kernel == Kernel::Table {
-            ids.extend([UPPER_TRIANGLE_ID, ROW_ALIGNED_ID]);
-            data.extend([walk.upper_triangle as u32, walk.row_aligned as u32]);
+            ids.extend([UPPER_TRIANGLE_ID, ROW_ALIGNED_ID, INTERLEAVED_ID]);
+            data.extend([
+                walk.upper_triangle as u32,
+                walk.row_aligned as u32,
+                walk.interleaved as u32,
+            ]);
         }
         if kernel == Kernel::Albedo {
             ids.push(LANE_PARTIALS_ID);
