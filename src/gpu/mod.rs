@@ -277,6 +277,7 @@ impl Gpu {
             row_aligned,
             interleaved: row_aligned
                 && evals == 8
+                && model.info().interleave_table
                 && table_interleaves(self.dev.cpu_kernels(), self.dev.driver()),
         };
         let pipe = self.pipeline_keyed((

@@ -115,6 +115,7 @@ pub const INFO: ModelInfo = ModelInfo {
     is_isotropic,
     sampling_lobes: ashikhmin_shirley_lobes,
     v_cavity: no_v_cavity,
+    interleave_table: true,
 };
 
 /// The parameter edges `lobe stability` sweeps.

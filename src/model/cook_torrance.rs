@@ -104,6 +104,7 @@ pub const INFO: ModelInfo = ModelInfo {
     is_isotropic: always_isotropic,
     sampling_lobes: cook_torrance_lobes,
     v_cavity: |_| true,
+    interleave_table: false,
 };
 
 /// The parameter edges `lobe stability` sweeps.

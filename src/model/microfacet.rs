@@ -232,6 +232,7 @@ pub const INFO: ModelInfo = ModelInfo {
     is_isotropic,
     sampling_lobes: microfacet_lobes,
     v_cavity: has_v_cavity,
+    interleave_table: true,
 };
 
 /// |x| of Beckmann's exp(−(h_x²/α_x² + h_y²/α_y²)/h_z²) at (ωi, ωo); GGX has no exponential.

@@ -81,6 +81,7 @@ pub const INFO: ModelInfo = ModelInfo {
     is_isotropic: always_isotropic,
     sampling_lobes: no_lobes,
     v_cavity: no_v_cavity,
+    interleave_table: false,
 };
 
 /// The parameter edges `lobe stability` sweeps.

@@ -84,6 +84,7 @@ pub const INFO: ModelInfo = ModelInfo {
     is_isotropic: always_isotropic,
     sampling_lobes: phong_lobes,
     v_cavity: no_v_cavity,
+    interleave_table: false,
 };
 
 /// The parameter edges `lobe stability` sweeps.

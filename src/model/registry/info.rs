@@ -64,6 +64,11 @@ pub struct ModelInfo {
     /// Whether f carries the V-cavity masking min(1, 2 c_h min(c_i, c_o)/c_d), whose kinks the
     /// `peak` rule puts on panel edges (a component choice for `microfacet`).
     pub v_cavity: fn(Model) -> bool,
+    /// Whether one evaluation is a long chain of square roots and divisions (Ashikhmin–Shirley,
+    /// EON, the microfacet model): the table kernel runs 8 of them interleaved on the CPU drivers
+    /// that gain from it (INTERLEAVED, `gpu::table_interleaves`). Lighter models ran
+    /// slower so (docs/design.md §6.3).
+    pub interleave_table: bool,
 }
 
 /// [`ModelInfo::exponent`] of a model without exponentials.

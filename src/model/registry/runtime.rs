@@ -206,6 +206,7 @@ impl RuntimeModel {
                 is_isotropic: runtime_isotropic,
                 sampling_lobes: no_lobes,
                 v_cavity: no_v_cavity,
+                interleave_table: false,
             },
             isotropic,
             kernels: BTreeMap::new(),
