@@ -10,9 +10,12 @@ import time
 import pytest
 
 CHILD = textwrap.dedent("""
-    import sys, time
+    import signal, sys, time
     import numpy as np
     import lobe
+    # Python's own Ctrl-C handler, even where this process was started with SIGINT ignored (as a
+    # shell without job control starts background commands), which Python would then keep.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     s = lobe.Session(backend="cpu")
     job, out = sys.argv[1], sys.argv[2]
     print("start", flush=True)
