@@ -472,53 +472,23 @@ pub fn angles_deg(d: DVec3) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    /// The lists are [`direction`] of each cell's angles, to the bit, in row-major order.
+    /// The lists hold each cell's pair ([`Grid::pair_at`], [`direction`] of its angles) to the
+    /// bit: cell k has light direction k / NWO and view direction k % NWO.
     #[test]
-    fn direction_lists_are_each_cells_direction() {
+    fn direction_lists_are_each_cells_directions() {
         let grids = [
-            Grid::Full {
-                n_theta_i: 5,
-                n_phi_i: 12,
-                n_theta_o: 7,
-                n_phi_o: 9,
-            },
-            Grid::Isotropic {
-                n_theta_i: 6,
-                n_theta_o: 11,
-                n_dphi: 13,
-            },
+            Grid::parse("full", "5,12,7,9"),
+            Grid::parse("isotropic", "6,11,13"),
         ];
-        for grid in grids {
+        let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+        for grid in grids.map(Result::unwrap) {
             let (wi, wo) = (grid.wi_list(), grid.wo_list());
-            let full = matches!(grid, Grid::Full { .. });
-            let [n_ti, n_pi, n_to, n_po] = match grid.shape()[..] {
-                [a, b, c, d] => [a, b, c, d],
-                [a, c, d] => [a, 1, c, d],
-                _ => unreachable!(),
-            };
-            let phi_o = |p| {
-                if full {
-                    phi_cell(p, n_po)
-                } else {
-                    dphi_cell(p, n_po)
-                }
-            };
-            let phi_i = |p| if full { phi_cell(p, n_pi) } else { 0.0 };
-            let want_i: Vec<DVec3> = (0..n_ti)
-                .flat_map(|t| (0..n_pi).map(move |p| (t, p)))
-                .map(|(t, p)| direction(theta_cell(t, n_ti), phi_i(p)))
-                .collect();
-            let want_o: Vec<DVec3> = (0..n_to)
-                .flat_map(|t| (0..n_po).map(move |p| (t, p)))
-                .map(|(t, p)| direction(theta_cell(t, n_to), phi_o(p)))
-                .collect();
-            let bits = |v: &[DVec3]| {
-                v.iter()
-                    .flat_map(|d| d.to_array().map(f64::to_bits))
-                    .collect::<Vec<_>>()
-            };
-            assert_eq!(bits(&wi), bits(&want_i), "{grid:?} light directions");
-            assert_eq!(bits(&wo), bits(&want_o), "{grid:?} view directions");
+            for cell in 0..grid.cells().unwrap() {
+                let (k, n) = (cell as usize, wo.len());
+                let (a, b) = grid.pair_at(cell);
+                assert_eq!(bits(wi[k / n]), bits(a), "{grid:?} cell {cell}");
+                assert_eq!(bits(wo[k % n]), bits(b), "{grid:?} cell {cell}");
+            }
         }
     }
 
