@@ -128,7 +128,8 @@ float D_beckmann(vec3 s, float s2, float inv_alpha2_x, float inv_alpha2_y, float
 // GGX / Trowbridge-Reitz (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):
 // D = 1 / (pi ax ay (h_x^2/ax^2 + h_y^2/ay^2 + h_z^2)^2) = d_norm / ggx_q(h)^2, with the host's
 // inv_alpha2_x, inv_alpha2_y and d_norm as for D_beckmann. The caller divides, so that D's
-// denominator joins the common one of the specular lobe.
+// denominator joins the common one of the specular lobe. Homogeneous of degree 2: for an
+// unnormalised s = |s| h, ggx_q(s) = |s|^2 ggx_q(h) (microfacet_d takes it so).
 float ggx_q(vec3 h, float inv_alpha2_x, float inv_alpha2_y) {
     return h.x * h.x * inv_alpha2_x + h.y * h.y * inv_alpha2_y + h.z * h.z;
 }
