@@ -323,7 +323,6 @@ impl<'a> Evaluator<'a> {
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
         let (wi, wo) = (grid.wi_list(), grid.wo_list());
-        let mut scratch = Vec::new();
         self.backend.table_upper_triangle(
             query,
             &wi,
@@ -332,7 +331,7 @@ impl<'a> Evaluator<'a> {
             self.cancel,
             &mut |first, values| {
                 self.spread_checked(query.params(), grid, values, sink, &mut |to| {
-                    triangle.scatter(first, values, &mut scratch, to)
+                    triangle.scatter(first, values, to)
                 })
             },
         )

@@ -5,9 +5,9 @@
 //! (i, o, d) for o = i .. n − 1 and every d, that is the view cells i · NDPHI .. n · NDPHI − 1.
 //!
 //! [`UpperTriangle::scatter`] turns one chunk of packed cells into runs of the table: each row
-//! segment is a run, and the mirror images of the chunk's cells (o, i, d), o > i, make one run
-//! per destination row o, since for fixed o they are consecutive in (i, d). A chunk therefore
-//! needs at most its own size again in scratch memory, whatever the table's size.
+//! segment is a run, and so is each Δφ run of the chunk's cells (i, o, ·), o > i, read again as
+//! its mirror image (o, i, ·). The runs are slices of the chunk itself: the mirror images take no
+//! memory and no copy of their own.
 
 use super::TableSink;
 use anyhow::Result;
@@ -62,58 +62,40 @@ impl UpperTriangle {
 
     /// Hands packed cells `first ..` (`values`: 3 f32 per cell) to `sink` as runs of the table
     /// (first table cell, values): the cells themselves, then their mirror images, each cell of
-    /// the table once over all chunks. `scratch` holds the mirror images between calls (its
-    /// memory is reused; it grows to at most `values.len()`).
-    pub fn scatter(
-        &self,
-        first: u64,
-        values: &[f32],
-        scratch: &mut Vec<f32>,
-        sink: &mut TableSink<'_>,
-    ) -> Result<()> {
+    /// the table once over all chunks. Every run is a slice of `values`: a mirror image (o, i, ·)
+    /// is the chunk's Δφ run of (i, o, ·), so nothing is copied here. A destination row o gets
+    /// its runs in order of i, one after the other in the table.
+    pub fn scatter(&self, first: u64, values: &[f32], sink: &mut TableSink<'_>) -> Result<()> {
         let (n, nd) = (self.n, self.n_dphi);
         let n_wo = n * nd;
         let count = values.len() as u64 / 3;
         if count == 0 {
             return Ok(());
         }
+        let cells = |from: u64, len: u64| &values[(from * 3) as usize..((from + len) * 3) as usize];
         // The chunk's row segments: (row, first view cell, end view cell, offset in the chunk).
         let mut segments = Vec::new();
         let (mut i, mut v) = self.locate(first);
         let mut offset = 0u64;
         while offset < count {
             let take = (n_wo - v).min(count - offset);
-            let run = &values[(offset * 3) as usize..((offset + take) * 3) as usize];
-            sink(i * n_wo + v, run)?;
+            sink(i * n_wo + v, cells(offset, take))?;
             segments.push((i, v, v + take, offset));
             offset += take;
             i += 1;
             v = i * nd;
         }
-        // Mirror images, one run per destination row o: (o, i, d) for the chunk's rows i < o.
-        scratch.clear();
-        let mut runs = Vec::new();
+        // Mirror images: (o, i, d) for the chunk's rows i < o, destination row by row.
         for o in segments[0].0 + 1..n {
-            let start = scratch.len();
-            let mut dest = None;
             for &(i, va, vb, offset) in segments.iter().take_while(|s| s.0 < o) {
                 let (lo, hi) = ((o * nd).max(va), ((o + 1) * nd).min(vb));
-                if lo >= hi {
-                    continue;
+                if lo < hi {
+                    sink(
+                        o * n_wo + i * nd + (lo - o * nd),
+                        cells(offset + lo - va, hi - lo),
+                    )?;
                 }
-                let at = o * n_wo + i * nd + (lo - o * nd);
-                debug_assert!(dest.is_none_or(|(d, len): (u64, u64)| d + len == at));
-                let len = dest.map_or(0, |(_, len)| len) + (hi - lo);
-                dest = Some((dest.map_or(at, |(d, _)| d), len));
-                let from = (offset + lo - va) * 3;
-                scratch.extend_from_slice(&values[from as usize..(from + (hi - lo) * 3) as usize]);
             }
-            if let Some((d, _)) = dest {
-                runs.push((d, start, scratch.len()));
-            }
-        }
-        for (dest, a, b) in runs {
-            sink(dest, &scratch[a..b])?;
         }
         Ok(())
     }
@@ -174,7 +156,7 @@ mod tests {
                     t.table_cells() as usize,
                     &packed,
                     chunk,
-                    &mut |first, values, scratch, sink| t.scatter(first, values, scratch, sink),
+                    &mut |first, values, _, sink| t.scatter(first, values, sink),
                 );
                 assert!(seen.iter().all(|&s| s == 1), "n {n} nd {nd} chunk {chunk}");
                 for a in 0..n {
