@@ -1,6 +1,7 @@
 //! The table kernel (glsl/kernels/table.comp) is shaped for throughput: several cells per
 //! invocation, a wrap from one light direction to the next inside an invocation, texel-buffer
-//! direction lists on CPU drivers, vec4 stores, padded last invocations, double-buffered chunks.
+//! direction lists on CPU drivers, vec4 stores, padded last invocations, double-buffered chunks
+//! in buffers kept from one table to the next.
 //! None of that may change a value: every cell must be bit-identical to evaluating its (ωi, ωo)
 //! pair alone, which the pairs kernel does (one pair per evaluation, the same `brdf()` on the
 //! same f32 directions).
@@ -113,5 +114,15 @@ fn a_table_of_several_chunks_equals_its_pairs() {
     let (table, single) = both(&gpu, &params, &grid);
     assert_eq!(table.len(), single.len());
     assert_eq!(first_difference(&table, &single), None);
+    // The runner keeps its chunk buffers from one table to the next: a small table then runs
+    // in the big one's buffers, which still hold the big table's values, and the big table
+    // runs again in them.
+    let small = Grid::parse("isotropic", "7,5,9").unwrap();
+    let (small_table, small_single) = both(&gpu, &params, &small);
+    assert_eq!(small_table.len(), small_single.len());
+    assert_eq!(first_difference(&small_table, &small_single), None);
+    let (again, _) = both(&gpu, &params, &grid);
+    assert_eq!(first_difference(&again, &table), None);
+    assert_eq!(again.len(), table.len());
     common::assert_validation_clean(&gpu, "a_table_of_several_chunks_equals_its_pairs");
 }
