@@ -51,12 +51,15 @@ fn first_difference(a: &[u32], b: &[u32]) -> Option<usize> {
     a.iter().zip(b).position(|(x, y)| x != y)
 }
 
-/// Every model on small grids with odd list lengths: rows end inside an invocation and the
-/// last invocation is padded.
+/// Every model on small grids with odd list lengths (rows end inside an invocation and the
+/// last invocation is padded) and with rows of 64 and 32 view cells (on a CPU driver as many
+/// evaluations per invocation, rows aligned, interleaved where the model and driver are).
 fn every_cell_of_every_model(gpu: &Gpu) {
     let grids = [
         Grid::parse("isotropic", "7,5,9").unwrap(),
         Grid::parse("full", "3,5,7,3").unwrap(),
+        Grid::parse("isotropic", "3,2,32").unwrap(),
+        Grid::parse("full", "2,3,4,8").unwrap(),
     ];
     for model in Model::ALL {
         let params = ParamSet::defaults(model);

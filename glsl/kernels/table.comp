@@ -24,7 +24,8 @@
 #include "model.glsl"
 
 layout(local_size_x_id = 1) in;
-// Evaluations per invocation: a multiple of 4 (the host picks 8 on a CPU driver, 4 on a GPU).
+// Evaluations per invocation: a multiple of 4 (on a CPU driver the host picks the largest of 64,
+// 32, 16 and 8 that divides a row, else 8; 4 on a GPU: pipeline::table_evals_per_invocation).
 layout(constant_id = 2) const uint EVALS_PER_INVOCATION = 8u;
 // Read the direction lists through the texel buffers of bindings 4 and 5 instead of the storage
 // buffers of bindings 1 and 2 (the host turns it on where the lists fit maxTexelBufferElements).
@@ -39,9 +40,9 @@ layout(constant_id = 22) const bool UPPER_TRIANGLE = false;
 // roughconductor table kernel ran x1.13 faster. A constant, not a test on the push constants:
 // a uniform branch between the two loops measured slower than either.
 layout(constant_id = 23) const bool ROW_ALIGNED = false;
-// With ROW_ALIGNED and 8 evaluations per invocation: the invocation's 8 view directions are read
-// first and its 8 evaluations follow as one stretch of straight code (brdf() has no branch), which
-// the compiler interleaves. On lavapipe from Mesa 22.3.6 the roughconductor table kernel ran x1.46
+// With ROW_ALIGNED and a multiple of 8 evaluations per invocation: 8 view directions at a time
+// are read first and their 8 evaluations follow as one stretch of straight code (brdf() has no
+// branch), which the compiler interleaves. On lavapipe from Mesa 22.3.6 the roughconductor table kernel ran x1.46
 // faster; Mesa 25.0.7's code for it spills and ran x0.85, and lighter models ran slower, so the
 // host sets it only for the models and drivers where it measured a gain (src/gpu/mod.rs,
 // table_interleaves; ModelInfo::interleave_table).
@@ -112,22 +113,26 @@ void main() {
     uint last_i = chunk.n_wi - 1u;
     vec3 wi = light_dir(min(i, last_i));
     uint out_index = 3u * (local0 / 4u);
-    if (INTERLEAVED && EVALS_PER_INVOCATION == 8u) {
-        // Every view direction first, then every evaluation, then the stores: one stretch of
-        // code without calls or branches, which the compiler interleaves, so that one
-        // evaluation's chain of square roots and divisions overlaps the others'.
-        vec3 wo0 = view_dir(o), wo1 = view_dir(o + 1u), wo2 = view_dir(o + 2u),
-             wo3 = view_dir(o + 3u), wo4 = view_dir(o + 4u), wo5 = view_dir(o + 5u),
-             wo6 = view_dir(o + 6u), wo7 = view_dir(o + 7u);
-        vec3 f0 = brdf(p, wi, wo0), f1 = brdf(p, wi, wo1), f2 = brdf(p, wi, wo2),
-             f3 = brdf(p, wi, wo3), f4 = brdf(p, wi, wo4), f5 = brdf(p, wi, wo5),
-             f6 = brdf(p, wi, wo6), f7 = brdf(p, wi, wo7);
-        f_out[out_index + 0u] = vec4(f0, f1.r);
-        f_out[out_index + 1u] = vec4(f1.gb, f2.rg);
-        f_out[out_index + 2u] = vec4(f2.b, f3);
-        f_out[out_index + 3u] = vec4(f4, f5.r);
-        f_out[out_index + 4u] = vec4(f5.gb, f6.rg);
-        f_out[out_index + 5u] = vec4(f6.b, f7);
+    if (INTERLEAVED && EVALS_PER_INVOCATION % 8u == 0u) {
+        // 8 cells at a time: every view direction first, then every evaluation, then the stores:
+        // one stretch of code without calls or branches, which the compiler interleaves, so that
+        // one evaluation's chain of square roots and divisions overlaps the others'.
+        for (uint g = 0u; g < EVALS_PER_INVOCATION / 8u; ++g) {
+            vec3 wo0 = view_dir(o), wo1 = view_dir(o + 1u), wo2 = view_dir(o + 2u),
+                 wo3 = view_dir(o + 3u), wo4 = view_dir(o + 4u), wo5 = view_dir(o + 5u),
+                 wo6 = view_dir(o + 6u), wo7 = view_dir(o + 7u);
+            vec3 f0 = brdf(p, wi, wo0), f1 = brdf(p, wi, wo1), f2 = brdf(p, wi, wo2),
+                 f3 = brdf(p, wi, wo3), f4 = brdf(p, wi, wo4), f5 = brdf(p, wi, wo5),
+                 f6 = brdf(p, wi, wo6), f7 = brdf(p, wi, wo7);
+            f_out[out_index + 0u] = vec4(f0, f1.r);
+            f_out[out_index + 1u] = vec4(f1.gb, f2.rg);
+            f_out[out_index + 2u] = vec4(f2.b, f3);
+            f_out[out_index + 3u] = vec4(f4, f5.r);
+            f_out[out_index + 4u] = vec4(f5.gb, f6.rg);
+            f_out[out_index + 5u] = vec4(f6.b, f7);
+            o += 8u;
+            out_index += 6u;
+        }
         return;
     }
     for (uint q = 0u; q < EVALS_PER_INVOCATION / 4u; ++q) {

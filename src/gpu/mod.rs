@@ -273,13 +273,14 @@ impl Gpu {
         } else {
             wo.len()
         };
-        let evals = pipeline::evals_per_invocation(Kernel::Table, self.dev.cpu_kernels());
-        let row_aligned = row.is_multiple_of(evals as usize);
+        let (evals, row_aligned) =
+            pipeline::table_evals_per_invocation(self.dev.cpu_kernels(), row as u64);
         let walk = TableWalk {
+            evals,
             upper_triangle,
             row_aligned,
             interleaved: row_aligned
-                && evals == 8
+                && evals.is_multiple_of(8)
                 && model.info().interleave_table
                 && table_interleaves(self.dev.cpu_kernels(), self.dev.driver()),
         };
