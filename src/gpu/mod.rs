@@ -313,11 +313,12 @@ impl Gpu {
         let mut wo_buf = Buffer::new(&self.dev, (wo.len() * 16) as u64, "view direction")?;
         wo_buf.write(bytemuck::cast_slice(wo))?;
         // Two output buffers, each with its own dispatcher: while the sink takes one chunk, the
-        // next one runs into the other buffer. One chunk is queued at a time: lavapipe (Mesa
-        // 22.3.6 and 25.0.7, measured) signals a submission's fence only once the submission
-        // queued after it has run too, so with the next chunk queued first, the wait returned
-        // after both chunks, and the sink then ran while the device sat idle. Sized for whole invocations (the kernel writes the
-        // last invocation's cells past the chunk's end into the padding).
+        // next one runs into the other buffer. They are sized for whole invocations (the kernel
+        // writes the last invocation's cells past the chunk's end into the padding) and kept
+        // from one table to the next. One chunk is queued at a time: lavapipe (Mesa 22.3.6 and
+        // 25.0.7, measured) signals a submission's fence only once the queue has run dry, so
+        // with the next chunk queued first, the wait returned after both chunks, and the sink
+        // then ran while the device sat idle.
         let kept = match lock(&self.table_outputs)
             .take()
             .filter(|k| k.size() >= chunk * 12)
