@@ -42,10 +42,10 @@ layout(constant_id = 22) const bool UPPER_TRIANGLE = false;
 layout(constant_id = 23) const bool ROW_ALIGNED = false;
 // With ROW_ALIGNED and a multiple of 8 evaluations per invocation: 8 view directions at a time
 // are read first and their 8 evaluations follow as one stretch of straight code (brdf() has no
-// branch), which the compiler interleaves. On lavapipe from Mesa 22.3.6 the roughconductor table kernel ran x1.46
-// faster; Mesa 25.0.7's code for it spills and ran x0.85, and lighter models ran slower, so the
-// host sets it only for the models and drivers where it measured a gain (src/gpu/mod.rs,
-// table_interleaves; ModelInfo::interleave_table).
+// branch), which the compiler interleaves. On lavapipe from Mesa 22.3.6 the roughconductor table
+// kernel ran x1.46 faster; Mesa 25.0.7's code for it spills and ran x0.85, and lighter models ran
+// slower, so the host sets it only for the models and drivers where it measured a gain
+// (src/gpu/mod.rs, table_interleaves; ModelInfo::interleave_table).
 layout(constant_id = 24) const bool INTERLEAVED = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS params[]; };

@@ -302,9 +302,10 @@ unsafe impl Send for KeptOutputs {}
 impl KeptOutputs {
     /// Two output buffers of `size` bytes each on `dev`.
     pub fn new(dev: &std::sync::Arc<Device>, size: u64) -> Result<KeptOutputs> {
-        // SAFETY: the Arc keeps the device at one address while `self` holds it, and the
-        // buffers that borrow it are dropped before the Arc (field order: `outs` first), never handed out
-        // for longer than a borrow of `self` ([`KeptOutputs::outs`]).
+        // SAFETY: the Arc keeps the device at one address while `self` holds it; the buffers
+        // that borrow it are dropped before the Arc (field order: `outs` first) and never handed
+        // out for longer than a borrow of `self` ([`KeptOutputs::outs`]). Should the second
+        // buffer fail, the first is dropped while the caller's Arc still holds the device.
         let d: &'static Device = unsafe { &*std::sync::Arc::as_ptr(dev) };
         Ok(KeptOutputs {
             outs: [
