@@ -128,7 +128,8 @@ pub const INTERLEAVED_ID: u32 = 24;
 /// UPPER_TRIANGLE, ROW_ALIGNED and INTERLEAVED constants.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TableWalk {
-    /// Evaluations per invocation ([`table_evals_per_invocation`]); 0 for another kernel.
+    /// Evaluations per invocation ([`table_evals_per_invocation`]); 0 (unused) for another
+    /// kernel.
     pub evals: u32,
     /// The packed upper triangle of a reciprocal isotropic table (docs/design.md §4.5).
     pub upper_triangle: bool,
@@ -171,17 +172,14 @@ pub const TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 /// Workgroup size. 64 suits lavapipe and is a multiple of every GPU's wave width.
 pub const LOCAL_SIZE: u32 = 64;
 
-/// Evaluations one invocation of `kernel` makes (specialization constant 2) where the job does
-/// not choose ([`table_evals_per_invocation`] does for a table). On a CPU driver several per
-/// invocation amortise the invocation overhead: 8 for the table kernel, 4 for the others. On a
-/// GPU one per invocation keeps every lane busy, except in the table kernel, which writes 4 cells
-/// as 3 vec4 stores and so makes a multiple of 4.
-pub fn evals_per_invocation(kernel: Kernel, cpu_driver: bool) -> u32 {
-    match (kernel, cpu_driver) {
-        (Kernel::Table, true) => 8,
-        (Kernel::Table, false) => 4,
-        (_, true) => 4,
-        (_, false) => 1,
+/// Evaluations one invocation of a kernel other than the table kernel makes (specialization
+/// constant 2; the table runner chooses its own, [`table_evals_per_invocation`]). On a CPU driver
+/// 4 amortise the invocation overhead; on a GPU one per invocation keeps every lane busy.
+pub fn evals_per_invocation(cpu_driver: bool) -> u32 {
+    if cpu_driver {
+        4
+    } else {
+        1
     }
 }
 
@@ -210,7 +208,7 @@ pub struct Pipeline {
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
     /// Evaluations one invocation makes (specialization constant 2): see
-    /// [`evals_per_invocation`].
+    /// [`evals_per_invocation`] and, for the table kernel, [`table_evals_per_invocation`].
     pub evals_per_invocation: u32,
     /// Whether the table kernel reads its direction lists as texel buffers
     /// (TEXEL_DIRECTIONS).
@@ -248,9 +246,14 @@ impl Pipeline {
             set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
-            evals_per_invocation: match (kernel, walk.evals) {
-                (Kernel::Table, e) if e > 0 => e,
-                _ => evals_per_invocation(kernel, dev.cpu_kernels()),
+            evals_per_invocation: if kernel == Kernel::Table {
+                assert!(
+                    walk.evals > 0,
+                    "a table pipeline's walk names its evaluations"
+                );
+                walk.evals
+            } else {
+                evals_per_invocation(dev.cpu_kernels())
             },
             texel_directions,
             build_time: Duration::ZERO,
