@@ -210,32 +210,33 @@ vec3 F_conductor(float c, vec3 e2m1k2, vec3 q4) {
     // Written as sums of squares (never negative) and without the differences that cancel near
     // an index-matched interface (eta -> 1, k -> 0, where F -> 0):
     // - t0 from e2m1k2 + c^2, e2m1k2 = (eta - 1)(eta + 1) - k^2 from the host, not eta^2 - (1 - c^2);
-    // - |a^2 + b^2| = sqrt(t0^2 + 4 a^2 b^2) = sqrt(t0^2 + q4), q4 = 4 eta^2 k^2 from the host;
-    // - the smaller of a^2, b^2 from r = 2 eta^2 k^2 / (|a^2 + b^2| + |t0|), not from
-    //   (a^2 + b^2 - |t0|)/2;
+    // - u = a^2 + b^2 = sqrt(t0^2 + 4 a^2 b^2) = sqrt(t0^2 + q4), q4 = 4 eta^2 k^2 from the host;
+    // - the larger of a^2, b^2 as w/2 with w = u + |t0| (a sum of positive terms), the smaller as
+    //   r = 2 eta^2 k^2 / w (their product is eta^2 k^2), not from (u - |t0|)/2;
     // - a - c as m / (a + c) with m = a^2 - c^2 = e2m1k2 + r when t0 >= 0.
-    // (Rs + Rp)/2 = Rs (Y + X) / (2 Y) with X, Y Rp's numerator and denominator, and
-    // Rs = (m^2 + b^2 (a + c)^2) / ((a + c)^2 ((a + c)^2 + b^2)): one division for F.
+    // The sum of Rp's numerator X and denominator Y is 2 (u c^2 + s^4) = 2 p, and
+    // Y = p + 2 a c s^2, so (Rs + Rp)/2 = Rs p / Y with
+    // Rs = (m^2 + b^2 (a + c)^2) / ((a + c)^2 ((a + c)^2 + b^2)): one division for F, and every
+    // factor a sum of non-negative terms. Against the form that builds X and Y apart, this one
+    // measured x1.06 (Mesa 25) and x1.09 (Mesa 22) on the roughconductor table kernel.
     // At eta = 1, k = 0 this gives m = 0, b = 0 and F = 0 exactly.
     float c2 = c * c, s2 = 1.0 - c2;
     vec3 t0 = e2m1k2 + c2;
-    vec3 a2b2 = sqrt(t0 * t0 + q4);
-    // a2b2 + |t0| = 0 only when q4 = 0 too: the floor makes r = 0 there.
-    vec3 r = q4 / (2.0 * max(a2b2 + abs(t0), vec3(1e-30)));
+    vec3 u = sqrt(t0 * t0 + q4);
+    vec3 w = u + abs(t0);
+    // w = 0 only when q4 = 0 too: the floor makes r = 0 there.
+    vec3 r = q4 / max(w + w, vec3(1e-30));
     bvec3 t0_pos = greaterThanEqual(t0, vec3(0.0));
-    vec3 a2 = max(t0, 0.0) + r;
-    vec3 b2 = max(-t0, 0.0) + r;
-    vec3 a = sqrt(a2);
+    vec3 hw = 0.5 * w;
+    vec3 a2 = mix(r, hw, t0_pos);
+    vec3 b2 = mix(hw, r, t0_pos);
     vec3 m = mix(r - c2, e2m1k2 + r, t0_pos);
+    vec3 a = sqrt(a2);
     vec3 apc = a + c;
     vec3 apc2 = apc * apc;
-    vec3 ac = a * c;
-    vec3 bc2 = b2 * c2;
-    vec3 x = (ac - s2) * (ac - s2) + bc2;
-    vec3 y = (ac + s2) * (ac + s2) + bc2;
-    // The denominator is 0 only where a + c = 0, i.e. at c = 0, which the one-sided rule excludes;
-    // the floor keeps F finite (and 0, as m = 0) at an index-matched interface at grazing c.
-    return 0.5 * (m * m + b2 * apc2) * (x + y) / max(apc2 * (apc2 + b2) * y, vec3(1e-37));
+    vec3 p = u * c2 + s2 * s2;
+    vec3 y = p + a * (2.0 * c * s2);
+    return (m * m + b2 * apc2) * p / max(apc2 * (apc2 + b2) * y, vec3(1e-37));
 }
 
 #endif

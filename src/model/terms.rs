@@ -165,11 +165,14 @@ pub fn F_conductor(c: f64, eta: DVec3, k: DVec3) -> DVec3 {
     let t0 = e2m1k2 + DVec3::splat(c2);
     let q = 2.0 * eta * eta * k * k;
     let a2b2 = (t0 * t0 + 2.0 * q).map(f64::sqrt);
-    let r = q / (a2b2 + t0.abs()).max(tiny);
-    let a2 = t0.max(DVec3::ZERO) + r;
-    let b2 = (-t0).max(DVec3::ZERO) + r;
+    // The larger of a², b² is (|a² + b²| + |t0|)/2, the smaller their product η²κ² over it.
+    let w = a2b2 + t0.abs();
+    let r = q / w.max(tiny);
+    let t0_pos = t0.cmpge(DVec3::ZERO);
+    let a2 = DVec3::select(t0_pos, 0.5 * w, r);
+    let b2 = DVec3::select(t0_pos, r, 0.5 * w);
     let a = a2.map(f64::sqrt);
-    let a2mc2 = DVec3::select(t0.cmpge(DVec3::ZERO), e2m1k2 + r, r - DVec3::splat(c2));
+    let a2mc2 = DVec3::select(t0_pos, e2m1k2 + r, r - DVec3::splat(c2));
     let amc = a2mc2 / (a + DVec3::splat(c)).max(tiny);
     let apc = a + DVec3::splat(c);
     let rs = (amc * amc + b2) / (apc * apc + b2).max(tiny);
