@@ -1,7 +1,7 @@
 //! The table kernel (glsl/kernels/table.comp) is shaped for throughput: several cells per
 //! invocation, a wrap from one light direction to the next inside an invocation, texel-buffer
 //! direction lists on CPU drivers, vec4 stores, padded last invocations, double-buffered chunks
-//! in buffers kept from one table to the next.
+//! and inputs in buffers kept from one table to the next.
 //! None of that may change a value: every cell must be bit-identical to evaluating its (ωi, ωo)
 //! pair alone, which the pairs kernel does (one pair per evaluation, the same `brdf()` on the
 //! same f32 directions).
@@ -114,16 +114,19 @@ fn a_table_of_several_chunks_equals_its_pairs() {
         &["distribution=beckmann".into(), "fresnel=conductor".into()],
     )
     .unwrap();
+    // The runner keeps its buffers (outputs, parameter block, direction lists) from one table
+    // to the next: a small table first, then the big one, which makes every buffer larger;
+    // then the small table in the big one's buffers, which still hold the big table's lists and
+    // values, and the big table again in them.
+    let small = Grid::parse("isotropic", "7,5,9").unwrap();
+    let (small_first, _) = both(&gpu, &params, &small);
     let (table, single) = both(&gpu, &params, &grid);
     assert_eq!(table.len(), single.len());
     assert_eq!(first_difference(&table, &single), None);
-    // The runner keeps its chunk buffers from one table to the next: a small table then runs
-    // in the big one's buffers, which still hold the big table's values, and the big table
-    // runs again in them.
-    let small = Grid::parse("isotropic", "7,5,9").unwrap();
     let (small_table, small_single) = both(&gpu, &params, &small);
     assert_eq!(small_table.len(), small_single.len());
     assert_eq!(first_difference(&small_table, &small_single), None);
+    assert_eq!(first_difference(&small_table, &small_first), None);
     let (again, _) = both(&gpu, &params, &grid);
     assert_eq!(first_difference(&again, &table), None);
     assert_eq!(again.len(), table.len());

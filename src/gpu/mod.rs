@@ -13,7 +13,7 @@ pub mod spirv;
 mod sums;
 
 use crate::model::Model;
-use buffer::Buffer;
+use buffer::{Buffer, TableInput};
 pub use device::{Device, DeviceOptions};
 pub use error::{GpuError, Result, INSTALL_HINT};
 use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline, TableWalk};
@@ -78,8 +78,8 @@ pub struct Gpu {
     pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
     built: Mutex<Vec<(String, Duration)>>,
     log: Option<LogSink>,
-    /// The table runner's two chunk buffers, kept from one table to the next.
-    table_outputs: Mutex<Option<buffer::KeptOutputs>>,
+    /// The table runner's buffers, kept from one table to the next.
+    table_buffers: Mutex<Option<buffer::KeptTable>>,
 }
 
 impl Gpu {
@@ -90,7 +90,7 @@ impl Gpu {
             pipelines: Mutex::default(),
             built: Mutex::default(),
             log: None,
-            table_outputs: Mutex::default(),
+            table_buffers: Mutex::default(),
         }
     }
 
@@ -306,35 +306,29 @@ impl Gpu {
         let chunk = by_bytes
             .min(by_dispatch)
             .min(cells.div_ceil(per_group) * per_group);
-        let mut param_buf = Buffer::new(&self.dev, block.len() as u64, "parameter")?;
-        param_buf.write(block)?;
-        let mut wi_buf = Buffer::new(&self.dev, (wi.len() * 16) as u64, "light direction")?;
-        wi_buf.write(bytemuck::cast_slice(wi))?;
-        let mut wo_buf = Buffer::new(&self.dev, (wo.len() * 16) as u64, "view direction")?;
-        wo_buf.write(bytemuck::cast_slice(wo))?;
-        // Two output buffers, each with its own dispatcher: while the sink takes one chunk, the
-        // next one runs into the other buffer. They are sized for whole invocations (the kernel
-        // writes the last invocation's cells past the chunk's end into the padding) and kept
-        // from one table to the next. One chunk is queued at a time: lavapipe (Mesa 22.3.6 and
-        // 25.0.7, measured) signals a submission's fence only once the queue has run dry, so
-        // with the next chunk queued first, the wait returned after both chunks, and the sink
-        // then ran while the device sat idle.
-        let kept = match lock(&self.table_outputs)
+        // The buffers are kept from one table to the next (buffer::KeptTable). Two output
+        // buffers, each with its own dispatcher: while the sink takes one chunk, the next one
+        // runs into the other buffer. They are sized for whole invocations (the kernel writes
+        // the last invocation's cells past the chunk's end into the padding). One chunk is
+        // queued at a time: lavapipe (Mesa 22.3.6 and 25.0.7, measured) signals a submission's
+        // fence only once the queue has run dry, so with the next chunk queued first, the wait
+        // returned after both chunks, and the sink then ran while the device sat idle.
+        let mut kept = lock(&self.table_buffers)
             .take()
-            .filter(|k| k.size() >= chunk * 12)
-        {
-            Some(k) => k,
-            None => buffer::KeptOutputs::new(&self.dev, chunk * 12)?,
-        };
-        let outs = kept.outs();
+            .unwrap_or_else(|| buffer::KeptTable::new(&self.dev));
+        kept.reserve_outputs(chunk * 12)?;
+        kept.write_input(TableInput::Params, block)?;
+        kept.write_input(TableInput::Lights, bytemuck::cast_slice(wi))?;
+        kept.write_input(TableInput::Views, bytemuck::cast_slice(wo))?;
+        let ([param_buf, wi_buf, wo_buf], outs) = kept.buffers();
         let dispatchers = [
             Dispatcher::new(
                 &pipe,
-                &[&param_buf, &wi_buf, &wo_buf, &outs[0], &wi_buf, &wo_buf],
+                &[param_buf, wi_buf, wo_buf, &outs[0], wi_buf, wo_buf],
             )?,
             Dispatcher::new(
                 &pipe,
-                &[&param_buf, &wi_buf, &wo_buf, &outs[1], &wi_buf, &wo_buf],
+                &[param_buf, wi_buf, wo_buf, &outs[1], wi_buf, wo_buf],
             )?,
         ];
         let push_at = |first: u64| ChunkPush {
@@ -355,7 +349,7 @@ impl Gpu {
             sink(first, outs[slot].read_f32(count * 3))?;
         }
         drop(dispatchers);
-        *lock(&self.table_outputs) = Some(kept);
+        *lock(&self.table_buffers) = Some(kept);
         Ok(())
     }
 }
