@@ -229,9 +229,9 @@ impl<'a> Evaluator<'a> {
             self.eval_table_by_pairs(query, grid, 1, sink)?;
             return Ok(());
         }
-        let (wi, wo) = (grid.wi_list(), grid.wo_list());
+        let lists = grid.lists();
         self.backend
-            .table(query, &wi, &wo, self.fast_pow, self.cancel, sink)
+            .table(query, &lists.0, &lists.1, self.fast_pow, self.cancel, sink)
     }
 
     /// The lobe table on `grid`, handed to `sink` as runs of cells (first cell, f32 rgb values)
@@ -322,11 +322,11 @@ impl<'a> Evaluator<'a> {
         triangle: UpperTriangle,
         sink: &mut dyn FnMut(u64, &[f32]) -> Result<()>,
     ) -> Result<()> {
-        let (wi, wo) = (grid.wi_list(), grid.wo_list());
+        let lists = grid.lists();
         self.backend.table_upper_triangle(
             query,
-            &wi,
-            &wo,
+            &lists.0,
+            &lists.1,
             self.fast_pow,
             self.cancel,
             &mut |first, values| {

@@ -295,17 +295,15 @@ impl Gpu {
         // Whole invocations per chunk, so that every chunk but the last starts on an
         // invocation's first cell (the kernel's `first` is a multiple of its evaluations).
         let per_group = (pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
-        let by_bytes = (choice
-            .chunk_bytes
-            .min(self.dev.limits.max_storage_buffer_range as u64)
-            / 12
-            / per_group)
-            .max(1)
-            * per_group;
+        let whole = |bytes: u64| (bytes / 12 / per_group).max(1) * per_group;
+        let by_range = whole(self.dev.limits.max_storage_buffer_range as u64);
         let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
-        let chunk = by_bytes
-            .min(by_dispatch)
-            .min(cells.div_ceil(per_group) * per_group);
+        let chunk = chunk_cells(
+            cells,
+            whole(choice.chunk_bytes),
+            by_range.min(by_dispatch),
+            per_group,
+        );
         // The buffers are kept from one table to the next (buffer::KeptTable). Two output
         // buffers, each with its own dispatcher: while the sink takes one chunk, the next one
         // runs into the other buffer. They are sized for whole invocations (the kernel writes
@@ -379,6 +377,19 @@ fn table_cells(n_wi: u64, n_wo: u64, upper_triangle: bool) -> Result<u64> {
     Ok(crate::backend::UpperTriangle::new(n_wi, n_dphi).cells())
 }
 
+/// Cells per chunk of a table of `cells` cells: at most `target` (or a quarter more, where that
+/// saves a last chunk of less than a quarter of the others: each chunk costs the device a wait
+/// for the host, about 0.2 ms on lavapipe), never more than `limit`, as even as whole groups of
+/// `per_group` cells allow. `target` and `limit` are multiples of `per_group`.
+pub fn chunk_cells(cells: u64, target: u64, limit: u64, per_group: u64) -> u64 {
+    let target = target.min(limit);
+    let mut count = cells.div_ceil(target).max(1);
+    if count > 1 && cells.div_ceil(count - 1) <= (target + target / 4).min(limit) {
+        count -= 1;
+    }
+    (cells.div_ceil(count).div_ceil(per_group) * per_group).min(limit)
+}
+
 /// Whether the table kernel runs a row-aligned invocation's 8 evaluations as one interleaved
 /// stretch of code (INTERLEAVED in glsl/kernels/table.comp) on a device with this `driver`
 /// ("llvmpipe Mesa 22.3.6 (LLVM 15.0.6)"): on CPU drivers before Mesa 25, where it was measured
@@ -439,6 +450,38 @@ pub fn table_choice(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Chunks hold whole groups, stay within the limit, cover the table in the fewest chunks of
+    /// at most 5/4 of the target, and come out even.
+    #[test]
+    fn chunks_are_even_and_a_small_last_one_is_shared_out() {
+        let g = 4096;
+        for cells in [
+            1, 4095, 4096, 100_000, 348_160, 700_000, 2_113_536, 50_000_000,
+        ] {
+            for (target, limit) in [
+                (85 * g, 85 * g),
+                (85 * g, 1 << 30),
+                (g, g),
+                (85 * g, 40 * g),
+            ] {
+                let chunk = chunk_cells(cells, target, limit, g);
+                let count = cells.div_ceil(chunk);
+                assert_eq!(chunk % g, 0);
+                assert!(chunk <= limit, "{cells} {target} {limit}: {chunk}");
+                let soft = (target + target / 4).min(limit);
+                assert!(chunk <= soft);
+                assert!(count <= cells.div_ceil(target.min(limit)));
+                // Even: the last chunk falls short of the others only by their rounding up to
+                // whole groups (less than g + 1 cells each).
+                let last = cells - (count - 1) * chunk;
+                assert!(chunk - last < count * (g + 1), "{cells}: {chunk} {last}");
+            }
+        }
+        // The benchmark's upper triangle: 2 113 536 cells in 4 MiB chunks made six full chunks
+        // and a last one of 24 576 cells; now six of 352 256.
+        assert_eq!(chunk_cells(2_113_536, 85 * g, 1 << 30, g), 352_256);
+    }
 
     /// The drivers this rule was measured on, and strings without a Mesa release.
     #[test]
