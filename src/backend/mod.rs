@@ -157,6 +157,14 @@ pub trait Backend: Send + Sync {
         sink: &mut TableSink<'_>,
     ) -> Result<()>;
 
+    /// Whether the table chunk being handed to a sink right now (on this thread) was found free
+    /// of invalid values by the backend itself, so that the caller need not read it for them:
+    /// the GPU's table kernel flags any invalid value it makes (docs/design.md §2.1). False
+    /// where the backend does not know.
+    fn table_chunk_valid(&self) -> bool {
+        false
+    }
+
     /// Whether [`Backend::table_upper_triangle`] is available: the backend can evaluate only the
     /// upper triangle of a reciprocal model's isotropic table (docs/design.md §4.5). The f64
     /// reference cannot: it makes every cell from its own directions.

@@ -122,6 +122,10 @@ impl Backend for Gpu {
         true
     }
 
+    fn table_chunk_valid(&self) -> bool {
+        super::table_chunk_valid()
+    }
+
     /// The table kernel with UPPER_TRIANGLE.
     fn table_upper_triangle(
         &self,

@@ -260,6 +260,11 @@ impl<'d> Buffer<'d> {
         }
     }
 
+    /// The first `n` u32 values of the buffer, as [`Buffer::read_f32`] reads f32.
+    pub fn read_u32(&self, n: usize) -> &[u32] {
+        bytemuck::cast_slice(self.read_f32(n))
+    }
+
     /// The first `n` f32 values of the buffer (of its staging buffer, where staged: the
     /// dispatch that wrote it copied them there).
     pub fn read_f32(&self, n: usize) -> &[f32] {
@@ -292,6 +297,9 @@ impl<'d> Buffer<'d> {
 pub(crate) struct KeptTable {
     /// Declared before `dev`, so dropped before it.
     outs: Option<[Buffer<'static>; 2]>,
+    /// One word per output, set by the kernel where it made an invalid value; declared before
+    /// `dev`, so dropped before it.
+    flags: Option<[Buffer<'static>; 2]>,
     /// Declared before `dev`, so dropped before it; indexed by [`TableInput`].
     inputs: [Option<Buffer<'static>>; 3],
     dev: std::sync::Arc<Device>,
@@ -329,6 +337,7 @@ impl KeptTable {
     pub fn new(dev: &std::sync::Arc<Device>) -> KeptTable {
         KeptTable {
             outs: None,
+            flags: None,
             inputs: [None, None, None],
             dev: dev.clone(),
         }
@@ -345,11 +354,17 @@ impl KeptTable {
     /// Makes sure each output buffer holds at least `size` bytes (the old pair is released
     /// before a larger one is made).
     pub fn reserve_outputs(&mut self, size: u64) -> Result<()> {
+        let d = self.device();
+        if self.flags.is_none() {
+            self.flags = Some([
+                Buffer::output(d, 4, "invalid-value flag")?,
+                Buffer::output(d, 4, "invalid-value flag")?,
+            ]);
+        }
         if self.outs.as_ref().is_some_and(|o| o[0].size >= size) {
             return Ok(());
         }
         self.outs = None;
-        let d = self.device();
         self.outs = Some([
             Buffer::output(d, size, "output")?,
             Buffer::output(d, size, "output")?,
@@ -371,10 +386,10 @@ impl KeptTable {
         }
     }
 
-    /// The three inputs (in [`TableInput`] order) and the two outputs, for as long as `self`
-    /// is borrowed. Panics unless every input was written and the outputs reserved: the runner
-    /// does both before it binds them.
-    pub fn buffers(&self) -> ([&Buffer<'_>; 3], &[Buffer<'_>; 2]) {
+    /// The three inputs (in [`TableInput`] order), the two outputs and their flags, for as
+    /// long as `self` is borrowed. Panics unless every input was written and the outputs
+    /// reserved: the runner does both before it binds them.
+    pub fn buffers(&self) -> ([&Buffer<'_>; 3], &[Buffer<'_>; 2], &[Buffer<'_>; 2]) {
         let input = |k: TableInput| {
             self.inputs[k as usize]
                 .as_ref()
@@ -387,6 +402,9 @@ impl KeptTable {
                 input(TableInput::Views),
             ],
             self.outs
+                .as_ref()
+                .expect("the table runner reserves its outputs before binding them"),
+            self.flags
                 .as_ref()
                 .expect("the table runner reserves its outputs before binding them"),
         )

@@ -19,6 +19,8 @@ pub struct Dispatcher<'p> {
     in_flight: std::cell::Cell<bool>,
     /// The staged outputs' copies recorded after each dispatch.
     read_backs: Vec<crate::gpu::buffer::ReadBack>,
+    /// The buffers filled with zeros before each dispatch ([`Kernel::cleared`]).
+    clears: Vec<vk::Buffer>,
 }
 
 impl<'p> Dispatcher<'p> {
@@ -47,6 +49,12 @@ impl<'p> Dispatcher<'p> {
             views: Vec::new(),
             in_flight: std::cell::Cell::new(false),
             read_backs: buffers.iter().filter_map(|b| b.read_back()).collect(),
+            clears: bindings
+                .iter()
+                .zip(buffers)
+                .filter(|((b, _), _)| pipe.kernel.cleared().contains(b))
+                .map(|(_, buf)| buf.buffer)
+                .collect(),
         };
         // SAFETY: create infos outlive their calls; `s` releases what exists when dropped.
         unsafe {
@@ -275,6 +283,23 @@ impl<'p> Dispatcher<'p> {
                 0,
                 bytemuck::bytes_of(chunk),
             );
+            if !self.clears.is_empty() {
+                for &b in &self.clears {
+                    d.cmd_fill_buffer(self.cmd, b, 0, vk::WHOLE_SIZE, 0);
+                }
+                let fill_done = [vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::SHADER_WRITE)];
+                d.cmd_pipeline_barrier(
+                    self.cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::DependencyFlags::empty(),
+                    &fill_done,
+                    &[],
+                    &[],
+                );
+            }
             if self.queries != vk::QueryPool::null() {
                 d.cmd_reset_query_pool(self.cmd, self.queries, 0, 2);
                 d.cmd_write_timestamp(

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
     /// Outer product of a wi list and a wo list (bindings 0 params, 1 wi, 2 wo, 3 out, 4 and 5
-    /// wi and wo as texel buffers).
+    /// wi and wo as texel buffers, 6 the flag of invalid values, cleared before each chunk).
     Table,
     /// Explicit (wi, wo, parameter index) pairs (bindings 0 params, 1 pairs, 3 out).
     Pairs,
@@ -50,11 +50,19 @@ impl Kernel {
         const T: vk::DescriptorType = vk::DescriptorType::UNIFORM_TEXEL_BUFFER;
         match self {
             // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
-            Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T)],
+            Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T), (6, S)],
             Kernel::Pairs => &[(0, S), (1, S), (3, S)],
             Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
             // 4: the nodes again, as a texel buffer (TEXEL_NODES).
             Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
+        }
+    }
+
+    /// The bindings whose buffers each dispatch fills with zeros before the kernel runs.
+    pub(crate) fn cleared(self) -> &'static [u32] {
+        match self {
+            Kernel::Table => &[6],
+            Kernel::Pairs | Kernel::Preview | Kernel::Albedo => &[],
         }
     }
 }
