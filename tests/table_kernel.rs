@@ -104,9 +104,8 @@ fn a_table_of_several_chunks_equals_its_pairs() {
     let Some(dev) = common::gpu_device("a_table_of_several_chunks_equals_its_pairs") else {
         return;
     };
-    let gpu = Gpu::new(dev);
-    // 1.1e6 cells: 13 MB of output, several chunks on either device kind (4 MB on a CPU
-    // driver, lobe::gpu::CPU_TABLE_CHUNK_BYTES), so both output buffers take turns.
+    // 1.1e6 cells: 13 MB of output in 1 MiB chunks, so both output buffers take turns.
+    let gpu = Gpu::new(dev).with_table_chunk_bytes(1 << 20);
     let grid = Grid::parse("isotropic", "67,63,263").unwrap();
     let params = lobe::resolve_params(
         "microfacet",

@@ -237,12 +237,13 @@ fn with_a_gpus_kernel_choices_a_reciprocal_table_is_the_plain_one_reflected() {
 
 #[test]
 fn a_table_of_several_chunks_is_the_plain_one_reflected() {
-    common::on_gpu(
+    common::on_gpu_in_chunks(
         "a_table_of_several_chunks_is_the_plain_one_reflected",
         false,
+        1 << 20,
         |gpu| {
-            // 1.2e6 cells, 6.0e5 evaluated: several 4 MB chunks on a CPU driver
-            // (lobe::gpu::CPU_TABLE_CHUNK_BYTES), so chunks start inside rows and Δφ runs. With
+            // 1.2e6 cells, 6.0e5 evaluated: several 1 MiB chunks, so chunks start inside rows
+            // and Δφ runs. With
             // NDPHI = 256 every row starts on an invocation (the kernel's ROW_ALIGNED), and the
             // last chunk ends inside a workgroup (its padding stays on the last row).
             let params = lobe::resolve_params("cook_torrance", None, &[]).unwrap();
@@ -658,13 +659,14 @@ fn with_a_gpus_kernel_choices_a_full_table_evaluates_a_quarter() {
     );
 }
 
-/// Several 4 MB chunks (lobe::gpu::CPU_TABLE_CHUNK_BYTES): 590k cells evaluated, chunks that
-/// start inside a light row and inside a view block.
+/// Several 1 MiB chunks: 590k cells evaluated, chunks that start inside a light row and inside
+/// a view block.
 #[test]
 fn a_full_table_of_several_chunks_evaluates_a_quarter() {
-    common::on_gpu(
+    common::on_gpu_in_chunks(
         "a_full_table_of_several_chunks_evaluates_a_quarter",
         false,
+        1 << 20,
         |gpu| {
             let grid = Grid::parse("full", "24,64,24,64").unwrap();
             let params =

@@ -80,6 +80,8 @@ pub struct Gpu {
     log: Option<LogSink>,
     /// The table runner's buffers, kept from one table to the next.
     table_buffers: Mutex<Option<buffer::KeptTable>>,
+    /// Output bytes per table chunk in place of the device kind's ([`table_choice`]).
+    table_chunk_bytes: Option<u64>,
 }
 
 impl Gpu {
@@ -91,7 +93,16 @@ impl Gpu {
             built: Mutex::default(),
             log: None,
             table_buffers: Mutex::default(),
+            table_chunk_bytes: None,
         }
+    }
+
+    /// Tables in chunks of about `bytes` of output (at least one workgroup's cells) instead
+    /// of the device kind's [`CPU_TABLE_CHUNK_BYTES`] or [`CHUNK_OUTPUT_BYTES`]: lets a test
+    /// run a small table in several chunks.
+    pub fn with_table_chunk_bytes(mut self, bytes: u64) -> Gpu {
+        self.table_chunk_bytes = Some(bytes);
+        self
     }
 
     /// Sends a note to `log` for every pipeline built, with its build time.
@@ -300,7 +311,7 @@ impl Gpu {
         let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
         let chunk = chunk_cells(
             cells,
-            whole(choice.chunk_bytes),
+            whole(self.table_chunk_bytes.unwrap_or(choice.chunk_bytes)),
             by_range.min(by_dispatch),
             per_group,
         );
@@ -442,10 +453,12 @@ pub struct TableChoice {
     pub chunk_bytes: u64,
 }
 
-/// Output bytes per chunk of a table on a CPU driver: small enough to stay in cache-friendly,
-/// already-touched pages (a buffer's first touch costs page faults), large enough to amortise a
-/// submit.
-pub const CPU_TABLE_CHUNK_BYTES: u64 = 4 << 20;
+/// Output bytes per chunk of a table on a CPU driver: few chunks, since each costs the device a
+/// wait for the host (about 0.1 ms on lavapipe), in buffers that stay small. Against 4 MiB, the
+/// roughconductor table of `lobe bench` (25 MB of output) ran ×1.01–1.05 faster on Mesa 25.0.7
+/// and ×1.03–1.06 on Mesa 22.3.6 (three sets of paired rounds), though its kernel ran ×0.97–0.98
+/// as fast in the larger chunks.
+pub const CPU_TABLE_CHUNK_BYTES: u64 = 8 << 20;
 
 /// The table kernel's choices for a device: on a CPU driver (`cpu_driver`) texel-buffer
 /// direction lists, where both lists fit `max_texel_elements`, and small chunks; on a GPU
@@ -501,9 +514,11 @@ mod tests {
                 assert!(chunk - last < count * (g + 1), "{cells}: {chunk} {last}");
             }
         }
-        // The benchmark's upper triangle: 2 113 536 cells in 4 MiB chunks made six full chunks
-        // and a last one of 24 576 cells; now six of 352 256.
+        // The benchmark's upper triangle (2 113 536 cells): in 4 MiB chunks, six of 352 256
+        // cells rather than six full ones and a last one of 24 576; in 8 MiB chunks
+        // (CPU_TABLE_CHUNK_BYTES), three of 704 512 rather than three and one of 24 576.
         assert_eq!(chunk_cells(2_113_536, 85 * g, 1 << 30, g), 352_256);
+        assert_eq!(chunk_cells(2_113_536, 170 * g, 1 << 30, g), 704_512);
     }
 
     /// The drivers this rule was measured on, and strings without a Mesa release.

@@ -52,6 +52,26 @@ fn open_device(test: &str, gpu_kernels: bool) -> Option<Device> {
 /// stayed quiet; with `gpu_kernels`, with a GPU's kernel choices on any device
 /// ([`gpu_device_with_gpu_kernels`]). Does nothing when GPU tests are skipped.
 pub fn on_gpu(test: &str, gpu_kernels: bool, check: impl FnOnce(&Gpu)) {
+    on_gpu_with(test, gpu_kernels, |gpu| gpu, check);
+}
+
+/// [`on_gpu`] with tables in chunks of about `bytes` of output, so that a small table runs in
+/// several ([`Gpu::with_table_chunk_bytes`]).
+pub fn on_gpu_in_chunks(test: &str, gpu_kernels: bool, bytes: u64, check: impl FnOnce(&Gpu)) {
+    on_gpu_with(
+        test,
+        gpu_kernels,
+        |gpu| gpu.with_table_chunk_bytes(bytes),
+        check,
+    );
+}
+
+fn on_gpu_with(
+    test: &str,
+    gpu_kernels: bool,
+    configure: impl FnOnce(Gpu) -> Gpu,
+    check: impl FnOnce(&Gpu),
+) {
     let dev = if gpu_kernels {
         gpu_device_with_gpu_kernels(test)
     } else {
@@ -60,7 +80,7 @@ pub fn on_gpu(test: &str, gpu_kernels: bool, check: impl FnOnce(&Gpu)) {
     let Some(dev) = dev else {
         return;
     };
-    let gpu = Gpu::new(dev);
+    let gpu = configure(Gpu::new(dev));
     check(&gpu);
     assert_validation_clean(&gpu, test);
 }
