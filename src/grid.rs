@@ -493,17 +493,8 @@ mod tests {
     /// (other tests may ask for theirs at the same time).
     #[test]
     fn shared_lists_follow_the_grid() {
-        let a = Grid::Isotropic {
-            n_theta_i: 3,
-            n_theta_o: 4,
-            n_dphi: 5,
-        };
-        let b = Grid::Full {
-            n_theta_i: 2,
-            n_phi_i: 3,
-            n_theta_o: 4,
-            n_phi_o: 5,
-        };
+        let a = Grid::parse("isotropic", "3,4,5").unwrap();
+        let b = Grid::parse("full", "2,3,4,5").unwrap();
         for g in [a, a, b, a, b, b] {
             let lists = g.lists();
             assert_eq!(lists.0, g.wi_list());
