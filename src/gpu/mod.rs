@@ -413,7 +413,7 @@ fn table_cells(n_wi: u64, n_wo: u64, upper_triangle: bool) -> Result<u64> {
 
 /// Cells per chunk of a table of `cells` cells: at most `target` (or a quarter more, where that
 /// saves a last chunk of less than a quarter of the others: each chunk costs the device a wait
-/// for the host, about 0.2 ms on lavapipe), never more than `limit`, as even as whole groups of
+/// for the host, about 0.1 ms on lavapipe), never more than `limit`, as even as whole groups of
 /// `per_group` cells allow. `target` and `limit` are multiples of `per_group`.
 pub fn chunk_cells(cells: u64, target: u64, limit: u64, per_group: u64) -> u64 {
     let target = target.min(limit);

@@ -352,7 +352,7 @@ impl KeptTable {
     }
 
     /// Makes sure each output buffer holds at least `size` bytes (the old pair is released
-    /// before a larger one is made).
+    /// before a larger one is made), and that each has its invalid-value flag.
     pub fn reserve_outputs(&mut self, size: u64) -> Result<()> {
         let d = self.device();
         if self.flags.is_none() {
@@ -377,13 +377,14 @@ impl KeptTable {
         let d = self.device();
         let slot = &mut self.inputs[which as usize];
         if !slot.as_ref().is_some_and(|b| b.size >= data.len() as u64) {
+            // Released before the larger one is made.
             *slot = None;
-            *slot = Some(Buffer::new(d, data.len() as u64, which.what())?);
         }
-        match slot {
-            Some(b) => b.write(data),
-            None => unreachable!("the input buffer was made above"),
-        }
+        let buffer = match slot {
+            Some(b) => b,
+            None => slot.insert(Buffer::new(d, data.len() as u64, which.what())?),
+        };
+        buffer.write(data)
     }
 
     /// The three inputs (in [`TableInput`] order), the two outputs and their flags, for as
