@@ -154,9 +154,11 @@ impl Table {
 }
 
 impl Session {
-    /// The lobe table on `grid` in memory. Refuses tables over `max_cells` cells (a bound on
-    /// memory: 12 bytes a cell), and an anisotropic set on a grid that holds only the isotropic
-    /// half of the angles.
+    /// The lobe table on `grid` in memory: the values [`Session::write_table`] writes into its
+    /// `.npy` for the same request, bit for bit. Refuses tables over `max_cells` cells (a bound
+    /// on memory: 12 bytes a cell), an anisotropic set on a grid that holds only the isotropic
+    /// half of the angles, and a table with an invalid value (NaN, ±Inf, negative), which
+    /// [`Session::write_table`] writes and counts.
     ///
     /// ```
     /// use lobe::grid::Grid;
@@ -184,11 +186,15 @@ impl Session {
                 grid.shape()
             ))
         })?;
-        let mut data = Vec::with_capacity(cells as usize * 3);
+        // The runs [`Session::write_table`] streams into its `.npy`, each at its cells' place:
+        // one path, so the array and the file hold the same bits (a reciprocal model's mirror
+        // cells are copies of the cells evaluated, not evaluations of their own).
+        let mut data = vec![0.0; cells as usize * 3];
         let ev = self.evaluator();
-        ev.eval_table(query, grid, &mut |_, v| {
+        ev.eval_table_runs(query, grid, &mut |first, v| {
             ev.check_cancelled()?;
-            data.extend_from_slice(v);
+            let at = first as usize * 3;
+            data[at..at + v.len()].copy_from_slice(v);
             Ok(())
         })
         .lobe()?;

@@ -4,6 +4,7 @@ import csv
 import io
 import json
 import math
+import os
 import subprocess
 
 import numpy as np
@@ -38,6 +39,8 @@ TABLES = [
     ("phong{shininess=50}", "full", (3, 4, 5, 6), ["--set", "diffuse=0.1,0.2,0.3"],
      {"params": {"diffuse": (0.1, 0.2, 0.3)}}),
     ("microfacet", "halfdiff", (5, 4, 3), ["--set", "alpha=0.2"], {"params": {"alpha": 0.2}}),
+    # NTHETA_I = NTHETA_O: a reciprocal model's mirror cells are copies of the cells evaluated.
+    ("microfacet", "isotropic", (8, 8, 16), ["--set", "alpha=0.3"], {"params": {"alpha": 0.3}}),
 ]
 
 
@@ -126,6 +129,34 @@ def test_engine_lut_equals_lobe_albedo_engine(lobe_bin, tmp_path, gpu, kind):
     assert lut.values.shape[:2] == written.shape[:2] == (5, 4)
     assert lut.values.size == written.size
     assert lut.values.astype(np.float32).tobytes() == written.tobytes()
+
+
+SILENCED = [
+    ["models"],
+    ["eval", "--backend", "cpu", "--wi-deg", "30,0", "--wo-deg", "30,180"],
+    ["albedo", "--backend", "cpu", "--model", "lambert"],
+    ["table", "--model", "lambert", "--grid", "isotropic", "--res", "2,2,2", "-o", "{dir}/t.exr"],
+]
+
+
+@pytest.mark.parametrize("args", SILENCED, ids=lambda a: a[0])
+def test_a_script_can_silence_lobe_with_devnull(lobe_bin, tmp_path, args):
+    """subprocess.DEVNULL opens /dev/null read-write, as batch runners do: lobe honours it, with
+    standard input closed too, and writes its files as it would to a terminal."""
+    argv = [lobe_bin, *(a.format(dir=tmp_path) for a in args)]
+    done = subprocess.run(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    if args[0] == "table":
+        assert (tmp_path / "t.npy").is_file()
+
+
+def test_a_closed_standard_output_is_refused(lobe_bin):
+    """A report written to a closed descriptor would be lost with status 0: lobe says so."""
+    done = subprocess.run([lobe_bin, "models"], stdin=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, timeout=120, preexec_fn=lambda: os.close(1))
+    assert done.returncode != 0
+    assert "standard output is closed" in done.stderr
 
 
 def test_models_are_the_catalogue_lobe_models_prints(lobe_bin):
