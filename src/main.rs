@@ -4,6 +4,7 @@
 mod cli;
 
 use clap::{Parser, Subcommand};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Parser)]
 #[command(
@@ -108,28 +109,35 @@ fn install_stdout_hook() {
     }));
 }
 
-/// Whether standard output was closed when lobe started (`lobe models >&-`). Rust's runtime
-/// puts /dev/null, opened read-write, on a closed standard descriptor before `main` (so that no
-/// file the process opens takes its place), and a report written there is lost without an
-/// error: the command ended with status 0 and printed nothing. A shell's `> /dev/null` opens it
-/// write-only, so the read-write /dev/null is the runtime's.
-fn stdout_was_closed() -> bool {
-    // SAFETY: fstat and fcntl(F_GETFL) only read descriptor 1's state into `st`.
-    unsafe {
-        let mut st: libc::stat = std::mem::zeroed();
-        if libc::fstat(1, &mut st) != 0 {
-            return true;
-        }
-        let null = (st.st_mode & libc::S_IFMT) == libc::S_IFCHR
-            && libc::major(st.st_rdev) == 1
-            && libc::minor(st.st_rdev) == 3;
-        null && libc::fcntl(1, libc::F_GETFL) & libc::O_ACCMODE == libc::O_RDWR
-    }
+/// Whether descriptor 1 was closed when the process started (`lobe models >&-`), as
+/// [`record_closed_stdout`] saw it. Rust's runtime puts /dev/null, opened read-write, on a closed
+/// standard descriptor before `main` (so that no file the process opens takes its place), and a
+/// report written there is lost without an error: the command would end with status 0 having
+/// printed nothing. By `main` that /dev/null cannot be told from one a caller chose (Python's
+/// `subprocess.DEVNULL` and many job runners open it read-write too), so the descriptor is looked
+/// at before the runtime touches it.
+static STDOUT_CLOSED_AT_START: AtomicBool = AtomicBool::new(false);
+
+/// Runs from `.init_array`, before the runtime's setup (which runs in the C `main` the ELF entry
+/// calls after every constructor): `fcntl(F_GETFD)` fails with EBADF only on a closed descriptor.
+#[cfg(target_os = "linux")]
+extern "C" fn record_closed_stdout() {
+    // SAFETY: fcntl(F_GETFD) only reads descriptor 1's flags; errno is read on this thread.
+    let closed = unsafe {
+        libc::fcntl(1, libc::F_GETFD) == -1
+            && std::io::Error::last_os_error().raw_os_error() == Some(libc::EBADF)
+    };
+    STDOUT_CLOSED_AT_START.store(closed, Ordering::Relaxed);
 }
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static RECORD_CLOSED_STDOUT: extern "C" fn() = record_closed_stdout;
 
 fn main() {
     install_stdout_hook();
-    if stdout_was_closed() {
+    if STDOUT_CLOSED_AT_START.load(Ordering::Relaxed) {
         eprintln!(
             "lobe: error: standard output is closed, and lobe reports on it; redirect it to a \
              file or to /dev/null instead"

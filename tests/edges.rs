@@ -238,9 +238,12 @@ fn devices_and_pipes_are_refused_as_inputs() {
 }
 
 /// With standard output closed (`>&-`), a report would be lost without a word (status 0):
-/// every command refuses, saying so on stderr. `> /dev/null` is the way to discard it.
+/// every command refuses, saying so on stderr. A caller's /dev/null is honoured however it was
+/// opened: write-only as a shell's `> /dev/null` opens it, and read-write as `1<> /dev/null`,
+/// Python's `subprocess.DEVNULL` and many job runners open it (which is also what Rust's runtime
+/// puts on a closed descriptor, so lobe must look before the runtime does).
 #[test]
-fn a_closed_standard_output_is_refused() {
+fn a_closed_standard_output_is_refused_and_dev_null_is_honoured() {
     let lobe = env!("CARGO_BIN_EXE_lobe");
     for args in [
         "models",
@@ -262,12 +265,14 @@ fn a_closed_standard_output_is_refused() {
             err.contains("standard output is closed"),
             "lobe {args} >&-: {err}"
         );
-        let null = run("> /dev/null");
-        assert!(
-            null.status.success(),
-            "lobe {args} > /dev/null: {}",
-            String::from_utf8_lossy(&null.stderr)
-        );
+        for null in ["> /dev/null", "1<> /dev/null"] {
+            let done = run(null);
+            assert!(
+                done.status.success(),
+                "lobe {args} {null}: {}",
+                String::from_utf8_lossy(&done.stderr)
+            );
+        }
     }
 }
 
