@@ -606,23 +606,31 @@ fn models_lists_every_model() {
             );
         }
     }
-    let json = assert_succeeds_in(dir.path(), &["models", "--json"]);
+    // `--format json`, as every command that prints a report takes it; `--json` the same.
+    let json = assert_succeeds_in(dir.path(), &["models", "--format", "json"]);
+    let alias = assert_succeeds_in(dir.path(), &["models", "--json"]);
+    assert_eq!(
+        json.stdout, alias.stdout,
+        "`lobe models --json` is `--format json`"
+    );
     let doc: serde_json::Value = serde_json::from_str(&json.stdout).unwrap_or_else(|e| {
         panic!(
-            "`lobe models --json`: expected JSON ({e}), got:\n{}",
+            "`lobe models --format json`: expected JSON ({e}), got:\n{}",
             json.stdout
         )
     });
     let names: Vec<&str> = doc["models"]
         .as_array()
-        .unwrap_or_else(|| panic!("`lobe models --json`: expected a models array, got {doc}"))
+        .unwrap_or_else(|| {
+            panic!("`lobe models --format json`: expected a models array, got {doc}")
+        })
         .iter()
         .filter_map(|m| m["name"].as_str())
         .collect();
     let expected: Vec<&str> = Model::ALL.iter().map(|m| m.name()).collect();
     assert_eq!(
         names, expected,
-        "`lobe models --json`: expected the models {expected:?}, got {names:?}"
+        "`lobe models --format json`: expected the models {expected:?}, got {names:?}"
     );
 }
 

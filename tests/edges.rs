@@ -4,9 +4,9 @@ mod common;
 
 use std::path::Path;
 
-/// Every built-in model (`lobe models --json`, so a new model is covered).
+/// Every built-in model (`lobe models --format json`, so a new model is covered).
 fn model_names() -> Vec<String> {
-    let v = common::lobe_json(&["models", "--json"]);
+    let v = common::lobe_json(&["models", "--format", "json"]);
     let models = v["models"].as_array().expect("a list of models");
     models
         .iter()

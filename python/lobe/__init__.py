@@ -61,7 +61,7 @@ def models() -> List[Dict[str, Any]]:
 
     Each entry is ``{"name", "description", "delta_lobe", "parameters"}``; each parameter is
     ``{"key", "kind" ("rgb", "scalar", "choice" or "flag"), "range", "default",
-    "description"}`` (the catalogue ``lobe models --json`` prints).
+    "description"}`` (the catalogue ``lobe models --format json`` prints).
     """
     return json.loads(_lobe.models_json())["models"]
 
@@ -114,17 +114,28 @@ def _model(model: Union[str, os.PathLike]) -> str:
     return model
 
 
-def _directions(name: str, value: Any) -> np.ndarray:
-    """A float array of shape (..., 3) of unit vectors, or a refusal naming ``name``."""
-    if isinstance(value, np.ndarray):
-        if value.dtype not in (np.float32, np.float64):
-            raise TypeError(f"{name}: expected a float32 or float64 array, got dtype {value.dtype}")
-        arr = value
-    else:
+def _reals(name: str, value: Any) -> np.ndarray:
+    """``value`` as an array of real numbers: what ``np.asarray(value, dtype=float)`` takes
+    (floats, integers and booleans, in arrays, lists or scalars), float32 kept as it is and
+    the rest as float64; text, complex numbers, ragged lists and other objects are refused
+    naming ``name``."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name}: expected real numbers, got {type(value).__name__}: {e}") from None
+    if arr.dtype.kind == "O":
         try:
             arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError) as e:
-            raise TypeError(f"{name}: expected an array of directions of shape (..., 3): {e}") from None
+            raise TypeError(f"{name}: expected real numbers: {e}") from None
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"{name}: expected real numbers (float, int or bool), got dtype {arr.dtype}")
+    return arr if arr.dtype == np.float32 else arr.astype(np.float64, copy=False)
+
+
+def _directions(name: str, value: Any) -> np.ndarray:
+    """A float array of shape (..., 3) of unit vectors, or a refusal naming ``name``."""
+    arr = _reals(name, value)
     if arr.ndim == 0 or arr.shape[-1] != 3:
         raise ValueError(f"{name}: expected shape (..., 3) (x, y, z in lobe's frame), got {arr.shape}")
     finite = np.isfinite(arr).all(axis=-1)
@@ -179,6 +190,15 @@ class Table(NamedTuple):
 
     values: np.ndarray
     axes: Dict[str, np.ndarray]
+
+    def __array__(self, dtype=None, copy=None):
+        """``np.asarray(table)`` is ``table.values`` (a copy only where ``dtype`` or ``copy``
+        asks for one)."""
+        if copy is False and dtype is not None and np.dtype(dtype) != self.values.dtype:
+            raise ValueError(f"a Table holds {self.values.dtype}; converting to {np.dtype(dtype)} needs a copy")
+        if dtype is not None:
+            return self.values.astype(dtype)
+        return self.values.copy() if copy else self.values
 
 
 class Albedo(NamedTuple):
@@ -282,7 +302,7 @@ class Session:
 
     def albedo(self, model, mu, params=None, material=None, white_furnace=False, phi=0.0,
                method="peak", samples=None):
-        mu_arr = np.asarray(mu, dtype=np.float64)
+        mu_arr = _reals("mu", mu)
         bad = ~((mu_arr > 0.0) & (mu_arr <= 1.0))
         if bad.any():
             at = tuple(int(i) for i in np.argwhere(bad)[0]) if mu_arr.ndim else ()
@@ -338,7 +358,7 @@ class Session:
 
     def compare(self, a, b, params_a=None, params_b=None, grid=None, res=None, mu=(0.1, 0.5, 1.0),
                 method="peak", samples=None, albedo=True, white_furnace=False):
-        mus = [float(m) for m in np.asarray(mu, dtype=np.float64).reshape(-1)]
+        mus = [float(m) for m in _reals("mu", mu).reshape(-1)]
         for k, m in enumerate(mus):
             if not (0.0 < m <= 1.0):
                 raise ValueError(f"mu: {m} at index {k} is out of range; mu = cos(theta_o) must be in (0, 1]")

@@ -29,7 +29,7 @@ def models() -> List[Dict[str, Any]]:
 
     Each entry is ``{"name", "description", "delta_lobe", "parameters"}``; each parameter is
     ``{"key", "kind" ("rgb", "scalar", "choice" or "flag"), "range", "default",
-    "description"}`` (what ``lobe models --json`` prints).
+    "description"}`` (what ``lobe models --format json`` prints).
     """
 
 def materials() -> List[str]:
@@ -53,11 +53,12 @@ class Table(NamedTuple):
 
     ``values``: float32, the shape of the ``.npy`` lobe writes, one axis per angle in ``res``
     order and then RGB. ``axes``: each angle axis's name with its cell-centred angles in radians,
-    in the order of the array's axes.
+    in the order of the array's axes. ``np.asarray(table)`` is ``table.values``.
     """
 
     values: np.ndarray
     axes: Dict[str, np.ndarray]
+    def __array__(self, dtype: Any = None, copy: Optional[bool] = None) -> np.ndarray: ...
 
 class Albedo(NamedTuple):
     """Directional albedo E(mu) (delta lobe included) and its estimated absolute error, each of
@@ -165,13 +166,15 @@ class Session:
              material: Optional[str] = None, white_furnace: bool = False) -> np.ndarray:
         """f(wi, wo) in 1/sr, RGB, without the cosine; 0 below the horizon.
 
-        ``wi``, ``wo``: unit vectors in lobe's frame, float32 or float64 arrays (or lists) of
-        shape (..., 3) that broadcast together. Returns float64 of the broadcast shape (on the
+        ``wi``, ``wo``: unit vectors in lobe's frame, arrays (or lists) of real numbers of
+        shape (..., 3) that broadcast together: whatever ``np.asarray(x, dtype=float)`` takes
+        (float, int or bool; float32 is kept, the rest read as float64), text and complex
+        numbers refused naming the argument. Returns float64 of the broadcast shape (on the
         GPU, the f32 results widened exactly). ``params`` may be a list of dicts: every set is
         evaluated at every pair in one batch on the device, and the result gains a leading axis
         of len(params). ``white_furnace``: every specular Fresnel factor set to 1.
 
-        Refused: a shape that is not (..., 3), a dtype other than float32/float64, NaN or
+        Refused: a shape that is not (..., 3), values that are not real numbers, NaN or
         infinite components, vectors that are not unit length (ValueError/TypeError naming
         ``wi`` or ``wo``); a model that gives NaN, infinite or negative values
         (InvalidValuesError)."""

@@ -1,21 +1,33 @@
 //! `lobe models`: the catalogue of models, parameters and material presets.
 
 use anyhow::Result;
-use clap::Args;
+use clap::{Args, ValueEnum};
+use lobe::catalogue;
 use lobe::material;
-use lobe::model::catalogue;
 use std::io::Write;
+
+/// What `lobe models` prints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Format {
+    /// The catalogue for people.
+    Text,
+    /// The catalogue as one JSON object: models with their parameters, and materials.
+    Json,
+}
 
 #[derive(Args)]
 pub struct ModelsArgs {
-    /// Print JSON instead of text.
-    #[arg(long)]
+    /// Output format, as every command that prints a report takes it.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
+    /// The same as --format json.
+    #[arg(long, conflicts_with = "format")]
     json: bool,
 }
 
 pub fn run(a: ModelsArgs) -> Result<()> {
     let mut out = super::stdout();
-    if a.json {
+    if a.json || a.format == Format::Json {
         writeln!(out, "{}", serde_json::to_string_pretty(&catalogue::json())?)?;
         return Ok(());
     }

@@ -20,7 +20,7 @@ def run(lobe_bin, *args):
 
 
 def sin_cos_deg(x):
-    """lobe's degree conversion (src/grid.rs sin_cos_deg): exact at multiples of 90 degrees."""
+    """lobe's degree conversion (src/grid/angles.rs sin_cos_deg): exact at multiples of 90 degrees."""
     q = x / 90.0
     quadrant = math.copysign(math.floor(abs(q) + 0.5), q)  # Rust's round: halves away from 0
     r = math.radians(x - 90.0 * quadrant)
@@ -160,7 +160,7 @@ def test_a_closed_standard_output_is_refused(lobe_bin):
 
 
 def test_models_are_the_catalogue_lobe_models_prints(lobe_bin):
-    want = json.loads(run(lobe_bin, "models", "--json"))
+    want = json.loads(run(lobe_bin, "models", "--format", "json"))
     assert lobe.models() == want["models"]
     assert lobe.materials() == want["materials"]
 

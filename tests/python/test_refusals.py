@@ -10,7 +10,10 @@ UP = [0.0, 0.0, 1.0]
 
 @pytest.mark.parametrize("wi,wo,kind,words", [
     (np.zeros((4, 2)), [UP], ValueError, ["wi", "(..., 3)"]),
-    ([UP], np.array([[0, 0, 1]], dtype=np.int64), TypeError, ["wo", "float32 or float64", "int64"]),
+    ([UP], np.array([[0, 0, 1j]]), TypeError, ["wo", "real numbers", "complex"]),
+    (np.array([["0", "0", "1"]]), [UP], TypeError, ["wi", "real numbers"]),
+    ([UP], [[0, 0, 1], [0, 1]], TypeError, ["wo", "real numbers"]),
+    ([UP], [[0, 0, "up"]], TypeError, ["wo", "real numbers"]),
     ([[0.0, np.nan, 1.0]], [UP], ValueError, ["wi", "NaN"]),
     ([UP], [[0.0, 0.0, np.inf]], ValueError, ["wo", "infinit"]),
     ([[0.0, 0.0, 2.0]], [UP], ValueError, ["wi", "unit"]),
@@ -26,6 +29,39 @@ def test_bad_direction_arrays_are_refused_naming_the_argument(cpu, wi, wo, kind,
 def test_float32_directions_are_taken(cpu):
     f = cpu.eval("lambert", np.array(UP, dtype=np.float32), np.array(UP, dtype=np.float32))
     assert f.dtype == np.float64 and f.shape == (3,)
+
+
+@pytest.mark.parametrize("up", [
+    [0, 0, 1],
+    np.array([[0, 0, 1]]),
+    np.array([[0, 0, 1]], dtype=np.int32),
+    np.array([0, 0, 1], dtype=np.uint8),
+    np.array([False, False, True]),
+], ids=["int list", "int64 array", "int32 array", "uint8 array", "bool array"])
+def test_what_asarray_reads_as_float_is_taken(cpu, up):
+    """Directions are taken as np.asarray(x, dtype=float) reads them, and give the values of
+    the same float64 directions."""
+    want = cpu.eval("lambert", np.asarray(up, dtype=float), np.asarray(up, dtype=float))
+    got = cpu.eval("lambert", up, up)
+    assert got.dtype == np.float64
+    np.testing.assert_array_equal(got, want)
+    mu = cpu.albedo("lambert", np.array([1]))
+    np.testing.assert_array_equal(mu.albedo, cpu.albedo("lambert", [1.0]).albedo)
+
+
+def test_mu_that_is_not_a_real_number_is_refused_naming_it(cpu):
+    for bad in ["0.5", [0.5j], [[0.5], [0.5, 0.6]]]:
+        with pytest.raises(TypeError) as e:
+            cpu.albedo("lambert", bad)
+        assert "mu" in str(e.value)
+
+
+def test_a_table_is_an_array(cpu):
+    t = cpu.table("lambert", grid="isotropic", res=(2, 3, 4))
+    a = np.asarray(t)
+    assert a is t.values and a.shape == (2, 3, 4, 3)
+    assert np.asarray(t, dtype=np.float64).dtype == np.float64
+    assert np.array(t) is not t.values and np.array_equal(np.array(t), t.values)
 
 
 @pytest.mark.parametrize("params,words", [
