@@ -31,6 +31,7 @@ mod axis;
 pub mod backend;
 pub mod bench;
 pub mod brdf;
+pub mod catalogue;
 pub mod compare;
 pub mod demo;
 pub mod energy;

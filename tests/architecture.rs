@@ -3,7 +3,8 @@
 //! modules' re-exports to the file that defines what it names, must point to a layer at or below
 //! the importing file's own, and no two files may import each other through any chain of imports
 //! (a file and its own parent or child module excepted: a module's `mod.rs` and its files are one
-//! unit that Rust asks to name each other).
+//! unit that Rust asks to name each other), nor may two top-level modules (`src/a.rs` with
+//! `src/a/`) import each other through any chain.
 //!
 //! The layer table is read from the document itself, between the `layers` markers, so the
 //! document and the rule cannot drift apart.
@@ -184,11 +185,39 @@ fn read_sources() -> Vec<SourceFile> {
     // main.rs is the command's own crate: it reaches the library as `lobe::`, never `crate::`.
     files.retain(|f| f != &src.join("main.rs"));
     let modules: BTreeSet<ModPath> = files.iter().map(|f| module_of(&src, f)).collect();
-    files
+    let texts: Vec<(PathBuf, ModPath, String)> = files
         .into_iter()
         .map(|path| {
             let text = std::fs::read_to_string(&path).unwrap();
-            parse_source(path.clone(), module_of(&src, &path), &text, &modules)
+            let module = module_of(&src, &path);
+            (path, module, text)
+        })
+        .collect();
+    // Files of modules declared `#[cfg(test)] mod name;` are tests, as a `#[cfg(test)]` item is.
+    let tests: Vec<ModPath> = texts
+        .iter()
+        .flat_map(|(path, module, text)| test_modules(path, module, text))
+        .collect();
+    texts
+        .into_iter()
+        .filter(|(_, module, _)| !tests.iter().any(|t| module.starts_with(t)))
+        .map(|(path, module, text)| parse_source(path, module, &text, &modules))
+        .collect()
+}
+
+/// The child modules a file declares under `#[cfg(test)]` (`#[cfg(test)] mod tests;`).
+fn test_modules(path: &Path, module: &ModPath, text: &str) -> Vec<ModPath> {
+    let ast =
+        syn::parse_file(text).unwrap_or_else(|e| panic!("{}: not parsed: {e}", path.display()));
+    ast.items
+        .iter()
+        .filter_map(|item| match item {
+            syn::Item::Mod(m) if is_cfg_test(&m.attrs) => {
+                let mut child = module.clone();
+                child.push(m.ident.to_string());
+                Some(child)
+            }
+            _ => None,
         })
         .collect()
 }
@@ -424,6 +453,28 @@ fn circles(graph: &Graph) -> Vec<String> {
     found
 }
 
+/// The import graph between top-level modules (`src/a.rs` and everything under `src/a/` are
+/// `a`): an edge where any file of one imports a file of the other. The crate root (lib.rs, the
+/// facade that re-exports the public names) is left out: imports through it resolve to the
+/// files that define what they name.
+fn module_graph(graph: &Graph) -> Graph {
+    let top = |m: &ModPath| m.first().map(|s| vec![s.clone()]);
+    let mut modules = Graph::new();
+    for (from, edges) in graph {
+        let Some(a) = top(from) else { continue };
+        let out = modules.entry(a.clone()).or_default();
+        for (to, written) in edges {
+            match top(to) {
+                Some(b) if b != a => {
+                    out.entry(b).or_insert_with(|| written.clone());
+                }
+                _ => {}
+            }
+        }
+    }
+    modules
+}
+
 #[test]
 fn every_file_imports_only_its_own_layer_and_below() {
     let layers = layer_table();
@@ -459,6 +510,64 @@ fn no_files_import_each_other_in_a_circle() {
     );
 }
 
+#[test]
+fn no_top_level_modules_import_each_other_in_a_circle() {
+    let graph = module_graph(&import_graph(&read_sources()));
+    let found = circles(&graph);
+    let example = |c: &String| {
+        let names: Vec<&str> = c.split(" ↔ ").collect();
+        names
+            .iter()
+            .flat_map(|a| names.iter().map(move |b| (*a, *b)))
+            .filter_map(|(a, b)| {
+                let written = graph.get(&vec![a.to_string()])?.get(&vec![b.to_string()])?;
+                Some(format!("  {a} imports crate::{}", shown(written)))
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert!(
+        found.is_empty(),
+        "top-level modules that import each other through a chain of imports:\n{}",
+        found
+            .iter()
+            .map(|c| format!("{c}\n{}", example(c)))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+}
+
+/// The module rule finds a circle that no two files make: `grid` importing a model's file is no
+/// file circle (the model's file does not import grid.rs back), but `model` as a whole imports
+/// `grid` (its files take directions from it), so the two modules import each other.
+#[test]
+fn a_planted_circle_between_modules_is_found() {
+    let mut files = read_sources();
+    let modules: BTreeSet<ModPath> = files.iter().map(|f| f.module.clone()).collect();
+    let grid = vec!["grid".to_string()];
+    let model = vec!["model".to_string()];
+    let before = module_graph(&import_graph(&files));
+    assert!(
+        before[&model].contains_key(&grid),
+        "model no longer imports grid: plant another circle"
+    );
+    let planted = parse_source(
+        PathBuf::from("src/grid/mod.rs"),
+        grid.clone(),
+        "use crate::model::ParamSet;\nfn f(_: &ParamSet) {}",
+        &modules,
+    );
+    files.retain(|f| f.module != grid);
+    files.push(planted);
+    let found = circles(&module_graph(&import_graph(&files)));
+    assert!(
+        found
+            .iter()
+            .any(|c| c.contains("grid") && c.contains("model")),
+        "{found:?}"
+    );
+}
+
 /// The two rules find what they are for: a core file that imports the session's `Table` (a layer
 /// far above, whose file imports it back) is reported as a back-import and as a circle.
 #[test]
@@ -468,7 +577,7 @@ fn a_planted_back_import_and_circle_are_found() {
     let modules: BTreeSet<ModPath> = files.iter().map(|f| f.module.clone()).collect();
     let grid = vec!["grid".to_string()];
     let planted = parse_source(
-        PathBuf::from("src/grid.rs"),
+        PathBuf::from("src/grid/mod.rs"),
         grid.clone(),
         "use crate::session::Table;\nfn f(_: &Table) {}",
         &modules,

@@ -267,7 +267,7 @@ impl PySession {
 /// --json`).
 #[pyfunction]
 fn models_json() -> PyResult<String> {
-    serde_json::to_string(&lobe::model::catalogue::json())
+    serde_json::to_string(&lobe::catalogue::json())
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
 }
 

@@ -14,7 +14,7 @@ pub mod oren_nayar;
 pub mod params;
 pub mod phong;
 pub mod registry;
-pub use registry::{catalogue, components, info, kernels, runtime, sampling};
+pub use registry::{components, info, kernels, runtime, sampling};
 pub mod smooth_layered;
 pub mod terms;
 

@@ -5,7 +5,6 @@
 //! the `Brdf` variant with its three dispatch arms (`src/model/mod.rs`), and its line in
 //! [`Model::info`] (docs/architecture.md §2.1).
 
-pub mod catalogue;
 pub mod components;
 pub mod info;
 pub mod kernels;
