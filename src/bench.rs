@@ -143,9 +143,11 @@ pub fn measure_albedo<'q>(
     let wo: Vec<glam::DVec3> = (0..ALBEDO_DIRECTIONS)
         .map(|k| view_direction((k as f64 + 1.0) / ALBEDO_DIRECTIONS as f64, 0.0))
         .collect();
-    let per_direction = ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-        + ALBEDO_RULE.coarse().nodes(glam::DVec3::Z).len()
-        + ALBEDO_RULE.coarse().coarse().nodes(glam::DVec3::Z).len();
+    let per_direction: usize = ALBEDO_RULE
+        .levels(false)
+        .iter()
+        .map(|r| r.nodes(glam::DVec3::Z).len())
+        .sum();
     let evaluations = (per_direction * wo.len()) as u64;
     time_task(eval, params, "albedo", repeats, || {
         std::hint::black_box(rule_albedo(eval, query, ALBEDO_RULE, &wo)?);
@@ -206,7 +208,7 @@ pub fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
             .map(|mu| view_direction(mu, spec.phi))
             .collect();
         wo.extend(hemispherical_directions(&params, spec.phi));
-        total += rule_evaluations(rule, &wo);
+        total += rule_evaluations(rule, params.model().is_tabulated(), &wo);
     }
     Ok(total)
 }

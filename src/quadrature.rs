@@ -155,6 +155,19 @@ pub(crate) fn adaptive<F: Fn(f64) -> Estimate + Sync>(
     tol: f64,
     parallel: bool,
 ) -> Estimate {
+    adaptive_until(f, breaks, tol, parallel, &|| false)
+}
+
+/// [`adaptive`] that also stops refining, before each batch, once `stop` says so (a budget
+/// spent, a job cancelled): the panels made so far give the value, and their summed error says
+/// how far it is from the tolerance.
+pub(crate) fn adaptive_until<F: Fn(f64) -> Estimate + Sync>(
+    f: &F,
+    breaks: &[f64],
+    tol: f64,
+    parallel: bool,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Estimate {
     let eval = |(a, b): (f64, f64)| (a, b, gk15(f, a, b));
     let spans: Vec<(f64, f64)> = breaks
         .windows(2)
@@ -169,7 +182,7 @@ pub(crate) fn adaptive<F: Fn(f64) -> Estimate + Sync>(
     let mut evals: u64 = panels.iter().map(|p| p.2.evals).sum();
     loop {
         let error: DVec3 = panels.iter().map(|p| p.2.error).sum();
-        if error.max_element() <= tol || panels.len() >= MAX_PANELS {
+        if error.max_element() <= tol || panels.len() >= MAX_PANELS || stop() {
             break;
         }
         let worst = panels

@@ -556,3 +556,64 @@ fn a_signal_stops_lut_and_preview_runs() {
         assert_interrupted(child, args[0], "interrupted", dir.path(), &old);
     }
 }
+
+/// The adaptive reference on measured data (a MERL table split at θd = 45°: a jump on every
+/// view direction's circle ωi·ωo = 0) refines for seconds; Ctrl-C and SIGTERM stop it within
+/// the time of one batch of panels, with status 130 and no report. Before the reference checked
+/// the token between its batches it ran on for minutes after SIGINT.
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_the_reference_on_measured_data() {
+    use lobe::merl::{self, BINS, DIMS};
+    let dir = tempfile::tempdir().unwrap();
+    let mut values = vec![0.0; 3 * BINS];
+    for h in 0..DIMS[0] {
+        for d in 0..DIMS[1] {
+            for p in 0..DIMS[2] {
+                for ch in 0..3 {
+                    let c = if d < 45 { 0.8 } else { 0.2 };
+                    values[ch * BINS + merl::bin(h, d, p)] = c / std::f64::consts::PI;
+                }
+            }
+        }
+    }
+    let path = dir.path().join("split.binary");
+    std::fs::write(&path, merl::encode(&values)).unwrap();
+    // How long a signal may take to be obeyed: one batch of the outer integral's panels (each
+    // a few inner integrals), well under a second here; 5 s leaves room for a loaded machine.
+    const OBEYED_WITHIN: Duration = Duration::from_secs(5);
+    for signal in ["INT", "TERM"] {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_lobe"));
+        c.args([
+            "albedo",
+            "--backend",
+            "cpu",
+            "--method",
+            "reference",
+            "--mu",
+            "0.3",
+        ])
+        .arg("--model")
+        .arg(&path);
+        let child = spawn(c);
+        std::thread::sleep(Duration::from_millis(1500));
+        assert!(
+            kill(&child, signal),
+            "SIG{signal}: the reference ended before the signal"
+        );
+        let sent = Instant::now();
+        let o = child.wait_with_output().expect("waiting for lobe");
+        let err = stderr(&o);
+        assert!(
+            sent.elapsed() < OBEYED_WITHIN,
+            "SIG{signal}: lobe took {:?} to stop",
+            sent.elapsed()
+        );
+        assert_eq!(
+            o.status.code(),
+            Some(INTERRUPTED_STATUS),
+            "SIG{signal}: {err}"
+        );
+        assert!(err.contains("interrupted"), "SIG{signal}: {err}");
+    }
+}

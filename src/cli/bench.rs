@@ -188,16 +188,11 @@ fn print_table(
         grid.cells().unwrap_or(0),
         grid.name(),
         lobe::bench::ALBEDO_DIRECTIONS,
-        lobe::bench::ALBEDO_RULE.nodes(glam::DVec3::Z).len()
-            + lobe::bench::ALBEDO_RULE
-                .coarse()
-                .nodes(glam::DVec3::Z)
-                .len()
-            + lobe::bench::ALBEDO_RULE
-                .coarse()
-                .coarse()
-                .nodes(glam::DVec3::Z)
-                .len(),
+        lobe::bench::ALBEDO_RULE
+            .levels(false)
+            .iter()
+            .map(|r| r.nodes(glam::DVec3::Z).len())
+            .sum::<usize>(),
         lobe::bench::LUT_RES,
         lobe::bench::LUT_RES,
         lobe::bench::LUT_SAMPLES

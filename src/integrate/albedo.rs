@@ -2,8 +2,8 @@
 //! Kulla–Conty's E_avg, on a rule's table of directions or by the adaptive reference.
 
 use super::backend::{rule_albedo, rule_albedo_rows};
-use super::gauss::{adaptive, gk15, gk15_combine, gk15_nodes, graded, Estimate};
-use super::reference::{reference_albedo, REFERENCE_RTOL};
+use super::gauss::{adaptive_until, gk15, gk15_combine, gk15_nodes, graded, Estimate};
+use super::reference::{reference_albedo_within, Budget, REFERENCE_MAX_EVALS, REFERENCE_RTOL};
 use super::{view_direction, Settings};
 use crate::eval::Evaluator;
 use crate::model::{ParamSet, Reference};
@@ -53,10 +53,15 @@ pub fn directional(
             params
                 .model()
                 .require_reference("the reference integrator")?;
+            // One budget for the job: once spent, every direction left keeps its first panels.
+            let budget = Budget::new(REFERENCE_MAX_EVALS, backend.cancel_token());
             wo.par_iter()
                 .map(|&o| {
                     backend.check_cancelled()?;
-                    Ok(reference_albedo(&r, o, REFERENCE_RTOL))
+                    let e = reference_albedo_within(&r, o, REFERENCE_RTOL, &budget);
+                    // Stopped by Ctrl-C: no value to report, not a less accurate one.
+                    backend.check_cancelled()?;
+                    Ok(e)
                 })
                 .collect::<Result<_>>()?
         }
@@ -252,11 +257,13 @@ fn hemispherical_from(
     let mus = outer_mus(&breaks);
     let phis = outer_phis(params, phi);
     // 2∫ E(μ, φo) μ dμ at azimuth index k.
+    // The reference's budget, for every view direction of the outer integrals together.
+    let budget = Budget::new(REFERENCE_MAX_EVALS, backend.cancel_token());
     let e_avg_at = |k: usize| -> Estimate {
         let p = phis[k];
         if table.is_empty() {
             let g = |mu: f64| {
-                let e = reference_albedo(&r, view_direction(mu, p), REFERENCE_RTOL);
+                let e = reference_albedo_within(&r, view_direction(mu, p), REFERENCE_RTOL, &budget);
                 Estimate {
                     value: 2.0 * mu * (e.value + r.delta_albedo(mu)),
                     error: 2.0 * mu * e.error,
@@ -266,7 +273,7 @@ fn hemispherical_from(
             // The outer tolerance relative to the Lambert-like scale of the directional ones.
             let first = gk15(&g, 0.0, 1.0);
             let tol = (REFERENCE_RTOL * first.value.abs().max_element()).max(f64::MIN_POSITIVE);
-            adaptive(&g, &breaks, 10.0 * tol, true)
+            adaptive_until(&g, &breaks, 10.0 * tol, true, &|| budget.stop())
         } else {
             let row = &table[k * mus.len()..(k + 1) * mus.len()];
             let mut total = Estimate::default();
@@ -301,6 +308,8 @@ fn hemispherical_from(
             .sum::<DVec3>()
     };
     let e_avg = e_avg_at(0);
+    // Stopped by Ctrl-C: no value to report, not a less accurate one.
+    backend.check_cancelled()?;
     if phis.len() == 1 {
         return Ok(HemiAlbedo {
             albedo: e_avg.value,
@@ -318,6 +327,7 @@ fn hemispherical_from(
     } else {
         (0..phis.len()).map(e_avg_at).collect()
     };
+    backend.check_cancelled()?;
     let n = rows.len() as f64;
     let fine: DVec3 = rows.iter().map(|e| e.value).sum::<DVec3>() / n;
     let coarse: DVec3 = rows.iter().step_by(2).map(|e| e.value).sum::<DVec3>() / (n / 2.0);

@@ -1,7 +1,7 @@
 //! Running a fixed rule on a backend: f64 sums on the CPU, the reduction kernel on the GPU, and
 //! the error estimate (three levels of the rule, or the replicates' spread) on top.
 
-use super::estimate::three_level_error;
+use super::estimate::level_error;
 use super::gauss::Estimate;
 use super::importance::{REPLICATES, REPLICATE_T};
 use super::rules::Rule;
@@ -23,8 +23,9 @@ pub fn rule_albedo<'q>(
 }
 
 /// Integrand evaluations [`rule_albedo`] spends on `rule` at the view directions `wo`: the nodes
-/// of the rule and of its two coarser levels (for the replicated importance rule, its replicates' nodes).
-pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
+/// of the rule and of its coarser levels ([`Rule::levels`]; for the replicated importance rule,
+/// its replicates' nodes).
+pub fn rule_evaluations(rule: Rule, tabulated: bool, wo: &[DVec3]) -> u64 {
     let count = |r: Rule| -> u64 {
         if r.depends_on_wo() {
             wo.par_iter().map(|&o| r.node_count(o) as u64).sum()
@@ -36,7 +37,7 @@ pub fn rule_evaluations(rule: Rule, wo: &[DVec3]) -> u64 {
         Rule::Importance {
             replicate: None, ..
         } => count(rule),
-        _ => count(rule) + count(rule.coarse()) + count(rule.coarse().coarse()),
+        _ => rule.levels(tabulated).into_iter().map(count).sum(),
     }
 }
 
@@ -107,7 +108,7 @@ pub fn sum_rule<'q>(
 
 /// [`rule_albedo`] for each parameter set of `query` (the rows of a LUT) at the same view
 /// directions with the same rule: each direction's nodes are made once and serve every row, and
-/// on the GPU every row, the rule and its two coarser levels (or every replicate) go out in the
+/// on the GPU every row, the rule and its coarser levels (or every replicate) go out in the
 /// same dispatches. Row r of the result is `rule_albedo(backend, query.for_set(&rows[r]), …)`.
 /// Rows of different models are taken row by row.
 pub fn rule_albedo_rows(
@@ -163,8 +164,8 @@ pub fn rule_albedo_rows(
             })
             .collect());
     }
-    let (coarse, p) = (rule.coarse(), rule.level_exponent());
-    let levels = [rule, coarse, coarse.coarse()];
+    let tabulated = first.model().is_tabulated();
+    let (levels, p) = (rule.levels(tabulated), rule.level_exponent());
     // [level][row][ωo]
     let sums = sum_rules_rows(backend, query, &levels, wo)?;
     Ok((0..rows.len())
@@ -173,9 +174,10 @@ pub fn rule_albedo_rows(
                 .map(|o| {
                     let at = |l: usize| sums[l][row][o];
                     let v = at(0).0;
+                    let values: Vec<DVec3> = (0..levels.len()).map(|l| at(l).0).collect();
                     Estimate {
                         value: v,
-                        error: three_level_error(v, at(1).0, at(2).0, p) + rounding(v, wo[o]),
+                        error: level_error(&values, p) + rounding(v, wo[o]),
                         evals: at(0).1,
                     }
                 })

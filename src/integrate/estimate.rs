@@ -1,4 +1,5 @@
-//! The error estimate of a fixed rule from three of its levels (docs/design.md §5.5).
+//! The error estimate of a fixed rule from three of its levels, or four on tabulated data
+//! (docs/design.md §5.5).
 //!
 //! A rule is run at its own resolution n₀ and at two coarser ones n₁ > n₂ ([`Rule::coarse`]
 //! twice), giving E₀, E₁, E₂ and the differences d₁ = |E₀ − E₁|, d₂ = |E₁ − E₂|. If the errors
@@ -13,7 +14,10 @@
 //! [`NOT_CONVERGING`] × d₁ when r^p ≥ ½ or when E₀ − E₁ and E₁ − E₂ differ in sign (which no
 //! geometric convergence does): the errors are not falling fast enough, or not steadily enough,
 //! for the model to say more (a discontinuity inside a panel, or a lobe no level resolves), plus
-//! [`SHARED_ERROR_FLOOR`] × |E₀| for what no level difference shows.
+//! [`SHARED_ERROR_FLOOR`] × |E₀| for what no level difference shows. A tabulated model (measured
+//! data read by its bins) is not smooth anywhere the model could hold: there a third coarser
+//! level is run, and the estimate is [`ESTIMATE_SAFETY`] × the largest of the three differences
+//! (the fourth level costs (¾)⁶ ≈ 18 % of the fine `peak` rule's nodes).
 //!
 //! Why the old two-level estimate |E₀ − E₁| failed both ways: for a smooth integrand it is E₁'s
 //! error, many times E₀'s (30× on the default DFG table); for a piecewise-constant one (a table
@@ -36,7 +40,7 @@ pub const ESTIMATE_SAFETY: f64 = 4.0;
 /// of tests/estimates.rs (jumps on curves that cross the panels) lie in this regime.
 pub const NOT_CONVERGING: f64 = 1.0;
 
-/// What no difference between levels can show, relative to |E|: an error the three levels
+/// What no difference between levels can show, relative to |E|: an error the levels
 /// share (all `peak` levels use the same panels; a feature narrower than every level's nodes
 /// is missed by all alike), and the f64 rounding of sums of ~10⁵ terms. The largest such error
 /// seen on GGX and Beckmann under the white furnace (α from 1.5e-5 to 1, μo from 1/64 to 1) was
@@ -44,16 +48,32 @@ pub const NOT_CONVERGING: f64 = 1.0;
 /// stays 10 × below the default rule's target of 1e-6.
 pub const SHARED_ERROR_FLOOR: f64 = 1e-7;
 
-/// The estimate of the fine rule's error from its three levels' values (per channel), with
-/// `p` = (n₀ − n₁)/(n₁ − n₂) of the rule ([`Rule::level_exponent`]).
-pub fn three_level_error(fine: DVec3, coarse: DVec3, coarser: DVec3, p: f64) -> DVec3 {
-    let (s1, s2) = (fine - coarse, coarse - coarser);
+/// The estimate of the fine rule's error from its levels' values (per channel), finest first
+/// ([`Rule::levels`]), with `p` = (n₀ − n₁)/(n₁ − n₂) of the rule ([`Rule::level_exponent`]).
+///
+/// Three levels for a smooth integrand: the geometric model where s₁ = E₀ − E₁ and
+/// s₂ = E₁ − E₂ share their sign and rᵖ < ½, 4 d₁ elsewhere. Four for a tabulated one
+/// ([`crate::model::Model::is_tabulated`]: measured data read by its bins, with a jump or a
+/// kink on every bin boundary), where no level converges geometrically: the levels' errors are
+/// of one size and either sign, and two neighbouring levels can agree by chance far below their
+/// common error (a MERL table split at θd = 45°, at μo = 0.3: E₀ − E₁ and E₁ − E₂ of about 1e-7,
+/// which the geometric model took for convergence, at a true error of 9.5e-4). The estimate is
+/// then 4 × the largest of the three differences, which four levels would all have to share by
+/// chance to hide.
+pub fn level_error(levels: &[DVec3], p: f64) -> DVec3 {
+    let fine = levels[0];
+    let s: Vec<DVec3> = levels.windows(2).map(|w| w[0] - w[1]).collect();
+    let tabulated = s.len() > 2;
     let model = DVec3::from_array(std::array::from_fn(|c| {
-        let (d1, d2) = (s1[c].abs(), s2[c].abs());
+        let d: Vec<f64> = s.iter().map(|v| v[c].abs()).collect();
+        if tabulated {
+            return ESTIMATE_SAFETY * NOT_CONVERGING * d.iter().copied().fold(0.0, f64::max);
+        }
+        let (d1, d2) = (d[0], d[1]);
         let rp = if d2 > 0.0 { (d1 / d2).powf(p) } else { 1.0 };
         // Geometric convergence moves every level the same way; differences of opposite signs
         // mean errors of either sign at random (a jump inside a panel).
-        let geometric = s1[c] * s2[c] > 0.0;
+        let geometric = s[0][c] * s[1][c] > 0.0;
         let growth = if geometric && rp < 0.5 {
             rp / (1.0 - rp)
         } else {
@@ -65,6 +85,17 @@ pub fn three_level_error(fine: DVec3, coarse: DVec3, coarser: DVec3, p: f64) -> 
 }
 
 impl Rule {
+    /// The rule and the coarser levels whose values [`level_error`] reads, finest first: two
+    /// coarser ones, or three for a tabulated model ([`crate::model::Model::is_tabulated`]).
+    pub fn levels(&self, tabulated: bool) -> Vec<Rule> {
+        let mut levels = vec![*self];
+        for _ in 0..if tabulated { 3 } else { 2 } {
+            let next = levels[levels.len() - 1].coarse();
+            levels.push(next);
+        }
+        levels
+    }
+
     /// p = (n₀ − n₁)/(n₁ − n₂) over the rule and its two coarser levels, n the resolution in
     /// which its error falls geometrically: Gauss points per axis (`gauss`, `peak`), the level
     /// for rules whose levels halve h (`midpoint`, `qmc`: p = 1).

@@ -55,10 +55,13 @@ pub use backend::{
     rule_albedo, rule_albedo_rows, rule_evaluations, sum_rule, sum_rules_rows, RowSums,
     GPU_MIRROR_ROUNDING_FACTOR, GPU_ROUNDING_FACTOR,
 };
-pub use estimate::{three_level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
+pub use estimate::{level_error, ESTIMATE_SAFETY, NOT_CONVERGING, SHARED_ERROR_FLOOR};
 pub use gauss::{gauss_legendre, Estimate};
 pub use importance::{Mixture, MAX_LOBES, REPLICATES, REPLICATE_T};
-pub use reference::{reference_albedo, reference_albedo_mirror_frame, REFERENCE_RTOL};
+pub use reference::{
+    reference_albedo, reference_albedo_mirror_frame, reference_albedo_within, Budget,
+    REFERENCE_MAX_EVALS, REFERENCE_RTOL,
+};
 pub use report::{albedo_report, AlbedoReport};
 pub use rules::Rule;
 pub use vcavity::{v_cavity_kinks, v_cavity_turns};

@@ -65,6 +65,7 @@ pub fn register(name: &str, description: &str, table: MerlTable) -> anyhow::Resu
         move |v: &[f64], wi: DVec3, wo: DVec3| merl(&table, Lookup::from_index(v[0]), wi, wo);
     Ok(m.with_data(gpu)
         .with_reciprocity()
+        .with_tabulated()
         .with_reference(Arc::new(reference))
         .register()?)
 }

@@ -150,6 +150,16 @@ impl Model {
         }
     }
 
+    /// Whether f is read from a table by its bins (a MERL file), with jumps or kinks on every
+    /// bin boundary ([`runtime::RuntimeModel::with_tabulated`]); every built-in model is smooth
+    /// within the albedo rules' panels (their kinks lie on the panels' edges).
+    pub fn is_tabulated(self) -> bool {
+        match self {
+            Model::Runtime(r) => r.is_tabulated(),
+            _ => false,
+        }
+    }
+
     /// Whether f is unchanged, for every parameter set, when both directions are mirrored across
     /// the xz plane (y → −y) or across the yz plane (x → −x), so that a full table may copy
     /// three quarters of its cells (docs/design.md §4.6). Every built-in model is: its

@@ -49,6 +49,7 @@ pub struct RuntimeModel {
     defaults: Vec<(&'static str, Value)>,
     data: Option<&'static [u8]>,
     reciprocal: bool,
+    tabulated: bool,
 }
 
 impl std::fmt::Debug for RuntimeModel {
@@ -216,6 +217,7 @@ impl RuntimeModel {
             defaults: Vec::new(),
             data: None,
             reciprocal: false,
+            tabulated: false,
         })
     }
 
@@ -311,6 +313,15 @@ impl RuntimeModel {
         self
     }
 
+    /// Declares f to be read from a table by its bins (a measured BRDF): piecewise constant or
+    /// piecewise linear, with jumps or kinks on every bin boundary, so that no quadrature rule
+    /// converges geometrically on it and the albedo's error estimate must not assume so
+    /// (docs/design.md §5.5). Default: f is smooth within the rules' panels.
+    pub fn with_tabulated(mut self) -> RuntimeModel {
+        self.tabulated = true;
+        self
+    }
+
     /// Makes the model known to [`Model::from_name`] for the rest of the process and returns it.
     /// Refuses a name that a built-in or registered model already has.
     pub fn register(self) -> Result<Model, ParamError> {
@@ -358,6 +369,11 @@ impl RuntimeModel {
     /// The data table the kernels read, if the model has one ([`RuntimeModel::with_data`]).
     pub fn data(&self) -> Option<&'static [u8]> {
         self.data
+    }
+
+    /// Whether f is read from a table by its bins ([`RuntimeModel::with_tabulated`]).
+    pub fn is_tabulated(&self) -> bool {
+        self.tabulated
     }
 
     /// Whether the model declares reciprocity ([`RuntimeModel::with_reciprocity`]).
