@@ -16,6 +16,8 @@ mod optional;
 mod server;
 #[path = "explore/stale.rs"]
 mod stale;
+#[path = "explore/views.rs"]
+mod views;
 
 use serde_json::{json, Value};
 use server::{floats, http, http_chunked, http_claiming, manifest, Server};
