@@ -12,6 +12,7 @@ mod api;
 mod download;
 mod guard;
 mod limits;
+mod objects;
 mod reply;
 mod upload;
 
