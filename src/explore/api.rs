@@ -2,6 +2,7 @@
 //! with what a [`Session`](crate::Session) computes (binary little-endian f32 RGB for the
 //! views, JSON for the albedo and the model list).
 
+use super::cells::{hemisphere_cell, lobe_cell, slice_cell, Cell, Setting, DEFAULT_PHI_D_DEG};
 use super::download;
 use super::guard::{self, refuse};
 use super::limits::*;
@@ -10,11 +11,9 @@ use super::reply::{
     answer, bad, check_incidence, evaluate, json_response, model_json, resolve, Refusal, Shared,
 };
 use super::upload::{self, renamed};
-use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
+use super::{State, ASSETS, INDEX_HTML};
 use crate::backend::Query;
-use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamSet};
-use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
 use crate::plot::polar::{light_direction, view_direction};
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Request};
@@ -27,20 +26,11 @@ use serde_json::json;
 use std::sync::Arc;
 
 pub(crate) fn router(state: Arc<State>) -> Router {
-    Router::new()
-        .route("/", get(index))
-        .route(
-            "/app.js",
-            get(|| asset("text/javascript; charset=utf-8", APP_JS)),
-        )
-        .route(
-            "/views.js",
-            get(|| asset("text/javascript; charset=utf-8", VIEWS_JS)),
-        )
-        .route(
-            "/style.css",
-            get(|| asset("text/css; charset=utf-8", STYLE_CSS)),
-        )
+    let mut router = Router::new().route("/", get(index));
+    for (path, content_type, text) in ASSETS {
+        router = router.route(path, get(move || asset(content_type, text)));
+    }
+    router
         .route("/api/models", get(models))
         .route("/api/status", get(status))
         .route("/api/polar", post(polar))
@@ -241,53 +231,6 @@ async fn torus(state: Shared, body: Bytes) -> Response {
 
 async fn lobe(state: Shared, body: Bytes) -> Response {
     answer(image(state.0, body, lobe_cell, false).await)
-}
-
-/// What an image view's cells depend on besides their place, radians: the polar plot's light
-/// (θi) and the slice's φd.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Setting {
-    pub theta_i: f64,
-    pub phi_d: f64,
-}
-
-/// What one cell of an image view evaluates: a pair of directions and the factor its f is
-/// multiplied by, or None for a cell the view leaves empty (NaN).
-type Cell = fn(res: usize, row: usize, col: usize, at: Setting) -> Option<(DVec3, DVec3, f64)>;
-
-/// The slice's φd when a request names none: 90°, where both directions of every cell stay
-/// above the horizon (where MERL slices are shown).
-const DEFAULT_PHI_D_DEG: f64 = 90.0;
-
-/// The hemisphere of ωo on the equal-area disc, rows from the top (+y), for the polar plot's
-/// light.
-fn hemisphere_cell(res: usize, row: usize, col: usize, at: Setting) -> Option<(DVec3, DVec3, f64)> {
-    let (x, y) = cell_point(res, row, col);
-    let wo = cell_direction(Projection::EqualArea, x, y)?;
-    Some((light_direction(at.theta_i), wo, 1.0))
-}
-
-/// The θh × θd slice at φh = 0 and the request's φd, θh along the columns and θd down the rows,
-/// cell-centred over [0°, 90°); a cell whose ωi or ωo falls below the horizon is empty (at
-/// φd = 90° none does: both stay at cos θd cos θh above it).
-fn slice_cell(res: usize, row: usize, col: usize, at: Setting) -> Option<(DVec3, DVec3, f64)> {
-    let step = std::f64::consts::FRAC_PI_2 / res as f64;
-    let theta_h = (col as f64 + 0.5) * step;
-    let theta_d = (row as f64 + 0.5) * step;
-    let (wi, wo) = half_diff_to_pair(theta_h, 0.0, theta_d, at.phi_d);
-    (wi.z > 0.0 && wo.z > 0.0).then_some((wi, wo, 1.0))
-}
-
-/// The 3D lobe's mesh: ωo at θo = (row + ½)·90°/res down the rows and φo = col·360°/res along
-/// the columns (the page closes each ring), for the polar plot's light.
-fn lobe_cell(res: usize, row: usize, col: usize, at: Setting) -> Option<(DVec3, DVec3, f64)> {
-    let theta_o = (row as f64 + 0.5) * std::f64::consts::FRAC_PI_2 / res as f64;
-    let phi_o = col as f64 * std::f64::consts::TAU / res as f64;
-    Some((
-        light_direction(at.theta_i),
-        crate::grid::direction(theta_o, phi_o),
-        1.0,
-    ))
 }
 
 /// Refuses a slice's φd outside [0°, 360°].

@@ -4,7 +4,7 @@
 //! (0 where the object shadows itself). Each cell gives the pair in the surface's local frame
 //! (tangent, bitangent, normal) and that cosine.
 
-use super::api::Setting;
+use super::cells::Setting;
 use crate::plot::hemisphere::cell_point;
 use crate::plot::polar::light_direction;
 use glam::{DVec2, DVec3};
