@@ -12,10 +12,16 @@ mod downloads;
 mod merl;
 #[path = "explore/optional.rs"]
 mod optional;
+#[path = "explore/page.rs"]
+mod page;
+#[path = "explore/restore.rs"]
+mod restore;
 #[path = "explore/server.rs"]
 mod server;
 #[path = "explore/stale.rs"]
 mod stale;
+#[path = "explore/views.rs"]
+mod views;
 
 use serde_json::{json, Value};
 use server::{floats, http, http_chunked, http_claiming, manifest, Server};
@@ -111,6 +117,9 @@ fn refuses_requests_without_the_token() {
         ("GET", "/"),
         ("GET", "/app.js"),
         ("GET", "/views.js"),
+        ("GET", "/lobe3d.js"),
+        ("GET", "/files.js"),
+        ("GET", "/style.css"),
         ("GET", "/api/models"),
     ] {
         let r = http(&server.addr, method, target, &[], b"");
@@ -140,6 +149,35 @@ fn refuses_requests_without_the_token() {
     );
     assert_eq!(r.status, 200, "{}", r.text());
     assert!(r.text().contains(&format!("app.js?token={}", server.token)));
+    // Every script and style the page names is served.
+    for (asset, kind) in [
+        ("app.js", "text/javascript"),
+        ("views.js", "text/javascript"),
+        ("lobe3d.js", "text/javascript"),
+        ("files.js", "text/javascript"),
+        ("style.css", "text/css"),
+    ] {
+        assert!(
+            r.text()
+                .contains(&format!("{asset}?token={}", server.token)),
+            "the page does not load {asset}"
+        );
+        let a = http(
+            &server.addr,
+            "GET",
+            &format!("/{asset}?token={}", server.token),
+            &[],
+            b"",
+        );
+        assert_eq!(a.status, 200, "{asset}: {}", a.text());
+        assert!(
+            a.head
+                .to_ascii_lowercase()
+                .contains(&format!("content-type: {kind}")),
+            "{asset}: {}",
+            a.head
+        );
+    }
     assert!(
         !r.head.to_ascii_lowercase().contains("access-control-allow"),
         "{}",

@@ -2,18 +2,18 @@
 //! with what a [`Session`](crate::Session) computes (binary little-endian f32 RGB for the
 //! views, JSON for the albedo and the model list).
 
+use super::cells::{hemisphere_cell, lobe_cell, slice_cell, Cell, Setting, DEFAULT_PHI_D_DEG};
 use super::download;
 use super::guard::{self, refuse};
 use super::limits::*;
+use super::objects::{sphere_cell, torus_cell};
 use super::reply::{
     answer, bad, check_incidence, evaluate, json_response, model_json, resolve, Refusal, Shared,
 };
 use super::upload::{self, renamed};
-use super::{State, APP_JS, INDEX_HTML, STYLE_CSS, VIEWS_JS};
+use super::{State, ASSETS, INDEX_HTML};
 use crate::backend::Query;
-use crate::grid::half_diff_to_pair;
 use crate::model::{Model, ParamSet};
-use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
 use crate::plot::polar::{light_direction, view_direction};
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Request};
@@ -26,26 +26,18 @@ use serde_json::json;
 use std::sync::Arc;
 
 pub(crate) fn router(state: Arc<State>) -> Router {
-    Router::new()
-        .route("/", get(index))
-        .route(
-            "/app.js",
-            get(|| asset("text/javascript; charset=utf-8", APP_JS)),
-        )
-        .route(
-            "/views.js",
-            get(|| asset("text/javascript; charset=utf-8", VIEWS_JS)),
-        )
-        .route(
-            "/style.css",
-            get(|| asset("text/css; charset=utf-8", STYLE_CSS)),
-        )
+    let mut router = Router::new().route("/", get(index));
+    for (path, content_type, text) in ASSETS {
+        router = router.route(path, get(move || asset(content_type, text)));
+    }
+    router
         .route("/api/models", get(models))
         .route("/api/status", get(status))
         .route("/api/polar", post(polar))
         .route("/api/hemisphere", post(hemisphere))
         .route("/api/slice", post(slice))
         .route("/api/sphere", post(sphere))
+        .route("/api/torus", post(torus))
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
         .route("/api/table", post(download::table))
@@ -113,10 +105,19 @@ struct ViewRequest {
     theta_i_deg: f64,
     /// Polar: view angles; hemisphere: cells across; albedo: view directions.
     samples: usize,
+    /// The slice's φd, degrees (default [`DEFAULT_PHI_D_DEG`]); refused by the other views.
+    #[serde(default)]
+    phi_d_deg: Option<f64>,
 }
 
-/// Parses and checks a view request; `max` bounds `samples`, `what` names them.
-fn parse_view(body: &[u8], max: usize, what: &str) -> Result<(ViewRequest, ParamSet), Refusal> {
+/// Parses and checks a view request; `max` bounds `samples`, `what` names them; `uses_phi_d`:
+/// the view reads `phi_d_deg` (the slice), which the others refuse rather than ignore.
+fn parse_view(
+    body: &[u8],
+    max: usize,
+    what: &str,
+    uses_phi_d: bool,
+) -> Result<(ViewRequest, ParamSet), Refusal> {
     let req: ViewRequest =
         serde_json::from_slice(body).map_err(|e| bad(format!("request body: {e}")))?;
     if !(1..=max).contains(&req.samples) {
@@ -126,6 +127,15 @@ fn parse_view(body: &[u8], max: usize, what: &str) -> Result<(ViewRequest, Param
         )));
     }
     check_incidence(req.theta_i_deg)?;
+    match req.phi_d_deg {
+        Some(_) if !uses_phi_d => {
+            return Err(bad(
+                "phi_d_deg: only the slice (/api/slice) has a difference azimuth".to_string(),
+            ))
+        }
+        Some(v) => check_phi_d(v)?,
+        None => {}
+    }
     let params = resolve(&req.model, req.material.as_deref(), &req.sets)?;
     Ok((req, params))
 }
@@ -189,7 +199,7 @@ async fn polar(state: Shared, body: Bytes) -> Response {
 }
 
 async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
-    let (req, params) = parse_view(&body, MAX_POLAR_SAMPLES, "view angles")?;
+    let (req, params) = parse_view(&body, MAX_POLAR_SAMPLES, "view angles", false)?;
     let wi = light_direction(req.theta_i_deg.to_radians());
     let pairs: Vec<(DVec3, DVec3)> = polar_angles_deg(req.samples)
         .into_iter()
@@ -204,89 +214,55 @@ async fn polar_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
 }
 
 async fn hemisphere(state: Shared, body: Bytes) -> Response {
-    answer(image(state.0, body, hemisphere_cell).await)
+    answer(image(state.0, body, hemisphere_cell, false).await)
 }
 
 async fn slice(state: Shared, body: Bytes) -> Response {
-    answer(image(state.0, body, slice_cell).await)
+    answer(image(state.0, body, slice_cell, true).await)
 }
 
 async fn sphere(state: Shared, body: Bytes) -> Response {
-    answer(image(state.0, body, sphere_cell).await)
+    answer(image(state.0, body, sphere_cell, false).await)
+}
+
+async fn torus(state: Shared, body: Bytes) -> Response {
+    answer(image(state.0, body, torus_cell, false).await)
 }
 
 async fn lobe(state: Shared, body: Bytes) -> Response {
-    answer(image(state.0, body, lobe_cell).await)
+    answer(image(state.0, body, lobe_cell, false).await)
 }
 
-/// What one cell of an image view evaluates: a pair of directions and the factor its f is
-/// multiplied by, or None for a cell the view leaves empty (NaN).
-type Cell = fn(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)>;
-
-/// The hemisphere of ωo on the equal-area disc, rows from the top (+y), for the polar plot's
-/// light.
-fn hemisphere_cell(
-    res: usize,
-    row: usize,
-    col: usize,
-    theta_i: f64,
-) -> Option<(DVec3, DVec3, f64)> {
-    let (x, y) = cell_point(res, row, col);
-    let wo = cell_direction(Projection::EqualArea, x, y)?;
-    Some((light_direction(theta_i), wo, 1.0))
-}
-
-/// The θh × θd slice at φh = 0, φd = 90° (where MERL slices are shown: both directions stay
-/// above the horizon), θh along the columns and θd down the rows, cell-centred over [0°, 90°).
-fn slice_cell(res: usize, row: usize, col: usize, _: f64) -> Option<(DVec3, DVec3, f64)> {
-    let step = std::f64::consts::FRAC_PI_2 / res as f64;
-    let theta_h = (col as f64 + 0.5) * step;
-    let theta_d = (row as f64 + 0.5) * step;
-    let (wi, wo) = half_diff_to_pair(theta_h, 0.0, theta_d, std::f64::consts::FRAC_PI_2);
-    Some((wi, wo, 1.0))
-}
-
-/// A unit sphere seen from +z (orthographic), lit by a distant point light of unit irradiance
-/// at normal incidence from the polar plot's light direction: radiance f·cos θi. Each normal's
-/// tangent frame is glam's `any_orthonormal_pair` (Duff et al. 2017), so an anisotropic model's
-/// tangent turns with the normal.
-fn sphere_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
-    let (x, y) = cell_point(res, row, col);
-    let r2 = x * x + y * y;
-    if r2 > 1.0 {
-        return None;
+/// Refuses a slice's φd outside [0°, 360°].
+fn check_phi_d(phi_d_deg: f64) -> Result<(), Refusal> {
+    if !(phi_d_deg.is_finite() && (0.0..=360.0).contains(&phi_d_deg)) {
+        return Err(bad(format!(
+            "phi_d_deg {phi_d_deg}: expected the slice's difference azimuth in [0, 360] degrees"
+        )));
     }
-    let n = DVec3::new(x, y, (1.0 - r2).sqrt());
-    let (t, b) = n.any_orthonormal_pair();
-    let local = |w: DVec3| DVec3::new(w.dot(t), w.dot(b), w.dot(n));
-    let wi = local(light_direction(theta_i));
-    let wo = local(DVec3::Z);
-    Some((wi, wo, wi.z.max(0.0)))
-}
-
-/// The 3D lobe's mesh: ωo at θo = (row + ½)·90°/res down the rows and φo = col·360°/res along
-/// the columns (the page closes each ring), for the polar plot's light.
-fn lobe_cell(res: usize, row: usize, col: usize, theta_i: f64) -> Option<(DVec3, DVec3, f64)> {
-    let theta_o = (row as f64 + 0.5) * std::f64::consts::FRAC_PI_2 / res as f64;
-    let phi_o = col as f64 * std::f64::consts::TAU / res as f64;
-    Some((
-        light_direction(theta_i),
-        crate::grid::direction(theta_o, phi_o),
-        1.0,
-    ))
+    Ok(())
 }
 
 /// An image view: `res` × `res` cells (`cell` says what each evaluates), f32 RGB in rows from the
-/// top, NaN where the view has no value.
-async fn image(state: Arc<State>, body: Bytes, cell: Cell) -> Result<Response, Refusal> {
-    let (req, params) = parse_view(&body, MAX_IMAGE_RES, "cells across")?;
+/// top, NaN where the view has no value; `uses_phi_d` as for [`parse_view`].
+async fn image(
+    state: Arc<State>,
+    body: Bytes,
+    cell: Cell,
+    uses_phi_d: bool,
+) -> Result<Response, Refusal> {
+    let (req, params) = parse_view(&body, MAX_IMAGE_RES, "cells across", uses_phi_d)?;
+    let phi_d_deg = req.phi_d_deg.unwrap_or(DEFAULT_PHI_D_DEG);
     let res = req.samples;
-    let theta_i = req.theta_i_deg.to_radians();
+    let at = Setting {
+        theta_i: req.theta_i_deg.to_radians(),
+        phi_d: phi_d_deg.to_radians(),
+    };
     let mut cells = Vec::with_capacity(res * res);
     let mut pairs = Vec::new();
     for row in 0..res {
         for col in 0..res {
-            let c = cell(res, row, col, theta_i);
+            let c = cell(res, row, col, at);
             cells.push(c.map(|(_, _, factor)| factor));
             pairs.extend(c.map(|(wi, wo, _)| (wi, wo)));
         }
@@ -319,7 +295,7 @@ async fn albedo(state: Shared, body: Bytes) -> Response {
 }
 
 async fn albedo_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
-    let (req, params) = parse_view(&body, MAX_ALBEDO_POINTS, "view directions")?;
+    let (req, params) = parse_view(&body, MAX_ALBEDO_POINTS, "view directions", false)?;
     let settings = crate::AlbedoSettings {
         white_furnace: req.white_furnace,
         ..crate::AlbedoSettings::default()

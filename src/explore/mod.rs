@@ -9,9 +9,11 @@
 //! binary; the page needs no network.
 
 mod api;
+mod cells;
 mod download;
 mod guard;
 mod limits;
+mod objects;
 mod reply;
 mod upload;
 
@@ -22,11 +24,22 @@ use crate::{Session, SessionOptions};
 use std::net::{IpAddr, SocketAddr};
 use std::sync::{Arc, Mutex};
 
-/// The page, its scripts and its style, compiled in.
+/// The page, compiled in.
 pub(crate) const INDEX_HTML: &str = include_str!("assets/index.html");
-pub(crate) const APP_JS: &str = include_str!("assets/app.js");
-pub(crate) const VIEWS_JS: &str = include_str!("assets/views.js");
-pub(crate) const STYLE_CSS: &str = include_str!("assets/style.css");
+
+/// The page's scripts and style, compiled in: each one's path, content type and text.
+pub(crate) const ASSETS: [(&str, &str, &str); 5] = [
+    ("/app.js", JAVASCRIPT, include_str!("assets/app.js")),
+    ("/views.js", JAVASCRIPT, include_str!("assets/views.js")),
+    ("/lobe3d.js", JAVASCRIPT, include_str!("assets/lobe3d.js")),
+    ("/files.js", JAVASCRIPT, include_str!("assets/files.js")),
+    (
+        "/style.css",
+        "text/css; charset=utf-8",
+        include_str!("assets/style.css"),
+    ),
+];
+const JAVASCRIPT: &str = "text/javascript; charset=utf-8";
 
 /// What `lobe explore` starts with.
 #[derive(Clone, Debug)]

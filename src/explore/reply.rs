@@ -6,6 +6,7 @@ use super::guard::refuse;
 use super::limits::MAX_ASSIGNMENTS;
 use super::State;
 use crate::model::{Model, ParamKind, ParamSet, Value};
+use crate::resolve::split_spec;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde_json::json;
@@ -30,8 +31,10 @@ pub(super) fn check_incidence(theta_i_deg: f64) -> Result<(), Refusal> {
     Ok(())
 }
 
-/// A model's parameters as `--model M --material P --set K=V` gives them, with at most
-/// [`MAX_ASSIGNMENTS`] assignments.
+/// A model's parameters as the page's command lines give them, `--model 'M{K=V,...}'
+/// --material P`, with at most [`MAX_ASSIGNMENTS`] assignments. The assignments are read as
+/// that spec's own, by the command line's parser ([`split_spec`]), so that what it refuses (a
+/// key given twice) is refused here in its words.
 pub(super) fn resolve(
     model: &str,
     material: Option<&str>,
@@ -43,7 +46,9 @@ pub(super) fn resolve(
             sets.len()
         )));
     }
-    crate::resolve_params(model, material, sets).map_err(|e| bad(format!("model {model}: {e}")))
+    let spec = format!("{model}{{{}}}", sets.join(","));
+    let (name, own) = split_spec(&spec).map_err(|e| bad(format!("{e:#}")))?;
+    crate::resolve_params(name, material, &own).map_err(|e| bad(format!("model {model}: {e}")))
 }
 
 /// Runs `job` on a blocking thread (evaluation holds a core) and turns its failure into a

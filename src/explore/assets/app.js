@@ -1,10 +1,12 @@
-// lobe explore: the page. Every number it draws comes from the server, which computes it with the
-// same Session as the command line. The page's state lives in the URL's fragment.
+// lobe explore: the page's state, controls and requests (the views are drawn by views.js and
+// lobe3d.js, model files opened by files.js). Every number it draws comes from the server, which
+// computes it with the same Session as the command line. The page's state lives in the URL's
+// fragment.
 'use strict';
 
 const TOKEN = new URLSearchParams(location.search).get('token') || '';
 const POLAR_SAMPLES = 721;      // view angles per curve: one every 0.25°
-const IMAGE_RES = 64;           // cells across the hemisphere, slice and sphere images
+const IMAGE_RES = 64;           // cells across the hemisphere, slice, lit object and 3D lobe mesh
 const ALBEDO_POINTS = 24;       // E(μ) view directions
 const ALBEDO_DELAY_MS = 250;    // quiet time after the last change before the albedo is asked for
 const BUSY_DELAY_MS = 150;      // how long a view may wait before the page says it is busy
@@ -15,10 +17,18 @@ const DASHES = [[], [8, 4], [2, 3], [10, 3, 2, 3]];
 // What tests and benchmarks read: the last values drawn and the input-to-frame latencies.
 const probe = window.lobeExplore = {
   ready: false, frames: 0, polar: [], angles: [], params: [], latencies: [], errors: [], albedo: [], downloads: [],
+  notices: [], sliceCut: [], lobeFaces: 0,
 };
 
 let catalog = null;
-let state = { m: [], ti: 30, cos: false, log: true, wf: false };
+// m: the models; ti: θi; cos, log, wf: the polar plot's f·cosθi, log scale and white furnace;
+// wire: the 3D lobe as a wireframe; pd: the slice's φd; td: the θd of its θh cut (a row's
+// centre); obj: the lit object; ev, tm: the lit views' exposure (stops) and tone map.
+const DEFAULT_STATE = { m: [], ti: 30, cos: false, log: true, wf: false, wire: false, pd: 90, td: 45.703125, obj: 'sphere', ev: 0, tm: 'clamp' };
+let state = { ...DEFAULT_STATE };
+
+// The lit objects and the route that renders each.
+const LIT_OBJECTS = { sphere: '/api/sphere', torus: '/api/torus' };
 
 const $ = (id) => document.getElementById(id);
 const luminance = (r, g, b) => 0.2126 * r + 0.7152 * g + 0.0722 * b;
@@ -54,22 +64,44 @@ function request(entry, samples) {
 // ---- state in the URL ------------------------------------------------------------------------
 
 function saveState() {
-  history.replaceState(null, '', `${location.pathname}${location.search}#${encodeURIComponent(JSON.stringify(state))}`);
+  // A model opened from a file carries the file's name (and its kept copy's fingerprint), so that
+  // a server that never saw it can be told which file to open (files.js).
+  const m = state.m.map((e) => ({ ...e, ...sourceOf(e.model) }));
+  history.replaceState(null, '', `${location.pathname}${location.search}#${encodeURIComponent(JSON.stringify({ ...state, m }))}`);
   $('command').textContent = commandLines().join('\n');
 }
 
-function loadState() {
+// The state the URL's fragment holds, or null.
+function readHash() {
   try {
     const text = decodeURIComponent(location.hash.slice(1));
-    if (!text) return false;
+    if (!text) return null;
     const s = JSON.parse(text);
-    if (!Array.isArray(s.m)) return false;
-    state = { ...state, ...s };
-    state.m = s.m.filter((e) => e && modelInfo(e.model)).map((e) => ({ model: e.model, material: e.material || '', sets: e.sets || {} }));
-    return state.m.length > 0;
+    return s && Array.isArray(s.m) ? s : null;
   } catch (e) {
-    return false;
+    return null;
   }
+}
+
+// Takes a state read from a link (its models already opened where they can be, files.js): the
+// models this server has, and every other value that is of its kind, else its default; false
+// when no model is left.
+function applyState(s) {
+  if (!s) return false;
+  const fine = {
+    ti: (v) => Number.isFinite(v) && v >= 0 && v < 90, pd: (v) => Number.isFinite(v) && v >= 0 && v <= 360,
+    td: (v) => Number.isFinite(v) && v >= 0 && v <= 90, ev: (v) => Number.isFinite(v) && Math.abs(v) <= 10,
+    obj: (v) => Object.hasOwn(LIT_OBJECTS, v), tm: (v) => Object.hasOwn(TONE_MAPS, v),
+  };
+  const next = { ...DEFAULT_STATE };
+  for (const k of Object.keys(DEFAULT_STATE)) {
+    if (k === 'm' || !(k in s)) continue;
+    const ok = fine[k] ? fine[k](s[k]) : typeof s[k] === typeof DEFAULT_STATE[k];
+    if (ok) next[k] = s[k];
+  }
+  next.m = s.m.filter((e) => e && modelInfo(e.model)).map((e) => ({ model: e.model, material: e.material || '', sets: e.sets || {} }));
+  state = next;
+  return next.m.length > 0;
 }
 
 // ---- "copy as command" -----------------------------------------------------------------------
@@ -247,6 +279,16 @@ function buildControls() {
   $('cos').checked = state.cos;
   $('log').checked = state.log;
   $('white-furnace').checked = state.wf;
+  $('wireframe').checked = state.wire;
+  $('phi-d').value = state.pd;
+  $('phi-d-value').textContent = `${state.pd}°`;
+  $('theta-d').max = IMAGE_RES - 1;
+  $('theta-d').value = sliceRow();
+  $('theta-d-value').textContent = `${fmt(sliceTheta(sliceRow()))}°`;
+  $('lit-object').value = state.obj;
+  $('exposure').value = state.ev;
+  $('exposure-value').textContent = evText(state.ev);
+  $('tone-map').value = state.tm;
 }
 
 // ---- requests: one in flight per kind, the newest state next, stale states dropped -----------
@@ -260,13 +302,18 @@ let albedoAbort = null;
 let imagesAbort = null;
 
 function changed(rebuild) {
+  if (rebuild) buildControls();
+  imagesChanged();
+  scheduleAlbedo();
+}
+
+// A change the albedo does not see (the slice's φd, the lit object) asks for the views only.
+function imagesChanged() {
   if (pendingInput === null) pendingInput = performance.now();
   // The image views under way show a state that is gone: drop them, so the new one starts now.
   if (imagesAbort) imagesAbort.abort();
-  if (rebuild) buildControls();
   saveState();
   refreshViews();
-  scheduleAlbedo();
 }
 
 // The polar plot and the 3D lobe first, drawn as soon as they arrive; the image views after them,
@@ -278,8 +325,9 @@ async function refreshViews() {
   const since = pendingInput;
   pendingInput = null;
   const busy = setTimeout(() => { $('status').textContent = 'computing…'; }, BUSY_DELAY_MS);
+  // Each view: its route, its samples and what else its requests carry.
   const fetchAll = async (entries, views, signal) => {
-    const answers = await Promise.all(views.flatMap(([path, samples]) => entries.map((r) => call(path, { ...r, samples }, signal))));
+    const answers = await Promise.all(views.flatMap(([path, samples, extra]) => entries.map((r) => call(path, { ...r, samples, ...extra }, signal))));
     const data = await Promise.all(answers.map((a) => a.arrayBuffer()));
     return { answers, data: data.map((d) => new Float32Array(d)) };
   };
@@ -303,8 +351,10 @@ async function refreshViews() {
     });
     if (!dirty) {
       imagesAbort = new AbortController();
-      const images = await fetchAll(entries, [['/api/hemisphere', IMAGE_RES], ['/api/slice', IMAGE_RES], ['/api/sphere', IMAGE_RES]], imagesAbort.signal);
-      [probe.hemi, probe.slice, probe.sphere] = [0, 1, 2].map((k) => images.data.slice(k * n, (k + 1) * n));
+      const [pd, obj] = [state.pd, state.obj];
+      const images = await fetchAll(entries, [['/api/hemisphere', IMAGE_RES], ['/api/slice', IMAGE_RES, { phi_d_deg: pd }], [LIT_OBJECTS[obj], IMAGE_RES]], imagesAbort.signal);
+      [probe.hemi, probe.slice, probe.lit] = [0, 1, 2].map((k) => images.data.slice(k * n, (k + 1) * n));
+      [probe.slicePhiD, probe.litObject] = [pd, obj];
       probe.imagesRequest = entries;
       if (!dirty) drawImages();
     }
@@ -408,34 +458,7 @@ function readout(curves) {
   $('readout').tBodies[0].replaceChildren(...rows);
 }
 
-// ---- files -----------------------------------------------------------------------------------
-
-// A model file opened from the page: a BRDF Explorer shader (compiled) or a MERL table (read).
-async function openFile(file) {
-  const merl = file.name.endsWith('.binary');
-  const limit = merl ? catalog.limits.merl_bytes : catalog.limits.brdf_bytes;
-  if (file.size > limit) {
-    showError(`${file.name}: ${file.size} bytes; a ${merl ? 'MERL' : '.brdf'} file may be at most ${limit}`);
-    return;
-  }
-  $('status').textContent = `${merl ? 'reading' : 'compiling'} ${file.name}…`;
-  try {
-    const r = await fetch(`/api/${merl ? 'merl' : 'brdf'}?name=${encodeURIComponent(file.name)}`, {
-      method: 'POST',
-      headers: { 'x-lobe-token': TOKEN, 'content-type': merl ? 'application/octet-stream' : 'text/plain' },
-      body: merl ? file : await file.text(),
-    });
-    if (!r.ok) throw new Error(await r.text());
-    const model = await r.json();
-    if (!modelInfo(model.name)) catalog.models.push(model);
-    state.m.push({ model: model.name, material: '', sets: {} });
-    changed(true);
-  } catch (e) {
-    showError(`${file.name}: ${e.message}`);
-  } finally {
-    $('status').textContent = '';
-  }
-}
+// ---- downloads -------------------------------------------------------------------------------
 
 function download(name, url) {
   const a = Object.assign(document.createElement('a'), { href: url, download: name });
@@ -473,23 +496,48 @@ function downloadSvg() {
 
 // ---- start -----------------------------------------------------------------------------------
 
+// The models the server was started with.
+function initialModels() {
+  return catalog.initial.map((e) => ({
+    model: e.model, material: catalog.material || '',
+    sets: Object.fromEntries(e.sets.map((s) => [s.slice(0, s.indexOf('=')), s.slice(s.indexOf('=') + 1)])),
+  }));
+}
+
+// Takes the state the URL's fragment holds, its models opened again where this server lacks them
+// (files.js); the server's own models where none is left.
+async function takeLink() {
+  const s = readHash();
+  if (s) await reopenModels(s);
+  if (!applyState(s)) state.m = initialModels();
+}
+
+const evText = (ev) => `${ev > 0 ? '+' : ''}${ev} EV`;
+
+// Redraws the image views from the values they have (a change of how they are shown).
+function redrawImages() {
+  saveState();
+  if (probe.hemi && probe.hemi.length === state.m.length) drawImages();
+}
+
 async function start() {
   const r = await fetch('/api/models', { headers: { 'x-lobe-token': TOKEN } });
   if (!r.ok) { showError(await r.text()); return; }
   catalog = await r.json();
   $('backend').textContent = catalog.backend;
-  if (!loadState()) {
-    state.m = catalog.initial.map((e) => ({
-      model: e.model, material: catalog.material || '',
-      sets: Object.fromEntries(e.sets.map((s) => [s.slice(0, s.indexOf('=')), s.slice(s.indexOf('=') + 1)])),
-    }));
-  }
+  await takeLink();
   buildControls();
   $('theta-i').addEventListener('input', () => { state.ti = Number($('theta-i').value); $('theta-i-value').textContent = `${state.ti}°`; changed(false); });
   $('cos').addEventListener('change', () => { state.cos = $('cos').checked; saveState(); drawPolar(); drawLobe(); });
   $('log').addEventListener('change', () => { state.log = $('log').checked; saveState(); drawPolar(); drawLobe(); });
+  $('wireframe').addEventListener('change', () => { state.wire = $('wireframe').checked; saveState(); drawLobe(); });
   dragLobe();
   $('white-furnace').addEventListener('change', () => { state.wf = $('white-furnace').checked; changed(false); });
+  $('phi-d').addEventListener('input', () => { state.pd = Number($('phi-d').value); $('phi-d-value').textContent = `${state.pd}°`; imagesChanged(); });
+  $('theta-d').addEventListener('input', () => { state.td = sliceTheta(Number($('theta-d').value)); $('theta-d-value').textContent = `${fmt(state.td)}°`; redrawImages(); });
+  $('lit-object').addEventListener('change', () => { state.obj = $('lit-object').value; imagesChanged(); });
+  $('exposure').addEventListener('input', () => { state.ev = Number($('exposure').value); $('exposure-value').textContent = evText(state.ev); redrawImages(); });
+  $('tone-map').addEventListener('change', () => { state.tm = $('tone-map').value; redrawImages(); });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
   // The clipboard exists only on a secure origin (localhost is one; --host's other addresses are
@@ -506,7 +554,7 @@ async function start() {
     const json = JSON.stringify({ theta_i_deg: state.ti, white_furnace: state.wf, models: state.m.map((e, i) => ({ model: e.model, material: e.material || null, parameters: probe.params[i] })) }, null, 2);
     download('parameters.json', URL.createObjectURL(new Blob([json], { type: 'application/json' })));
   });
-  window.addEventListener('hashchange', () => { if (loadState()) { buildControls(); changed(false); } });
+  window.addEventListener('hashchange', async () => { if (!readHash()) return; await takeLink(); buildControls(); changed(false); });
   saveState();
   refreshViews();
   scheduleAlbedo();

@@ -30,18 +30,74 @@ function peakOf(f) {
   return peak;
 }
 
-// Log colour over DECADES below the image's peak, with its colour bar.
-function logPanel(f, caption) {
-  const peak = peakOf(f);
-  const c = imageCanvas(f, (r, g, b) => ramp(peak > 0 ? 1 + Math.log10(Math.max(luminance(r, g, b), 1e-300) / peak) / DECADES : 0));
+// Log colour over DECADES below `peak` (the image's own unless given), and its colour bar.
+const logLevel = (v, peak) => (peak > 0 ? Math.max(0, 1 + Math.log10(Math.max(v, 1e-300) / peak) / DECADES) : 0);
+function logImage(f, peak = peakOf(f)) {
+  return imageCanvas(f, (r, g, b) => ramp(logLevel(luminance(r, g, b), peak)));
+}
+function logBar(peak) {
   const bar = Object.assign(document.createElement('canvas'), { width: 150, height: 8 });
   const bg = bar.getContext('2d');
   for (let x = 0; x < 150; x++) { bg.fillStyle = `rgb(${ramp(x / 149).join(',')})`; bg.fillRect(x, 0, 1, 8); }
-  return panel(c, caption, bar, `${fmt(peak * Math.pow(10, -DECADES))} … ${fmt(peak)} 1/sr`);
+  return [bar, `${fmt(peak * Math.pow(10, -DECADES))} … ${fmt(peak)} 1/sr`];
+}
+function logPanel(f, caption) {
+  const peak = peakOf(f);
+  return panel(logImage(f, peak), caption, ...logBar(peak));
 }
 
-// Radiance relative to a white Lambertian surface's (π L), clipped at 1, as sRGB.
-const display = (r, g, b) => [r, g, b].map((v) => Math.round(255 * srgb(Math.min(1, Math.max(0, Math.PI * v)))));
+// The slice's row nearest the chosen θd: rows are cell-centred, θd = (row + ½)·90°/IMAGE_RES.
+const sliceRow = () => Math.min(IMAGE_RES - 1, Math.max(0, Math.round(state.td * IMAGE_RES / 90 - 0.5)));
+const sliceTheta = (row) => (row + 0.5) * 90 / IMAGE_RES;
+
+// The θh × θd slice at the chosen φd, its θd row marked at both edges, and under it that row as
+// a curve f(θh) on the image's own log scale (a gap where the row leaves the hemisphere).
+function slicePanel(f, i) {
+  const peak = peakOf(f);
+  const c = logImage(f, peak);
+  const row = sliceRow();
+  const g = c.getContext('2d');
+  g.fillStyle = '#fff';
+  g.fillRect(0, row, 3, 1);
+  g.fillRect(IMAGE_RES - 3, row, 3, 1);
+  const cut = Array.from({ length: IMAGE_RES }, (_, col) => luminance(...f.slice(3 * (row * IMAGE_RES + col), 3 * (row * IMAGE_RES + col) + 3)));
+  probe.sliceCut[i] = cut;
+  const plot = Object.assign(document.createElement('canvas'), { width: 150, height: 60, className: 'cut' });
+  const pg = plot.getContext('2d');
+  pg.strokeStyle = '#ccc';
+  pg.strokeRect(0.5, 0.5, 149, 59);
+  pg.strokeStyle = COLOURS[i % COLOURS.length];
+  pg.lineWidth = 1.5;
+  pg.beginPath();
+  let open = false;
+  cut.forEach((v, col) => {
+    if (Number.isNaN(v)) { open = false; return; }
+    const x = (col + 0.5) * 150 / IMAGE_RES, y = 58 - 56 * logLevel(v, peak);
+    if (open) pg.lineTo(x, y); else pg.moveTo(x, y);
+    open = true;
+  });
+  pg.stroke();
+  const div = panel(c, `θh → × θd ↓ (φd = ${probe.slicePhiD}°)`, ...logBar(peak));
+  div.append(plot, Object.assign(document.createElement('div'), { textContent: `f(θh →) at θd = ${fmt(sliceTheta(row))}°` }));
+  return div;
+}
+
+// The lit views: radiance relative to a white Lambertian surface's (π L, so that 1 is white),
+// times 2^EV, tone-mapped in each channel, as sRGB.
+const TONE_MAPS = {
+  // Clipped at white: the page's look before it had a choice.
+  clamp: (x) => Math.min(1, x),
+  // Reinhard et al. 2002, "Photographic tone reproduction for digital images", eq. 3, L/(1 + L)
+  // (the paper maps luminance; here each channel).
+  reinhard: (x) => x / (1 + x),
+  // Narkowicz 2016, "ACES filmic tone mapping curve": a fit of ACES's reference rendering and
+  // sRGB output transforms (their 2.4 gamma removed), pre-exposed so that 1 maps to about 0.8.
+  aces: (x) => Math.min(1, (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)),
+};
+const display = (r, g, b) => {
+  const k = Math.PI * Math.pow(2, state.ev), tone = TONE_MAPS[state.tm];
+  return [r, g, b].map((v) => Math.round(255 * srgb(Math.min(1, Math.max(0, tone(Math.max(0, k * v)))))));
+};
 
 function panel(canvas, caption, ...below) {
   const div = document.createElement('div');
@@ -52,6 +108,7 @@ function panel(canvas, caption, ...below) {
 }
 
 function drawImages() {
+  probe.sliceCut = [];
   const rows = state.m.map((e, i) => {
     const row = document.createElement('div');
     row.className = 'images';
@@ -61,10 +118,12 @@ function drawImages() {
     title.style.color = COLOURS[i % COLOURS.length];
     const sky = Object.assign(document.createElement('canvas'), { width: IMAGE_RES, height: IMAGE_RES, className: 'sky' });
     sky.style.width = sky.style.height = '150px';
+    const lit = imageCanvas(probe.lit[i], display);
+    lit.className = 'lit';
     row.append(title,
       logPanel(probe.hemi[i], 'hemisphere of ωo'),
-      logPanel(probe.slice[i], 'θh → × θd ↓ (φd = 90°)'),
-      panel(imageCanvas(probe.sphere[i], display), 'sphere, point light at θi'),
+      slicePanel(probe.slice[i], i),
+      panel(lit, `${probe.litObject}, point light at θi`),
       panel(sky, 'sphere, white sky: E(μo)'));
     return row;
   });
@@ -118,65 +177,3 @@ function drawAlbedo(answers) {
   });
   $('albedo-readout').tBodies[0].replaceChildren(...rows);
 }
-
-// The 3D lobe: the point at radius ρ(f) along each ωo of the server's (θo, φo) mesh, with ρ the
-// polar plot's radius (log or linear, common peak), drawn as rings and meridians, orthographic,
-// turned by dragging.
-let view3d = { yaw: -0.6, pitch: 1.1 };
-function drawLobe() {
-  const c = $('lobe3d');
-  const g = c.getContext('2d');
-  g.clearRect(0, 0, c.width, c.height);
-  if (!probe.lobe) return;
-  const n = IMAGE_RES;
-  const scale = state.cos ? Math.cos(state.ti * Math.PI / 180) : 1;
-  const lum = probe.lobe.map((f) => { const v = new Float64Array(n * n); for (let k = 0; k < n * n; k++) v[k] = luminance(f[3 * k], f[3 * k + 1], f[3 * k + 2]) * scale; return v; });
-  const peak = Math.max(1e-30, ...lum.map((v) => v.reduce((m, x) => (x > m ? x : m), 0)));
-  const radius = (v) => (state.log ? Math.max(0, 1 + Math.log10(Math.max(v, 1e-300) / peak) / DECADES) : Math.max(0, v / peak));
-  const R = Math.min(c.width, c.height) * 0.42, cx = c.width / 2, cy = c.height * 0.62;
-  const [cy_, sy] = [Math.cos(view3d.yaw), Math.sin(view3d.yaw)], [cp, sp] = [Math.cos(view3d.pitch), Math.sin(view3d.pitch)];
-  const project = (x, y, z) => { const x1 = cy_ * x - sy * y, y1 = sy * x + cy_ * y; return [cx + R * x1, cy - R * (cp * z - sp * y1)]; };
-  const point = (v, row, col) => {
-    const t = (row + 0.5) * Math.PI / 2 / n, p = col * 2 * Math.PI / n, r = radius(v[row * n + (col % n)]);
-    return project(r * Math.sin(t) * Math.cos(p), r * Math.sin(t) * Math.sin(p), r * Math.cos(t));
-  };
-  g.lineWidth = 1;
-  g.strokeStyle = '#bbb';
-  g.setLineDash([]);
-  g.beginPath();
-  for (let k = 0; k <= 64; k++) { const [x, y] = project(Math.cos(k * Math.PI / 32), Math.sin(k * Math.PI / 32), 0); if (k) g.lineTo(x, y); else g.moveTo(x, y); }
-  g.stroke();
-  const ti = state.ti * Math.PI / 180;
-  g.strokeStyle = '#f0a000';
-  g.beginPath(); g.moveTo(...project(0, 0, 0)); g.lineTo(...project(-Math.sin(ti), 0, Math.cos(ti))); g.stroke();
-  lum.forEach((v, i) => {
-    g.strokeStyle = COLOURS[i % COLOURS.length];
-    g.globalAlpha = 0.6;
-    for (let row = 0; row < n; row += 4) {
-      g.beginPath();
-      for (let col = 0; col <= n; col++) { const [x, y] = point(v, row, col); if (col) g.lineTo(x, y); else g.moveTo(x, y); }
-      g.stroke();
-    }
-    for (let col = 0; col < n; col += 4) {
-      g.beginPath();
-      for (let row = 0; row < n; row++) { const [x, y] = point(v, row, col); if (row) g.lineTo(x, y); else g.moveTo(x, y); }
-      g.stroke();
-    }
-    g.globalAlpha = 1;
-  });
-}
-
-function dragLobe() {
-  const c = $('lobe3d');
-  let last = null;
-  c.addEventListener('pointerdown', (e) => { last = [e.clientX, e.clientY]; c.setPointerCapture(e.pointerId); });
-  c.addEventListener('pointerup', () => { last = null; });
-  c.addEventListener('pointermove', (e) => {
-    if (!last) return;
-    view3d.yaw += (e.clientX - last[0]) * 0.01;
-    view3d.pitch = Math.min(Math.PI / 2, Math.max(0, view3d.pitch + (e.clientY - last[1]) * 0.01));
-    last = [e.clientX, e.clientY];
-    drawLobe();
-  });
-}
-
