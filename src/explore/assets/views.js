@@ -51,7 +51,8 @@ const sliceRow = () => Math.min(IMAGE_RES - 1, Math.max(0, Math.round(state.td *
 const sliceTheta = (row) => (row + 0.5) * 90 / IMAGE_RES;
 
 // The θh × θd slice at the chosen φd, its θd row marked at both edges, and under it that row as
-// a curve f(θh) on the image's own log scale (a gap where the row leaves the hemisphere).
+// a curve f(θh), log over DECADES below the row's own peak (the slice's may lie decades above it,
+// at grazing θd), with a gap where the row leaves the hemisphere.
 function slicePanel(f, i) {
   const peak = peakOf(f);
   const c = logImage(f, peak);
@@ -69,16 +70,18 @@ function slicePanel(f, i) {
   pg.strokeStyle = COLOURS[i % COLOURS.length];
   pg.lineWidth = 1.5;
   pg.beginPath();
+  const rowPeak = cut.reduce((m, v) => (v > m ? v : m), 0);
   let open = false;
   cut.forEach((v, col) => {
     if (Number.isNaN(v)) { open = false; return; }
-    const x = (col + 0.5) * 150 / IMAGE_RES, y = 58 - 56 * logLevel(v, peak);
+    const x = (col + 0.5) * 150 / IMAGE_RES, y = 58 - 56 * logLevel(v, rowPeak);
     if (open) pg.lineTo(x, y); else pg.moveTo(x, y);
     open = true;
   });
   pg.stroke();
   const div = panel(c, `θh → × θd ↓ (φd = ${probe.slicePhiD}°)`, ...logBar(peak));
-  div.append(plot, Object.assign(document.createElement('div'), { textContent: `f(θh →) at θd = ${fmt(sliceTheta(row))}°` }));
+  const range = `${fmt(rowPeak * Math.pow(10, -DECADES))} … ${fmt(rowPeak)} 1/sr`;
+  div.append(plot, ...[range, `f(θh →) at θd = ${fmt(sliceTheta(row))}°`].map((t) => Object.assign(document.createElement('div'), { textContent: t })));
   return div;
 }
 
@@ -90,8 +93,9 @@ const TONE_MAPS = {
   // Reinhard et al. 2002, "Photographic tone reproduction for digital images", eq. 3, L/(1 + L)
   // (the paper maps luminance; here each channel).
   reinhard: (x) => x / (1 + x),
-  // Narkowicz 2016, "ACES filmic tone mapping curve": a fit of ACES's reference rendering and
-  // sRGB output transforms (their 2.4 gamma removed), pre-exposed so that 1 maps to about 0.8.
+  // Narkowicz 2016, "ACES filmic tone mapping curve": a fit of ACES's reference rendering
+  // transform and Rec. 709 output transform (its 2.4 gamma removed), pre-exposed so that 1 maps
+  // to about 0.8.
   aces: (x) => Math.min(1, (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)),
 };
 const display = (r, g, b) => {
