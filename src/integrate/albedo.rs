@@ -256,9 +256,9 @@ fn hemispherical_from(
     let breaks = mu_breaks();
     let mus = outer_mus(&breaks);
     let phis = outer_phis(params, phi);
-    // 2∫ E(μ, φo) μ dμ at azimuth index k.
     // The reference's budget, for every view direction of the outer integrals together.
     let budget = Budget::new(REFERENCE_MAX_EVALS, backend.cancel_token());
+    // 2∫ E(μ, φo) μ dμ at azimuth index k.
     let e_avg_at = |k: usize| -> Estimate {
         let p = phis[k];
         if table.is_empty() {

@@ -1,5 +1,5 @@
 //! Running a fixed rule on a backend: f64 sums on the CPU, the reduction kernel on the GPU, and
-//! the error estimate (three levels of the rule, or the replicates' spread) on top.
+//! the error estimate (the rule's coarser levels, or the replicates' spread) on top.
 
 use super::estimate::level_error;
 use super::gauss::Estimate;
