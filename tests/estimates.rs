@@ -9,8 +9,12 @@
 mod common;
 
 use lobe::gpu::Gpu;
-use lobe::integrate::{directional, Estimate, Settings, SHARED_ERROR_FLOOR};
+use lobe::integrate::{
+    directional, reference_albedo_within, view_direction, Budget, Estimate, Settings,
+    REFERENCE_MAX_EVALS, REFERENCE_RTOL, SHARED_ERROR_FLOOR,
+};
 use lobe::merl::{self, BINS, DIMS};
+use lobe::model::Reference;
 use lobe::{resolve_params, Evaluator, ParamSet};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -480,12 +484,18 @@ fn peak_estimates_bound_piecewise_constant_tables() {
 /// other: every bin filled, f jumping from one to the other on the circle of ωi at 2k degrees
 /// from ωo (θd = k degrees).
 fn split_table(dir: &std::path::Path, stem: &str, c_in: f64, c_out: f64, k: usize) -> ParamSet {
+    table_of(dir, stem, |_, d| if d < k { c_in } else { c_out })
+}
+
+/// A MERL file holding f(θh bin, θd bin) at every φd, loaded as a model.
+fn table_of(dir: &std::path::Path, stem: &str, f: impl Fn(usize, usize) -> f64) -> ParamSet {
     let mut values = vec![0.0; 3 * BINS];
     for h in 0..DIMS[0] {
         for d in 0..DIMS[1] {
+            let v = f(h, d);
             for p in 0..DIMS[2] {
                 for ch in 0..3 {
-                    values[ch * BINS + merl::bin(h, d, p)] = if d < k { c_in } else { c_out };
+                    values[ch * BINS + merl::bin(h, d, p)] = v;
                 }
             }
         }
@@ -494,6 +504,128 @@ fn split_table(dir: &std::path::Path, stem: &str, c_in: f64, c_out: f64, k: usiz
     std::fs::write(&path, merl::encode(&values)).expect("write the MERL file");
     let model = merl::model::load(&path).expect("a MERL model").model;
     resolve_params(model.name(), None, &[]).expect("the MERL model's defaults")
+}
+
+/// The θh bin where the θh-split table changes value: MERL's θh bins are uniform in √θh, so bin
+/// 45 of 90 starts at θh = (π/2)(45/90)² = 22.5°.
+const THETA_H_EDGE_BIN: usize = 45;
+
+/// J(μo, θ₀) = ∫ μi dωi over {ωi : θh < θ₀, μi > 0}, computed over the half vector:
+/// ωi = 2(ωo·h)h − ωo, dωi = 4(ωo·h) dωh and μi = 2(ωo·h) cosθh − μo, so
+/// J = ∫₀^θ₀ sinθh dθh ∫ 4t (2t cosθh − μo)₊ dφ with t = ωo·h = a + b cos φ, a = μo cosθh,
+/// b = sinθo sinθh. The bracket is positive where cos φ > κ = (μo/(2 cosθh) − a)/b (then t > 0
+/// too): φ ∈ (−Φ, Φ), Φ = acos κ clamped to [0, π], and ∫ t dφ = 2aΦ + 2b sinΦ,
+/// ∫ t² dφ = 2a²Φ + 4ab sinΦ + b²(Φ + sinΦ cosΦ). The θh integral is Gauss–Legendre on
+/// panels graded towards the kinks where κ = ±1 (Φ has a square-root end there).
+fn half_vector_cap(mu: f64, theta_0: f64) -> f64 {
+    let s_o = (1.0 - mu * mu).max(0.0).sqrt();
+    let kappa = |th: f64| -> f64 {
+        let (s, c) = th.sin_cos();
+        let b = s_o * s;
+        if b == 0.0 {
+            // At the normal, or at normal view, every azimuth is in or none is.
+            if mu * c > mu / (2.0 * c) {
+                -2.0
+            } else {
+                2.0
+            }
+        } else {
+            (mu / (2.0 * c) - mu * c) / b
+        }
+    };
+    let inner = |th: f64| -> f64 {
+        let (s, c) = th.sin_cos();
+        let (a, b) = (mu * c, s_o * s);
+        let phi = kappa(th).clamp(-1.0, 1.0).acos();
+        let (sp, cp) = phi.sin_cos();
+        let t1 = 2.0 * a * phi + 2.0 * b * sp;
+        let t2 = 2.0 * a * a * phi + 4.0 * a * b * sp + b * b * (phi + sp * cp);
+        (8.0 * c * t2 - 4.0 * mu * t1) * s
+    };
+    // The kinks, κ(θ) = ±1: sign changes on a 4096-cell scan, each refined by bisection.
+    let mut breaks = vec![0.0, theta_0];
+    let n = 4096;
+    for side in [-1.0, 1.0] {
+        let g = |th: f64| kappa(th) - side;
+        for k in 0..n {
+            let (mut lo, mut hi) = (
+                theta_0 * k as f64 / n as f64,
+                theta_0 * (k + 1) as f64 / n as f64,
+            );
+            if g(lo).signum() == g(hi).signum() {
+                continue;
+            }
+            for _ in 0..200 {
+                let m = 0.5 * (lo + hi);
+                if g(m).signum() == g(lo).signum() {
+                    lo = m;
+                } else {
+                    hi = m;
+                }
+            }
+            breaks.push(0.5 * (lo + hi));
+        }
+    }
+    breaks.sort_by(f64::total_cmp);
+    breaks.dedup();
+    let gl = legendre(20);
+    breaks
+        .windows(2)
+        .map(|w| integrate(&gl, &graded_both(w[0], w[1], 40), inner))
+        .sum()
+}
+
+#[test]
+fn the_half_vector_cap_meets_its_closed_forms() {
+    // At normal view θh = θi/2: the cap θi < 2θ₀ has J = π sin²(2θ₀) (π/2 for θ₀ = 22.5°).
+    let j = half_vector_cap(1.0, FRAC_PI_2 / 4.0);
+    assert!((j - PI / 2.0).abs() < 1e-14, "J(1) = {j}");
+    // Every half vector of the upper hemisphere: the whole hemisphere of ωi, J = π.
+    for mu in [0.05, 0.3, 0.7, 0.99] {
+        let j = half_vector_cap(mu, FRAC_PI_2);
+        assert!((j - PI).abs() < 1e-12, "mu {mu}: J = {j}");
+    }
+    // A thin cap about the normal lies above the horizon whole; it is the image of the cap of
+    // half vectors, ∫ 4 (ωo·h) μi dωh ≈ 4 μo² · 2π(1 − cosθ₀).
+    let (mu, t0): (f64, f64) = (0.8, 1e-4);
+    let thin = 4.0 * mu * mu * 2.0 * PI * (1.0 - t0.cos());
+    let j = half_vector_cap(mu, t0);
+    assert!((j / thin - 1.0).abs() < 1e-6, "thin cap: {j} vs {thin}");
+}
+
+/// The three measured tables whose albedo has a closed form (every bin filled, c₁ = 0.8/π and
+/// c₂ = 0.2/π): constant (E = 0.5), split at θd = 45° (E = 0.5 + 0.3μo, see
+/// [`peak_estimates_bound_measured_data_split_at_theta_d_45`]) and split at θh = 22.5°
+/// (E = π c₂ + (c₁ − c₂) J(μo, 22.5°), [`half_vector_cap`]). Name, parameters, E(μ).
+fn closed_form_tables(
+    dir: &std::path::Path,
+    prefix: &str,
+) -> Vec<(&'static str, ParamSet, Box<dyn Fn(f64) -> f64>)> {
+    let (c1, c2) = (0.8 / PI, 0.2 / PI);
+    let theta_0 = FRAC_PI_2 * (THETA_H_EDGE_BIN as f64 / DIMS[0] as f64).powi(2);
+    vec![
+        (
+            "constant",
+            split_table(dir, &format!("{prefix}_constant"), 0.5 / PI, 0.5 / PI, 45),
+            Box::new(|_| 0.5),
+        ),
+        (
+            "theta_d",
+            split_table(dir, &format!("{prefix}_theta_d"), c1, c2, 45),
+            Box::new(|mu| 0.5 + 0.3 * mu),
+        ),
+        (
+            "theta_h",
+            table_of(dir, &format!("{prefix}_theta_h"), |h, _| {
+                if h < THETA_H_EDGE_BIN {
+                    c1
+                } else {
+                    c2
+                }
+            }),
+            Box::new(move |mu| PI * c2 + (c1 - c2) * half_vector_cap(mu, theta_0)),
+        ),
+    ]
 }
 
 /// The largest estimate a tabulated model's albedo may carry, relative to E: the estimate of
@@ -654,4 +786,158 @@ fn the_warning_names_the_entry_with_the_largest_estimate() {
         })
     });
     assert!(named, "the warning does not name an entry: {err}");
+}
+
+/// Where an estimate of measured data is above [`DATA_ESTIMATE_CAP`], it must stay within this
+/// factor of the actual error to be informative: at normal view the θh split's jump is the
+/// circle θi = 45°, inside one of the rule's α panels, and the rule is 2 % off (9.7e-3); its
+/// estimate, 4 × the largest level difference, was 14 × that.
+const DATA_ESTIMATE_RATIO: f64 = 30.0;
+
+/// Measured data split at θh = 22.5° (c₁ = 0.8/π below, c₂ = 0.2/π above): the jump lies on a
+/// curve of ωi that no panel of the rule follows. Both backends, the same bounds as the θd split.
+#[test]
+fn peak_estimates_bound_measured_data_split_at_theta_h() {
+    let d = tempfile::tempdir().expect("a temporary folder");
+    let tables = closed_form_tables(d.path(), "estimate_h");
+    let (_, table, truth) = &tables[2];
+    let gpu = common::gpu_device("MERL theta_h estimates on the GPU").map(Gpu::new);
+    let mut backends = vec![("cpu", Evaluator::cpu())];
+    if let Some(g) = &gpu {
+        backends.push(("gpu", Evaluator::gpu(g)));
+    }
+    let mut failures = Vec::new();
+    for mu in [1.0 / 64.0, 0.1, 0.3, 0.6, 0.9, 1.0] {
+        for (name, eval) in &backends {
+            let e = peak(eval, table, false, mu);
+            let t = truth(mu);
+            let label = format!("{name} split at theta_h 22.5 mu {mu}");
+            check(&label, &e, t, false, &mut failures);
+            let err = (e.value.x - t).abs();
+            if e.error.x > DATA_ESTIMATE_CAP * t && e.error.x > DATA_ESTIMATE_RATIO * err {
+                failures.push(format!(
+                    "{label}: estimate {:.3e} above {DATA_ESTIMATE_CAP} x E and above {DATA_ESTIMATE_RATIO} x the error {err:.3e}",
+                    e.error.x
+                ));
+            }
+        }
+    }
+    if let Some(g) = &gpu {
+        common::assert_validation_clean(g, "MERL theta_h estimates on the GPU");
+    }
+    assert_none(&failures);
+}
+
+/// A budget the reference spends before it meets its tolerance on the split tables.
+const SMALL_BUDGET: u64 = 1 << 17;
+
+/// The reference on the three closed-form tables: with its default budget and with a small one,
+/// its error estimate bounds the actual error, and it says it stopped short wherever it did not
+/// meet its tolerance (the constant table it meets at once: every node reads the same value).
+#[test]
+fn the_reference_bounds_its_error_on_measured_data_and_says_when_it_stops_short() {
+    let d = tempfile::tempdir().expect("a temporary folder");
+    let mut failures = Vec::new();
+    for (name, table, truth) in closed_form_tables(d.path(), "reference") {
+        let r = Reference::new(&table, false);
+        for mu in [0.1, 0.3, 0.6, 0.9] {
+            let t = truth(mu);
+            for budget in [REFERENCE_MAX_EVALS, SMALL_BUDGET] {
+                let start = std::time::Instant::now();
+                let (e, converged) = reference_albedo_within(
+                    &r,
+                    view_direction(mu, 0.0),
+                    REFERENCE_RTOL,
+                    &Budget::new(budget, None),
+                );
+                let err = (e.value.x - t).abs();
+                let line = format!(
+                    "{name} mu {mu} budget {budget}: {:.13} vs {t:.13}, error {err:.3e}, estimate {:.3e}, converged {converged}, {} evaluations, {:.2} s",
+                    e.value.x,
+                    e.error.x,
+                    e.evals,
+                    start.elapsed().as_secs_f64()
+                );
+                eprintln!("{line}");
+                if !(err <= e.error.x + TRUTH_ATOL) {
+                    failures.push(format!("estimate below the error: {line}"));
+                }
+                if converged && e.error.x > 10.0 * REFERENCE_RTOL * t {
+                    failures.push(format!("converged above its tolerance: {line}"));
+                }
+                if name == "constant" && !converged {
+                    failures.push(format!("a constant table did not converge: {line}"));
+                }
+                if name != "constant" && budget == SMALL_BUDGET && converged {
+                    failures.push(format!(
+                        "a jump met the tolerance on a small budget: {line}"
+                    ));
+                }
+            }
+        }
+    }
+    assert_none(&failures);
+}
+
+/// `lobe albedo --method reference` says where it stopped short, in JSON and on stderr, and its
+/// estimates bound the error there; on a table it converges on, it says nothing of the kind.
+/// `--samples` is its budget (0 refused).
+#[test]
+fn lobe_albedo_says_when_the_reference_stopped_short() {
+    let d = tempfile::tempdir().expect("a temporary folder");
+    let tables = closed_form_tables(d.path(), "cli");
+    let file = |name: &str| d.path().join(format!("cli_{name}.binary"));
+    let run = |name: &str, extra: &[&str]| {
+        let mut args = vec![
+            "albedo".to_string(),
+            "--backend".into(),
+            "cpu".into(),
+            "--method".into(),
+            "reference".into(),
+            "--mu".into(),
+            "0.3".into(),
+            "--format".into(),
+            "json".into(),
+            "--model".into(),
+            file(name).display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        common::lobe_run(&args)
+    };
+    let x = |v: &serde_json::Value| v[0].as_f64().expect("a number");
+    for (name, budget, short) in [("theta_d", "100000", true), ("constant", "50000000", false)] {
+        let (code, out, err) = run(name, &["--samples", budget]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let j: serde_json::Value = serde_json::from_str(&out).expect("JSON on stdout");
+        let truth = if name == "constant" { 0.5 } else { 0.59 };
+        let p = &j["points"][0];
+        let h = &j["hemispherical"];
+        let line = format!("{name} budget {budget}: {p} {h} / {err}");
+        assert_eq!(p["stopped_short"], short, "{line}");
+        assert_eq!(h["stopped_short"], short, "{line}");
+        assert!(
+            (x(&p["albedo"]) - truth).abs() <= x(&p["error_estimate"]) + TRUTH_ATOL,
+            "{line}"
+        );
+        // Ē = 2∫E μ dμ: 0.5 for the constant table, 2∫(0.5 + 0.3μ)μ dμ = 0.7 for the split one.
+        let h_truth = if name == "constant" { 0.5 } else { 0.7 };
+        assert!(
+            (x(&h["albedo"]) - h_truth).abs() <= x(&h["error_estimate"]) + TRUTH_ATOL,
+            "{line}"
+        );
+        assert_eq!(err.contains("stopped short at mu = 0.3"), short, "{line}");
+        assert_eq!(
+            err.contains("stopped short on the hemispherical albedo"),
+            short,
+            "{line}"
+        );
+    }
+    drop(tables);
+    let (code, _, err) = run("constant", &["--samples", "0"]);
+    // Refused as every other out-of-range --samples is: a sentence, exit 1.
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("--samples 0") && err.contains("at least 1"),
+        "{err}"
+    );
 }

@@ -219,6 +219,7 @@ class HemisphericalAlbedo:
     e_avg_error: np.ndarray
     directions: int
     samples: int
+    stopped_short: bool = False
 
 
 @dataclass(frozen=True)

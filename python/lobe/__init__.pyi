@@ -72,7 +72,9 @@ class HemisphericalAlbedo:
     """Hemispherical albedo (1/pi) integral of E(wo) cos(theta_o) dwo, its delta-lobe part and
     error estimate, and Kulla-Conty's E_avg = 2 integral E(mu) mu dmu with its error estimate;
     each an RGB array of shape (3,). ``directions``: view directions integrated; ``samples``:
-    integrand evaluations in all."""
+    integrand evaluations in all; ``stopped_short``: the reference spent its budget (or its
+    panels' limit) before meeting its tolerance, and the values are as far as it got, within
+    their error estimates."""
 
     albedo: np.ndarray
     error: np.ndarray
@@ -81,6 +83,7 @@ class HemisphericalAlbedo:
     e_avg_error: np.ndarray
     directions: int
     samples: int
+    stopped_short: bool = False
 
 @dataclass(frozen=True)
 class AlbedoLut:
@@ -227,7 +230,8 @@ class Session:
         together (one batch on the device when they share a model), and the results gain a
         leading axis. ``method``: "peak" (default), "gauss", "midpoint", "qmc", "importance" or
         "reference" (the adaptive f64 integrator, on the CPU); ``samples``: nodes per
-        direction (the method's default when None)."""
+        direction (the method's default when None), for "reference" its budget of integrand
+        evaluations for the job."""
 
     @overload
     def hemispherical_albedo(self, model: ModelSpec, params: Optional[Params] = None,

@@ -257,6 +257,7 @@ impl PySession {
                 d.set_item("e_avg_error", h.e_avg_error.to_array())?;
                 d.set_item("directions", h.directions)?;
                 d.set_item("samples", h.samples)?;
+                d.set_item("stopped_short", h.stopped_short)?;
                 Ok(d)
             })
             .collect()

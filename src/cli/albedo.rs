@@ -81,7 +81,10 @@ pub struct AlbedoArgs {
     /// Integrator (`--help` describes each).
     #[arg(long, value_enum, default_value_t = MethodArg::Peak)]
     method: MethodArg,
-    /// Quadrature nodes per view direction (default depends on the method; ignored by reference).
+    /// Quadrature nodes per view direction (default depends on the method). For reference: its
+    /// budget of integrand evaluations (default 50000000, for the view directions together and
+    /// again for the hemispherical albedo); once spent it refines no further (each integral
+    /// still finishes its first pass), says where it stopped short and reports how far it got.
     #[arg(long)]
     samples: Option<usize>,
     /// Output format.
@@ -169,8 +172,12 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     // The same range as every direction on the command line (`lobe eval`'s).
     lobe::pairs::check_angles(0.0, a.phi_deg).map_err(|e| anyhow!("--phi-o-deg: {e}"))?;
     let mus = view_mus(&a)?;
-    if let Some(n) = a.samples {
-        super::check_samples("--samples", n)?;
+    match a.samples {
+        Some(0) if method == Method::Reference => bail!(
+            "--samples 0: expected the reference's budget of integrand evaluations, at least 1"
+        ),
+        Some(n) if method != Method::Reference => super::check_samples("--samples", n)?,
+        _ => {}
     }
     let settings = Settings {
         method,
@@ -199,6 +206,12 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     spinner.finish_and_clear();
     let report = report?;
     check_report_error(&a, &report)?;
+    if a.format != TableFormat::Table {
+        // The table says it in lines of its own, JSON in its `stopped_short` fields too.
+        for note in report.short_notes() {
+            eprintln!("lobe: {note}");
+        }
+    }
     let mut out = super::stdout();
     match a.format {
         TableFormat::Json => writeln!(

@@ -3,7 +3,7 @@
 
 use super::backend::{rule_albedo, rule_albedo_rows};
 use super::gauss::{adaptive_until, gk15, gk15_combine, gk15_nodes, graded, Estimate};
-use super::reference::{reference_albedo_within, Budget, REFERENCE_MAX_EVALS, REFERENCE_RTOL};
+use super::reference::{reference_albedo_within, Budget, REFERENCE_RTOL};
 use super::{view_direction, Settings};
 use crate::eval::Evaluator;
 use crate::model::{ParamSet, Reference};
@@ -11,6 +11,7 @@ use anyhow::{bail, Result};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::TAU;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// E at one view direction, with the delta lobe reported apart.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +29,10 @@ pub struct PointAlbedo {
     pub error: DVec3,
     /// Integrand evaluations (nodes) spent on this direction, the coarse check included.
     pub samples: u64,
+    /// The adaptive reference stopped refining before it met its tolerance (its budget spent,
+    /// or its panels too many or too narrow): `albedo` is as far as it got, within `error`.
+    /// Always false for the fixed rules, which have no tolerance to meet.
+    pub stopped_short: bool,
 }
 
 /// E(ωo) at each (μ, φ) on `backend` (the reference runs on the CPU whatever the backend).
@@ -46,22 +51,25 @@ pub fn directional(
     }
     let wo = directions(points);
     let r = Reference::new(params, s.white_furnace);
-    let est: Vec<Estimate> = match s.method.rule(s.samples, params) {
-        Some(rule) => rule_albedo(backend, s.query(params), rule, &wo)?,
+    let est: Vec<(Estimate, bool)> = match s.method.rule(s.samples, params) {
+        Some(rule) => rule_albedo(backend, s.query(params), rule, &wo)?
+            .into_iter()
+            .map(|e| (e, false))
+            .collect(),
         // The reference is the adaptive f64 integrator: it runs on the CPU whatever the backend.
         None => {
             params
                 .model()
                 .require_reference("the reference integrator")?;
             // One budget for the job: once spent, every direction left keeps its first panels.
-            let budget = Budget::new(REFERENCE_MAX_EVALS, backend.cancel_token());
+            let budget = Budget::new(s.reference_evals(), backend.cancel_token());
             wo.par_iter()
                 .map(|&o| {
                     backend.check_cancelled()?;
-                    let e = reference_albedo_within(&r, o, REFERENCE_RTOL, &budget);
+                    let (e, converged) = reference_albedo_within(&r, o, REFERENCE_RTOL, &budget);
                     // Stopped by Ctrl-C: no value to report, not a less accurate one.
                     backend.check_cancelled()?;
-                    Ok(e)
+                    Ok((e, !converged))
                 })
                 .collect::<Result<_>>()?
         }
@@ -77,11 +85,15 @@ fn directions(points: &[(f64, f64)]) -> Vec<DVec3> {
 }
 
 /// Each point's estimate with its delta lobe added.
-fn point_albedos(r: &Reference, points: &[(f64, f64)], est: Vec<Estimate>) -> Vec<PointAlbedo> {
+fn point_albedos(
+    r: &Reference,
+    points: &[(f64, f64)],
+    est: Vec<(Estimate, bool)>,
+) -> Vec<PointAlbedo> {
     points
         .iter()
         .zip(est)
-        .map(|(&(mu, phi), e)| {
+        .map(|(&(mu, phi), (e, stopped_short))| {
             let delta = r.delta_albedo(mu);
             PointAlbedo {
                 mu,
@@ -90,6 +102,7 @@ fn point_albedos(r: &Reference, points: &[(f64, f64)], est: Vec<Estimate>) -> Ve
                 delta,
                 error: e.error,
                 samples: e.evals,
+                stopped_short,
             }
         })
         .collect()
@@ -112,6 +125,9 @@ pub struct HemiAlbedo {
     pub directions: usize,
     /// Integrand evaluations in all.
     pub samples: u64,
+    /// The adaptive reference stopped refining before it met its tolerance somewhere (see
+    /// [`PointAlbedo::stopped_short`]); false for the fixed rules.
+    pub stopped_short: bool,
 }
 
 /// Levels of grading towards μ = 0 of the outer μ integral's panels: E(μ) changes fastest at
@@ -235,7 +251,7 @@ pub fn albedo_rows(
             let hemi = e.split_off(points.len());
             let r = Reference::new(p, s.white_furnace);
             Ok((
-                point_albedos(&r, points, e),
+                point_albedos(&r, points, e.into_iter().map(|e| (e, false)).collect()),
                 phi.map(|phi| hemispherical_from(backend, p, s, phi, hemi))
                     .transpose()?,
             ))
@@ -257,13 +273,16 @@ fn hemispherical_from(
     let mus = outer_mus(&breaks);
     let phis = outer_phis(params, phi);
     // The reference's budget, for every view direction of the outer integrals together.
-    let budget = Budget::new(REFERENCE_MAX_EVALS, backend.cancel_token());
+    let budget = Budget::new(s.reference_evals(), backend.cancel_token());
+    // Whether an integral of the reference stopped before meeting its tolerance.
+    let short = AtomicBool::new(false);
     // 2∫ E(μ, φo) μ dμ at azimuth index k.
     let e_avg_at = |k: usize| -> Estimate {
         let p = phis[k];
         if table.is_empty() {
             let g = |mu: f64| {
-                let e = reference_albedo_within(&r, view_direction(mu, p), REFERENCE_RTOL, &budget);
+                let (e, _) =
+                    reference_albedo_within(&r, view_direction(mu, p), REFERENCE_RTOL, &budget);
                 Estimate {
                     value: 2.0 * mu * (e.value + r.delta_albedo(mu)),
                     error: 2.0 * mu * e.error,
@@ -273,7 +292,13 @@ fn hemispherical_from(
             // The outer tolerance relative to the Lambert-like scale of the directional ones.
             let first = gk15(&g, 0.0, 1.0);
             let tol = (REFERENCE_RTOL * first.value.abs().max_element()).max(f64::MIN_POSITIVE);
-            adaptive_until(&g, &breaks, 10.0 * tol, true, &|| budget.stop())
+            // The directional integrals' shortfalls are carried in their errors, which the
+            // outer tolerance counts: the outer integral's answer is the job's.
+            let (e, converged) = adaptive_until(&g, &breaks, 10.0 * tol, true, &|| budget.stop());
+            if !converged {
+                short.store(true, Ordering::Relaxed);
+            }
+            e
         } else {
             let row = &table[k * mus.len()..(k + 1) * mus.len()];
             let mut total = Estimate::default();
@@ -319,6 +344,7 @@ fn hemispherical_from(
             e_avg_error: e_avg.error,
             directions: if table.is_empty() { 0 } else { mus.len() },
             samples: e_avg.evals,
+            stopped_short: short.load(Ordering::Relaxed),
         });
     }
     backend.check_cancelled()?;
@@ -340,5 +366,6 @@ fn hemispherical_from(
         e_avg_error: e_avg.error,
         directions: phis.len() * mus.len(),
         samples: rows.iter().map(|e| e.evals).sum(),
+        stopped_short: short.load(Ordering::Relaxed),
     })
 }

@@ -191,8 +191,9 @@ pub fn view_direction(mu: f64, phi: f64) -> DVec3 {
 pub struct Settings {
     /// The integrator.
     pub method: Method,
-    /// Nodes per view direction for a fixed rule (at least 16 are used); the reference ignores
-    /// it.
+    /// Nodes per view direction for a fixed rule (at least 16 are used); for the reference, the
+    /// most integrand evaluations the job may spend, 0 for [`REFERENCE_MAX_EVALS`]
+    /// ([`Settings::reference_evals`]).
     pub samples: usize,
     /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
@@ -202,6 +203,17 @@ impl Settings {
     /// What these settings evaluate of `params`: the parameter set with the white-furnace switch.
     pub fn query<'a>(&self, params: &'a ParamSet) -> Query<'a> {
         Query::one(params).with_white_furnace(self.white_furnace)
+    }
+
+    /// The reference's budget of integrand evaluations for one job (every view direction of a
+    /// directional job together, or the hemispherical albedo's nest): `samples`, or
+    /// [`REFERENCE_MAX_EVALS`] when it is 0.
+    pub fn reference_evals(&self) -> u64 {
+        if self.samples == 0 {
+            REFERENCE_MAX_EVALS
+        } else {
+            self.samples as u64
+        }
     }
 
     /// [`Settings::query`] of several parameter sets of one model.

@@ -69,7 +69,7 @@ impl<'a> Budget<'a> {
 
 /// [`reference_albedo_within`] with [`REFERENCE_MAX_EVALS`] and no cancellation.
 pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {
-    reference_albedo_within(r, wo, rtol, &Budget::new(REFERENCE_MAX_EVALS, None))
+    reference_albedo_within(r, wo, rtol, &Budget::new(REFERENCE_MAX_EVALS, None)).0
 }
 
 /// Directional albedo (delta lobe excluded), the reference: nested adaptive Gauss–Kronrod in
@@ -77,10 +77,18 @@ pub fn reference_albedo(r: &Reference, wo: DVec3, rtol: f64) -> Estimate {
 /// over Δφ ∈ [0, 2π], E = ∫∫ f μ dΔφ dμ. The built-in models' kinks lie on breakpoints (μ = μo,
 /// Δφ = ±π/2) or are found by bisection (the V-cavity's min); tolerances as in
 /// [`reference_albedo_mirror_frame`]. Refinement stops once `budget` is spent or cancelled;
-/// the error then reports what the panels still carry.
-pub fn reference_albedo_within(r: &Reference, wo: DVec3, rtol: f64, budget: &Budget) -> Estimate {
+/// the error then reports what the panels still carry. Also returns whether every integral of
+/// the nest met its tolerance (false: it stopped short, at the budget, at
+/// 4000 panels or at f64's resolution, and the error estimate is
+/// what there is).
+pub fn reference_albedo_within(
+    r: &Reference,
+    wo: DVec3,
+    rtol: f64,
+    budget: &Budget,
+) -> (Estimate, bool) {
     if wo.z <= 0.0 {
-        return Estimate::default();
+        return (Estimate::default(), true);
     }
     let first: DVec3 = peak_nodes(6, false, 0, wo)
         .iter()
@@ -100,10 +108,12 @@ pub fn reference_albedo_within(r: &Reference, wo: DVec3, rtol: f64, budget: &Bud
                 evals: 1,
             }
         };
-        let e = adaptive_until(&g, &pb, tol_inner, false, &|| budget.stop());
+        let (e, _) = adaptive_until(&g, &pb, tol_inner, false, &|| budget.stop());
         budget.spend(e.evals);
         e
     };
+    // An inner integral short of its own tolerance counts only through the error it carries
+    // into the outer one: whether the nest met its tolerance is the outer integral's answer.
     adaptive_until(&inner, &peak_mu_breaks(wo.z, 0), tol, true, &|| {
         budget.stop()
     })

@@ -14,7 +14,8 @@ use glam::DVec3;
 pub struct AlbedoReport {
     /// The integrator used.
     pub method: Method,
-    /// Nodes per direction asked for (0 for the adaptive reference).
+    /// Nodes per direction asked for; for the adaptive reference, its budget of evaluations per
+    /// job ([`Settings::reference_evals`]).
     pub samples: usize,
     /// Directional albedo at each point asked for, in their order.
     pub points: Vec<PointAlbedo>,
@@ -37,7 +38,11 @@ pub fn albedo_report(
     let hemi = hemispherical(backend, params, s, phi)?;
     Ok(AlbedoReport {
         method: s.method,
-        samples: s.samples,
+        samples: if s.method == Method::Reference {
+            s.reference_evals() as usize
+        } else {
+            s.samples
+        },
         points: pts,
         hemispherical: hemi,
         seconds: start.elapsed().as_secs_f64(),
@@ -62,6 +67,7 @@ impl AlbedoReport {
                     "delta": a(p.delta),
                     "error_estimate": a(p.error),
                     "samples": p.samples,
+                    "stopped_short": p.stopped_short,
                 })
             })
             .collect();
@@ -83,6 +89,7 @@ impl AlbedoReport {
                 "e_avg_error_estimate": a(h.e_avg_error),
                 "directions": h.directions,
                 "samples": h.samples,
+                "stopped_short": h.stopped_short,
             },
             "seconds": self.seconds,
         })
@@ -134,11 +141,15 @@ impl AlbedoReport {
     ) -> std::io::Result<()> {
         let (params, white_furnace) = (query.params(), query.white_furnace);
         writeln!(out, "{} {}", params.model().name(), params.to_text())?;
+        let nodes = if self.method == Method::Reference {
+            format!("a budget of {} evaluations", self.samples)
+        } else {
+            format!("{} nodes per direction", self.samples)
+        };
         writeln!(
             out,
-            "method {} ({} nodes per direction) on {}{}",
+            "method {} ({nodes}) on {}{}",
             self.method.name(),
-            self.samples,
             backend,
             if white_furnace { ", white furnace" } else { "" }
         )?;
@@ -169,6 +180,38 @@ impl AlbedoReport {
             phi_deg,
             rgb(h.e_avg)
         )?;
+        for note in self.short_notes() {
+            writeln!(out, "{note}")?;
+        }
         writeln!(out, "{:.3} s", self.seconds)
+    }
+
+    /// One sentence per result the adaptive reference left short of its tolerance: where, why,
+    /// and that its error estimate still holds. Empty for the fixed rules.
+    pub fn short_notes(&self) -> Vec<String> {
+        let why = format!(
+            "it spent its budget of {} evaluations, or its panels reached their limit (--samples raises the budget)",
+            self.samples
+        );
+        let mut notes: Vec<String> = self
+            .points
+            .iter()
+            .filter(|p| p.stopped_short)
+            .map(|p| {
+                format!(
+                    "stopped short at mu = {}: {why}; the albedo is as far as it got, within its error estimate {:.2e}",
+                    p.mu,
+                    p.error.max_element()
+                )
+            })
+            .collect();
+        let h = &self.hemispherical;
+        if h.stopped_short {
+            notes.push(format!(
+                "stopped short on the hemispherical albedo: {why}; the value is as far as it got, within its error estimate {:.2e}",
+                h.error.max_element()
+            ));
+        }
+        notes
     }
 }
