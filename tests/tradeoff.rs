@@ -12,7 +12,8 @@ use lobe::integrate::{directional, gauss_legendre, view_direction, Method, Rule,
 use lobe::model::{Model, ParamSet, Reference};
 use lobe::tradeoff::{
     eval_variants, mark_pareto, measure_eval, measure_integration, measure_tables,
-    reference_albedos, AlbedoSetup, Options, Row, Section, ERROR_TIE_RTOL, REL_FLOOR,
+    reference_albedos, reference_albedos_within, AlbedoSetup, Options, Row, Section,
+    ERROR_TIE_RTOL, REL_FLOOR,
 };
 use lobe::{resolve_params, Evaluator};
 use std::path::Path;
@@ -568,4 +569,24 @@ fn rule_ladders_dedupe_equal_rules() {
         }]
     );
     assert!(v.iter().all(|x| x.method != Method::Reference));
+}
+
+/// The reference albedos of `lobe tradeoff` stop on its cancellation token (Ctrl-C, SIGTERM)
+/// with an error, never with a value short of its tolerance, and give the plain reference's
+/// numbers when not cancelled.
+#[test]
+fn the_reference_albedos_stop_when_cancelled() {
+    let params = resolve_params("microfacet", None, &[]).unwrap();
+    let mus = [0.3, 0.9];
+    let token = lobe::interrupt::CancelToken::new();
+    let got = reference_albedos_within(&params, &mus, Some(&token)).expect("not cancelled");
+    let plain = reference_albedos(&params, &mus);
+    assert_eq!(got, plain);
+    token.cancel();
+    let err = reference_albedos_within(&params, &mus, Some(&token))
+        .expect_err("a cancelled token stops the reference");
+    assert!(
+        err.downcast_ref::<lobe::interrupt::Interrupted>().is_some(),
+        "{err:#}"
+    );
 }

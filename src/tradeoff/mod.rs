@@ -57,7 +57,7 @@ pub use integration::{
     integration_variants, measure_integration, rule_albedo_once, IntegrationVariant,
 };
 pub use resolution::{measure_tables, table_albedo, table_grid};
-pub use setup::{albedo_errors, reference_albedos, AlbedoSetup};
+pub use setup::{albedo_errors, reference_albedos, reference_albedos_within, AlbedoSetup};
 
 use crate::backend::Precision;
 use crate::eval::Evaluator;
@@ -291,7 +291,7 @@ pub fn run(
     let mut reference = Vec::new();
     if has(Section::Integration) || tables {
         tick("reference albedo");
-        reference = reference_albedos(params, &opts.albedo.mus);
+        reference = reference_albedos_within(params, &opts.albedo.mus, backend.cancel_token())?;
         let values: Vec<DVec3> = reference.iter().map(|e| e.value).collect();
         if has(Section::Integration) {
             rows.extend(measure_integration(

@@ -5,7 +5,11 @@
 use crate::backend::Precision;
 use crate::eval::Evaluator;
 use crate::input::BadInput;
-use crate::integrate::{reference_albedo, view_direction, Estimate, DEFAULT_MUS, REFERENCE_RTOL};
+use crate::integrate::{
+    reference_albedo, reference_albedo_within, view_direction, Budget, Estimate, DEFAULT_MUS,
+    REFERENCE_MAX_EVALS, REFERENCE_RTOL,
+};
+use crate::interrupt::CancelToken;
 use crate::model::{ParamSet, Reference};
 use anyhow::Result;
 use glam::DVec3;
@@ -96,6 +100,28 @@ pub fn reference_albedos(params: &ParamSet, mus: &[f64]) -> Vec<Estimate> {
     let r = Reference::new(params, false);
     mus.iter()
         .map(|&mu| reference_albedo(&r, view_direction(mu, 0.0), REFERENCE_RTOL))
+        .collect()
+}
+
+/// [`reference_albedos`] that stops once `cancel` is set (checked before every batch of the
+/// reference's panels): `Error::Cancelled` then, never an unfinished value. One budget of
+/// [`REFERENCE_MAX_EVALS`] per direction, as [`reference_albedo`] has.
+pub fn reference_albedos_within(
+    params: &ParamSet,
+    mus: &[f64],
+    cancel: Option<&CancelToken>,
+) -> Result<Vec<Estimate>> {
+    let r = Reference::new(params, false);
+    mus.iter()
+        .map(|&mu| {
+            let budget = Budget::new(REFERENCE_MAX_EVALS, cancel);
+            let (e, _) =
+                reference_albedo_within(&r, view_direction(mu, 0.0), REFERENCE_RTOL, &budget);
+            if let Some(c) = cancel {
+                c.check()?;
+            }
+            Ok(e)
+        })
         .collect()
 }
 
