@@ -281,6 +281,10 @@ fn hemispherical_from(
         let p = phis[k];
         if table.is_empty() {
             let g = |mu: f64| {
+                // Cancelled: the value is thrown away (see `reference_albedo_within`).
+                if budget.cancelled() {
+                    return Estimate::default();
+                }
                 let (e, _) =
                     reference_albedo_within(&r, view_direction(mu, p), REFERENCE_RTOL, &budget);
                 Estimate {

@@ -61,9 +61,14 @@ impl<'a> Budget<'a> {
         self.spent() >= self.limit
     }
 
+    /// Whether the job was cancelled: its values will not be used.
+    pub(super) fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(CancelToken::is_cancelled)
+    }
+
     /// Whether refinement must stop: the limit reached or the job cancelled.
     pub(super) fn stop(&self) -> bool {
-        self.exhausted() || self.cancel.is_some_and(CancelToken::is_cancelled)
+        self.exhausted() || self.cancelled()
     }
 }
 
@@ -99,6 +104,11 @@ pub fn reference_albedo_within(
     let phi_o = wo.y.atan2(wo.x);
     let pb = peak_phi_breaks(wo.z, 0);
     let inner = |mu: f64| {
+        // A cancelled job's values are thrown away: skip even the first pass of what is left,
+        // so that Ctrl-C is obeyed within one inner integral rather than one outer pass.
+        if budget.cancelled() {
+            return Estimate::default();
+        }
         let s = (1.0 - mu * mu).max(0.0).sqrt();
         let g = |dphi: f64| {
             let (sp, cp) = (phi_o + dphi).sin_cos();
