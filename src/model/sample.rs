@@ -38,8 +38,8 @@ impl Sample {
     /// f(ωi) cos θi / pdf. Below the horizon, or where the density is 0 (an exponent's power
     /// underflowing far out in its tail), weight and pdf are 0 and ωi stays.
     pub fn from_draw(wi: DVec3, pdf: f64, f: impl FnOnce(DVec3) -> DVec3) -> Sample {
-        // `!(pdf > 0)` also refuses a NaN density; the weight then divides by a positive pdf.
-        if wi.z <= 0.0 || !(pdf > 0.0) {
+        // A NaN density is refused too; the weight then divides by a positive pdf.
+        if wi.z <= 0.0 || pdf.is_nan() || pdf <= 0.0 {
             return Sample::lost(wi);
         }
         Sample {
@@ -678,7 +678,8 @@ pub(crate) mod checks {
             if d.delta {
                 let w = (s.delta_albedo)(wo.z) / d.pdf;
                 if d.wi != mirror(wo)
-                    || !(d.pdf > 0.0)
+                    || d.pdf.is_nan()
+                    || d.pdf <= 0.0
                     || (d.weight - w).abs().max_element() > MATCH_REL * w.max_element()
                 {
                     return bad(&format!(
