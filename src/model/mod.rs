@@ -593,11 +593,12 @@ impl Reference {
         }
     }
 
-    /// Draws ωi for ωo (docs/design.md § Sampling) with the model's sampler: `uc` chooses a
+    /// Draws ωi for ωo (docs/design.md §13) with the model's sampler: `uc` chooses a
     /// component of a mixture, `u` draws within it. The weight is f cos θi / pdf with f as
     /// [`Reference::eval`] gives it (the white furnace included); a draw below the horizon, and
     /// any draw for ωo below it, has weight 0 and pdf 0. A model defined at run time is drawn
-    /// by the cosine sampler.
+    /// by the cosine sampler; without an f64 reference it has no f, and its weight is NaN as
+    /// its `eval` is (jobs refuse such models before they sample).
     pub fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Sample {
         if wo.z <= 0.0 {
             return Sample::lost(sample::mirror(wo));

@@ -1,7 +1,7 @@
 //! Importance sampling: the [`Sample`] every model's sampler returns and the samplers its lobes
 //! share (cosine, power cosine, GGX and Beckmann visible normals), each with its density.
 //!
-//! Conventions (docs/design.md § Sampling): ωi points towards the light and is the direction
+//! Conventions (docs/design.md §13): ωi points towards the light and is the direction
 //! drawn, ωo towards the viewer; the local frame has z along the normal, cos θ = w.z. A sampler
 //! returns ωi with its density `pdf` over the solid angle of ωi and the weight
 //! f(ωi, ωo) cos θi / pdf. A draw below the horizon (ωi.z ≤ 0) keeps its ωi, so that a caller
@@ -898,6 +898,24 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A model defined at run time is drawn by the cosine: with a Phong-like reference (a lobe
+    /// the cosine does not follow), the checks hold and the weight is f cos θi / pdf of the
+    /// caller's f.
+    #[test]
+    fn a_run_time_model_samples_by_the_cosine() {
+        use crate::model::params::ParamSpec;
+        use crate::model::runtime::RuntimeModel;
+        use crate::model::Model;
+        let table = vec![ParamSpec::scalar("n", 0.0, 100.0, 10.0, "exponent")];
+        let m = RuntimeModel::new("sample_runtime_twin", "a run-time lobe", table, true)
+            .expect("a valid run-time model")
+            .with_reference(std::sync::Arc::new(|v: &[f64], wi: DVec3, wo: DVec3| {
+                DVec3::splat(pdf_power_cosine(mirror(wo), v[0], wi))
+            }));
+        let model = Model::Runtime(Box::leak(Box::new(m)));
+        check_reference(&params(model, &["n=10"]), false, 0.8);
     }
 
     /// The test of the tests: a density without the reflection Jacobian 1/(4 ωo·h) (the
