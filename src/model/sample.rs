@@ -1,5 +1,8 @@
 //! Importance sampling: the [`Sample`] every model's sampler returns and the samplers its lobes
-//! share (cosine, power cosine, GGX and Beckmann visible normals), each with its density.
+//! share (cosine, uniform hemisphere, power cosine, GGX and Beckmann visible normals), each with
+//! its density. Samplers of one model alone (Ashikhmin & Shirley's half vectors, EON's clipped
+//! transformed cosine) live in that model's file; `Reference::sample` and `Reference::pdf`
+//! dispatch to every model's `sample_<model>` and `pdf_<model>` (`src/model/mod.rs`).
 //!
 //! Conventions (docs/design.md §13): ωi points towards the light and is the direction
 //! drawn, ωo towards the viewer; the local frame has z along the normal, cos θ = w.z. A sampler
