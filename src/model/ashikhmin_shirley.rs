@@ -3,6 +3,7 @@
 
 use super::info::{no_v_cavity, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
+use super::sample::{luminance, mixture_share, pdf_cosine, reflect, sample_cosine, Sample};
 use super::sampling::SamplingLobes;
 use super::terms::{
     half_vector_from_sum, log1m, one_minus_cos_theta, pow1m, pow5_complement, F_specular,
@@ -10,7 +11,7 @@ use super::terms::{
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 use std::mem::offset_of;
 
@@ -216,4 +217,103 @@ fn ashikhmin_shirley_lobes(p: &ParamSet) -> Option<SamplingLobes> {
         specular: DVec3::ONE,
         exponents: [m.nu / 4.0, m.nv / 4.0],
     })
+}
+
+/// A half vector h from Ashikhmin & Shirley 2000, §3 (eq. 9): φ = atan(√((nu + 1)/(nv + 1))
+/// tan(π ξ/2)) in the first quadrant, ξ = 4u₁ − q, and the quadrant q = ⌊4u₁⌋ by the density's
+/// symmetry in φ → π − φ, π + φ, −φ; cos θh = u₂^{1/(nu cos²φ + nv sin²φ + 1)}. Its density is
+/// [`pdf_ashikhmin_shirley_h`].
+pub fn sample_ashikhmin_shirley_h(nu: f64, nv: f64, u: DVec2) -> DVec3 {
+    let x = 4.0 * u.x;
+    let q = (x as usize).min(3);
+    let t = 0.5 * PI * (x - q as f64);
+    // atan2 of the two scaled sides: no tan to overflow at ξ → 1.
+    let phi1 = ((nu + 1.0).sqrt() * t.sin()).atan2((nv + 1.0).sqrt() * t.cos());
+    let phi = match q {
+        0 => phi1,
+        1 => PI - phi1,
+        2 => PI + phi1,
+        _ => 2.0 * PI - phi1,
+    };
+    let (c, s) = (phi.cos(), phi.sin());
+    let e = nu * c * c + nv * s * s;
+    // 1 − cos θh = −expm1(ln u₂/(e + 1)): no cancellation for large exponents; u₂ = 0 gives
+    // θh = π/2, whose reflection is below the horizon.
+    let one_minus_c = -(u.y.ln() / (e + 1.0)).exp_m1();
+    let sin_h = (one_minus_c * (2.0 - one_minus_c)).max(0.0).sqrt();
+    DVec3::new(sin_h * c, sin_h * s, 1.0 - one_minus_c)
+}
+
+/// The density of [`sample_ashikhmin_shirley_h`] over the solid angle of h (Ashikhmin &
+/// Shirley 2000, eq. 8): √((nu + 1)(nv + 1))/(2π) c_h^{nu cos²φh + nv sin²φh}.
+pub fn pdf_ashikhmin_shirley_h(nu: f64, nv: f64, h: DVec3) -> f64 {
+    let e = ashikhmin_shirley_exponent(h, nu, nv);
+    ((nu + 1.0) * (nv + 1.0)).sqrt() / (2.0 * PI) * pow1m(one_minus_cos_theta(h), e)
+}
+
+/// The probability of drawing from the coat's lobe rather than the cosine: the luminances of
+/// the coat's Fresnel factor at c_o (1 under the white furnace), which its lobe reflects about,
+/// and of the base's `diffuse` (1 − R0), which bounds the base's albedo.
+pub fn ashikhmin_shirley_lobe_probability(
+    p: &AshikhminShirley,
+    wo: DVec3,
+    white_furnace: bool,
+) -> f64 {
+    let coat = luminance(F_specular(wo.z, p.specular, white_furnace));
+    mixture_share(coat, luminance(p.diffuse * (DVec3::ONE - p.specular)))
+}
+
+/// Draws ωi from the mixture of the coat's half-vector lobe ([`sample_ashikhmin_shirley_h`],
+/// ωi the reflection of ωo about h, eq. 10's sampling) and the cosine for the base, chosen by
+/// `uc` with [`ashikhmin_shirley_lobe_probability`]. Reflections below the horizon are lost.
+pub fn sample_ashikhmin_shirley(
+    p: &AshikhminShirley,
+    wo: DVec3,
+    uc: f64,
+    u: DVec2,
+    white_furnace: bool,
+) -> Sample {
+    let wi = if uc < ashikhmin_shirley_lobe_probability(p, wo, white_furnace) {
+        reflect(wo, sample_ashikhmin_shirley_h(p.nu, p.nv, u))
+    } else {
+        sample_cosine(u)
+    };
+    Sample::from_draw(wi, pdf_ashikhmin_shirley(p, wi, wo, white_furnace), |wi| {
+        ashikhmin_shirley(p, wi, wo, white_furnace)
+    })
+}
+
+/// The density of [`sample_ashikhmin_shirley`]: (1 − P) cos θi/π + P p_h(h)/(4 ωo·h)
+/// (Ashikhmin & Shirley 2000, eq. 10), h = normalize(ωi + ωo), P the lobe's probability; 0
+/// below the horizon.
+pub fn pdf_ashikhmin_shirley(
+    p: &AshikhminShirley,
+    wi: DVec3,
+    wo: DVec3,
+    white_furnace: bool,
+) -> f64 {
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return 0.0;
+    }
+    let (h, c_d) = half_vector_from_sum(wi + wo);
+    let lobe = ashikhmin_shirley_lobe_probability(p, wo, white_furnace);
+    // c_d = |ωi + ωo|/2 ≥ (c_i + c_o)/2 > 0 for both directions above the horizon.
+    (1.0 - lobe) * pdf_cosine(wi) + lobe * pdf_ashikhmin_shirley_h(p.nu, p.nv, h) / (4.0 * c_d)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn ashikhmin_shirley_sampler_and_pdf() {
+        for (set, width, white) in [
+            (&["nu=100", "nv=100"][..], 0.2, false),
+            (&["nu=10", "nv=1000", "specular=0.5"], 0.2, false),
+            (&["diffuse=0.2", "nu=1e4", "nv=1e4"], 0.02, true),
+        ] {
+            check_reference(&params(Model::AshikhminShirley, set), white, width);
+        }
+    }
 }

@@ -1,14 +1,18 @@
 //! Cook & Torrance 1982: Beckmann D, V-cavity G, Schlick's Fresnel.
 //! Twin of `glsl/brdf/cook_torrance.glsl`.
 
+use super::components::Distribution;
 use super::info::{always_isotropic, white_specular_alone, LutAxis, ModelInfo};
 use super::params::ParamSpec;
+use super::sample::{
+    luminance, mixture_share, pdf_cosine, pdf_vndf, reflect, sample_cosine, sample_vndf, Sample,
+};
 use super::sampling::{beckmann_exponent, SamplingLobes};
 use super::terms::{half_vector_from_sum, r0_from_ior, D_beckmann, F_specular, G_v_cavity};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
@@ -202,4 +206,65 @@ fn cook_torrance_lobes(p: &ParamSet) -> Option<SamplingLobes> {
         specular: m.specular,
         exponents: [beckmann_exponent(m.roughness); 2],
     })
+}
+
+/// The probability of drawing from the Beckmann lobe rather than the cosine: the luminance of
+/// `specular` times Schlick's average R0 + (1 − R0)/21 (1 under the white furnace), the lobe's
+/// albedo with masking's loss ignored, against that of `diffuse`.
+pub fn cook_torrance_lobe_probability(p: &CookTorrance, white_furnace: bool) -> f64 {
+    let r0 = r0_from_ior(p.ior);
+    let f_avg = if white_furnace {
+        1.0
+    } else {
+        r0 + (1.0 - r0) / 21.0
+    };
+    mixture_share(luminance(p.specular) * f_avg, luminance(p.diffuse))
+}
+
+/// Draws ωi from the mixture of ωo reflected about a Beckmann visible normal of slope m
+/// ([`sample_vndf`], Heitz & d'Eon 2014; f's masking is V-cavity, the draws follow Smith's
+/// visible normals, and the density says so) and the cosine for the diffuse part, chosen by
+/// `uc` with [`cook_torrance_lobe_probability`]. Reflections below the horizon are lost.
+pub fn sample_cook_torrance(
+    p: &CookTorrance,
+    wo: DVec3,
+    uc: f64,
+    u: DVec2,
+    white_furnace: bool,
+) -> Sample {
+    let m = p.roughness;
+    let wi = if uc < cook_torrance_lobe_probability(p, white_furnace) {
+        reflect(wo, sample_vndf(Distribution::Beckmann, wo, m, m, u))
+    } else {
+        sample_cosine(u)
+    };
+    Sample::from_draw(wi, pdf_cook_torrance(p, wi, wo, white_furnace), |wi| {
+        cook_torrance(p, wi, wo, white_furnace)
+    })
+}
+
+/// The density of [`sample_cook_torrance`]: (1 − P) cos θi/π + P [`pdf_vndf`] (Beckmann, m).
+pub fn pdf_cook_torrance(p: &CookTorrance, wi: DVec3, wo: DVec3, white_furnace: bool) -> f64 {
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return 0.0;
+    }
+    let lobe = cook_torrance_lobe_probability(p, white_furnace);
+    let m = p.roughness;
+    (1.0 - lobe) * pdf_cosine(wi) + lobe * pdf_vndf(Distribution::Beckmann, wi, wo, m, m)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn cook_torrance_sampler_and_pdf() {
+        for (set, width) in [
+            (&["roughness=0.05"][..], 0.1),
+            (&["roughness=0.8", "ior=3"], 1.0),
+        ] {
+            check_reference(&params(Model::CookTorrance, set), false, width);
+        }
+    }
 }

@@ -3,12 +3,13 @@
 
 use super::info::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::params::{ParamError, ParamSpec, Value};
+use super::sample::{luminance, mixture_share, pdf_cosine, sample_cosine, Sample};
 use super::sampling::no_lobes;
 use super::terms::{pow5_complement, r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 use std::mem::offset_of;
 
@@ -117,4 +118,44 @@ pub fn coupled(p: &Coupled, wi: DVec3, wo: DVec3) -> DVec3 {
 /// Albedo of the mirror spike seen from c_o: F_s(c_o).
 pub fn coupled_delta(p: &Coupled, c_o: f64) -> DVec3 {
     F_schlick(c_o, DVec3::splat(r0_from_ior(p.ior)))
+}
+
+/// The probability of choosing the mirror spike: the luminance of its albedo F_s(c_o) against
+/// that of `matte` (1 − R0) (1 − (1 − c_o)⁵) (the matte term's directional albedo, exact: 2π∫(1 − (1 − c)⁵) c dc = 20π/21), so that both components' weights are about the total albedo.
+pub fn coupled_spike_probability(p: &Coupled, wo: DVec3) -> f64 {
+    mixture_share(
+        luminance(coupled_delta(p, wo.z)),
+        luminance(p.matte) * (1.0 - r0_from_ior(p.ior)) * pow5_complement(wo.z),
+    )
+}
+
+/// Draws the mirror spike (a delta sample: ωi the mirror direction of ωo, pdf the
+/// probability P of choosing it, weight F_s(c_o)/P) with probability
+/// [`coupled_spike_probability`] by `uc`, else ωi by the cosine for the non-delta part.
+pub fn sample_coupled(p: &Coupled, wo: DVec3, uc: f64, u: DVec2) -> Sample {
+    let spike = coupled_spike_probability(p, wo);
+    if uc < spike {
+        return Sample::spike(wo, spike, coupled_delta(p, wo.z));
+    }
+    let wi = sample_cosine(u);
+    Sample::from_draw(wi, pdf_coupled(p, wi, wo), |wi| coupled(p, wi, wo))
+}
+
+/// The density of [`sample_coupled`]'s non-delta draws: (1 − P) cos θi/π, P the spike's
+/// probability; over the hemisphere it integrates to 1 − P.
+pub fn pdf_coupled(p: &Coupled, wi: DVec3, wo: DVec3) -> f64 {
+    (1.0 - coupled_spike_probability(p, wo)) * pdf_cosine(wi)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn coupled_sampler_and_pdf() {
+        for set in [&["matte=0.5"][..], &["matte=1", "ior=3"]] {
+            check_reference(&params(Model::Coupled, set), false, 0.8);
+        }
+    }
 }

@@ -2,11 +2,12 @@
 
 use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
+use super::sample::{pdf_cosine, sample_by_cosine, Sample};
 use super::sampling::no_lobes;
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
@@ -88,4 +89,26 @@ impl Lambert {
 /// f = albedo/π in 1/sr, whatever the directions (the horizon test is the caller's).
 pub fn lambert(p: &Lambert, _wi: DVec3, _wo: DVec3) -> DVec3 {
     p.albedo * FRAC_1_PI
+}
+
+/// Draws ωi by the cosine (Malley's method, [`sample_by_cosine`]): the density is f's own shape,
+/// so the weight is `albedo` exactly. `uc` is unused.
+pub fn sample_lambert(p: &Lambert, wo: DVec3, _uc: f64, u: DVec2) -> Sample {
+    sample_by_cosine(u, |wi| lambert(p, wi, wo))
+}
+
+/// The density of [`sample_lambert`]: cos θi / π.
+pub fn pdf_lambert(_p: &Lambert, wi: DVec3, _wo: DVec3) -> f64 {
+    pdf_cosine(wi)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn lambert_sampler_and_pdf() {
+        check_reference(&params(Model::Lambert, &["albedo=0.8"]), false, 0.8);
+    }
 }

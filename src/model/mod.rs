@@ -15,14 +15,16 @@ pub mod params;
 pub mod phong;
 pub mod registry;
 pub use registry::{components, info, kernels, runtime, sampling};
+pub mod sample;
 pub mod smooth_layered;
 pub mod terms;
 
 use eon::EonConfig;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 pub use info::{LutAxis, ModelInfo};
 use microfacet::MicrofacetConfig;
 pub use params::{ParamError, ParamKind, ParamSpec, Value, SLOPE_FLOOR};
+use sample::Sample;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Field names and byte offsets of a std430 parameter block, checked against the SPIR-V.
@@ -588,6 +590,56 @@ impl Reference {
             Brdf::Microfacet(p) => microfacet::microfacet(p, wi, wo, wf),
             Brdf::Eon(p) => eon::eon(p, wi, wo),
             Brdf::Runtime(p) => p.eval(wi, wo),
+        }
+    }
+
+    /// Draws ωi for ωo (docs/design.md §13) with the model's sampler: `uc` chooses a
+    /// component of a mixture, `u` draws within it. The weight is f cos θi / pdf with f as
+    /// [`Reference::eval`] gives it (the white furnace included); a draw below the horizon, and
+    /// any draw for ωo below it, has weight 0 and pdf 0. A model defined at run time is drawn
+    /// by the cosine sampler; without an f64 reference it has no f, and its weight is NaN as
+    /// its `eval` is (jobs refuse such models before they sample).
+    pub fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Sample {
+        if wo.z <= 0.0 {
+            return Sample::lost(sample::mirror(wo));
+        }
+        let wf = self.white_furnace;
+        match &self.brdf {
+            Brdf::Lambert(p) => lambert::sample_lambert(p, wo, uc, u),
+            Brdf::Phong(p) => phong::sample_phong(p, wo, uc, u),
+            Brdf::BlinnPhong(p) => blinn_phong::sample_blinn_phong(p, wo, uc, u),
+            Brdf::OrenNayar(p) => oren_nayar::sample_oren_nayar(p, wo, uc, u),
+            Brdf::CookTorrance(p) => cook_torrance::sample_cook_torrance(p, wo, uc, u, wf),
+            Brdf::SmoothLayered(p) => smooth_layered::sample_smooth_layered(p, wo, uc, u),
+            Brdf::Coupled(p) => coupled::sample_coupled(p, wo, uc, u),
+            Brdf::AshikhminShirley(p) => {
+                ashikhmin_shirley::sample_ashikhmin_shirley(p, wo, uc, u, wf)
+            }
+            Brdf::Microfacet(p) => microfacet::sample_microfacet(p, wo, uc, u, wf),
+            Brdf::Eon(p) => eon::sample_eon(p, wo, uc, u),
+            Brdf::Runtime(p) => sample::sample_by_cosine(u, |wi| p.eval(wi, wo)),
+        }
+    }
+
+    /// The density over the solid angle of ωi of [`Reference::sample`]'s non-delta draws; 0
+    /// unless both directions are above the horizon.
+    pub fn pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let wf = self.white_furnace;
+        match &self.brdf {
+            Brdf::Lambert(p) => lambert::pdf_lambert(p, wi, wo),
+            Brdf::Phong(p) => phong::pdf_phong(p, wi, wo),
+            Brdf::BlinnPhong(p) => blinn_phong::pdf_blinn_phong(p, wi, wo),
+            Brdf::OrenNayar(p) => oren_nayar::pdf_oren_nayar(p, wi, wo),
+            Brdf::CookTorrance(p) => cook_torrance::pdf_cook_torrance(p, wi, wo, wf),
+            Brdf::SmoothLayered(p) => smooth_layered::pdf_smooth_layered(p, wi, wo),
+            Brdf::Coupled(p) => coupled::pdf_coupled(p, wi, wo),
+            Brdf::AshikhminShirley(p) => ashikhmin_shirley::pdf_ashikhmin_shirley(p, wi, wo, wf),
+            Brdf::Microfacet(p) => microfacet::pdf_microfacet(p, wi, wo, wf),
+            Brdf::Eon(p) => eon::pdf_eon(p, wi, wo),
+            Brdf::Runtime(_) => sample::pdf_cosine(wi),
         }
     }
 

@@ -3,11 +3,12 @@
 
 use super::info::{always_isotropic, no_exponent, no_v_cavity, white_albedo, LutAxis, ModelInfo};
 use super::params::ParamSpec;
+use super::sample::{pdf_cosine, sample_by_cosine, Sample};
 use super::sampling::no_lobes;
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2};
 use std::mem::offset_of;
 
@@ -124,4 +125,29 @@ pub fn oren_nayar(p: &OrenNayar, wi: DVec3, wo: DVec3) -> DVec3 {
     let (a, b) = p.a_b();
     let s = (wi.dot(wo) - wi.z * wo.z).max(0.0);
     p.albedo * FRAC_1_PI * (a + b * s / wi.z.max(wo.z))
+}
+
+/// Draws ωi by the cosine ([`sample_by_cosine`]): the weight is albedo (A + B max(0,
+/// cos(φi − φo)) sinα tanβ), which is at most albedo (A + B tan θo) for ωo fixed. `uc` is
+/// unused.
+pub fn sample_oren_nayar(p: &OrenNayar, wo: DVec3, _uc: f64, u: DVec2) -> Sample {
+    sample_by_cosine(u, |wi| oren_nayar(p, wi, wo))
+}
+
+/// The density of [`sample_oren_nayar`]: cos θi / π.
+pub fn pdf_oren_nayar(_p: &OrenNayar, wi: DVec3, _wo: DVec3) -> f64 {
+    pdf_cosine(wi)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn oren_nayar_sampler_and_pdf() {
+        for set in [&["sigma=0.3"][..], &["albedo=0.5", "sigma=1.2"]] {
+            check_reference(&params(Model::OrenNayar, set), false, 0.8);
+        }
+    }
 }

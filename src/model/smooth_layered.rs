@@ -4,12 +4,13 @@
 
 use super::info::{always_isotropic, no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::params::{ParamError, ParamSpec, Value};
+use super::sample::{luminance, mixture_share, pdf_cosine, sample_cosine, Sample};
 use super::sampling::no_lobes;
 use super::terms::{r0_from_ior, F_schlick};
 use super::{f32x3, Layout, ParamSet};
 use crate::axis::Mapping;
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
 use std::mem::offset_of;
 
@@ -116,4 +117,46 @@ pub fn smooth_layered(p: &SmoothLayered, _wi: DVec3, _wo: DVec3) -> DVec3 {
 /// Albedo of the mirror spike seen from c_o: F_s(c_o).
 pub fn smooth_layered_delta(p: &SmoothLayered, c_o: f64) -> DVec3 {
     F_schlick(c_o, DVec3::splat(r0_from_ior(p.ior)))
+}
+
+/// The probability of choosing the mirror spike: the luminance of its albedo F_s(c_o) against
+/// that of `diffuse` (the base's albedo, exact), so that both components' weights are about the total albedo.
+pub fn smooth_layered_spike_probability(p: &SmoothLayered, wo: DVec3) -> f64 {
+    mixture_share(
+        luminance(smooth_layered_delta(p, wo.z)),
+        luminance(p.diffuse),
+    )
+}
+
+/// Draws the mirror spike (a delta sample: ωi the mirror direction of ωo, pdf the
+/// probability P of choosing it, weight F_s(c_o)/P) with probability
+/// [`smooth_layered_spike_probability`] by `uc`, else ωi by the cosine for the non-delta part.
+pub fn sample_smooth_layered(p: &SmoothLayered, wo: DVec3, uc: f64, u: DVec2) -> Sample {
+    let spike = smooth_layered_spike_probability(p, wo);
+    if uc < spike {
+        return Sample::spike(wo, spike, smooth_layered_delta(p, wo.z));
+    }
+    let wi = sample_cosine(u);
+    Sample::from_draw(wi, pdf_smooth_layered(p, wi, wo), |wi| {
+        smooth_layered(p, wi, wo)
+    })
+}
+
+/// The density of [`sample_smooth_layered`]'s non-delta draws: (1 − P) cos θi/π, P the spike's
+/// probability; over the hemisphere it integrates to 1 − P.
+pub fn pdf_smooth_layered(p: &SmoothLayered, wi: DVec3, wo: DVec3) -> f64 {
+    (1.0 - smooth_layered_spike_probability(p, wo)) * pdf_cosine(wi)
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::super::sample::checks::{check_reference, params};
+    use super::super::Model;
+
+    #[test]
+    fn smooth_layered_sampler_and_pdf() {
+        for set in [&["diffuse=0.5"][..], &["diffuse=0.1", "ior=3"]] {
+            check_reference(&params(Model::SmoothLayered, set), false, 0.8);
+        }
+    }
 }
