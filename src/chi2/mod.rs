@@ -2,7 +2,7 @@
 //! its weights f cos / pdf? (docs/design.md §13)
 //!
 //! For each outgoing direction ωo, N directions ωi are drawn (draw i from
-//! [`random::uniform4`](crate::random::uniform4), so any chunking gives the same draws) and
+//! [`random::uniform4`], so any chunking gives the same draws) and
 //! counted in cells of equal solid angle over the upper hemisphere ([`Cells`]); the expected
 //! count of each cell is N ∫_cell pdf dω, integrated adaptively to well under the count's own
 //! noise. A chi-square test with pooling (as Mitsuba 3 and pbrt-v4 test their BSDFs) compares the
