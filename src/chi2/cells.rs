@@ -379,4 +379,40 @@ mod tests {
             "peak {peak}, {holding} cells above 1e-6"
         );
     }
+
+    #[test]
+    fn chi2_cells_integrate_a_sharp_ggx_reflection_lobe() {
+        // Reflection with the half vector drawn from GGX's D(h) cosθh at ωo = n: pdf(ωi) =
+        // D(h) / 4 with h = normalize(ωi + n) (Walter et al. 2007, eq. 14 with ωo·h = cosθh). ωi
+        // stays above the horizon while θh < 45°, and GGX's P(θh ≤ θ) = tan²θ / (α² + tan²θ), so
+        // ∫ pdf over the hemisphere is 1 / (1 + α²) exactly. At α = 0.01 the lobe is ~0.02 rad
+        // wide in ωi: the top row of cells holds nearly all of it, with a tail reaching the horizon.
+        for alpha in [0.1, 0.01] {
+            let a2: f64 = alpha * alpha;
+            let pdf = |w: DVec3| {
+                let h = (w + DVec3::Z).normalize();
+                let c2 = h.z * h.z;
+                let d = a2 / (PI * ((a2 - 1.0) * c2 + 1.0).powi(2));
+                if w.z > 0.0 {
+                    0.25 * d
+                } else {
+                    0.0
+                }
+            };
+            let ints = Cells::new(100, 50).integrate(&pdf, 1 << 30);
+            let want = 1.0 / (1.0 + a2);
+            assert!(
+                (ints.total - want).abs() < 1e-9,
+                "α = {alpha}: {} vs {want}, error estimate {:e}, accuracy {:e}",
+                ints.total,
+                ints.total_error,
+                ints.accuracy
+            );
+            assert!(
+                ints.accuracy < 1e-2 && ints.unconverged_cells == 0,
+                "α = {alpha}: {:e}",
+                ints.accuracy
+            );
+        }
+    }
 }
