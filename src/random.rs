@@ -166,7 +166,8 @@ mod tests {
         // counter-based generator's weak spot), over 16 × 16 bins at 10⁶ draws.
         const DRAWS: u64 = 1_000_000;
         let bin = |u: f64| (u * 16.0) as usize;
-        let cases: [(&str, fn(u64) -> (f64, f64)); 4] = [
+        type Pair = fn(u64) -> (f64, f64);
+        let cases: [(&str, Pair); 4] = [
             ("dims 0, 1", |i| (uniform(3, i, 0), uniform(3, i, 1))),
             ("dims 1, 2", |i| (uniform(3, i, 1), uniform(3, i, 2))),
             ("dims 3, 4", |i| (uniform(3, i, 3), uniform(3, i, 4))),

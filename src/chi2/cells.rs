@@ -71,7 +71,7 @@ impl Cells {
 
     /// The cell of a unit direction with cosθ > 0 (None otherwise).
     pub fn index(&self, w: DVec3) -> Option<usize> {
-        if !(w.z > 0.0) {
+        if w.z.is_nan() || w.z <= 0.0 {
             return None;
         }
         let mut phi = w.y.atan2(w.x);
@@ -251,7 +251,10 @@ fn integrate_cell<F: Fn(DVec3) -> f64>(
     // Rectangles too narrow to bisect in f64 keep their error: counted, not hidden.
     let mut done: Vec<Rect> = Vec::new();
     let tolerance = |v: f64| (RELATIVE_TOLERANCE * v.abs()).max(floor);
-    let mut converged = !(error > tolerance(value)); // NaN counts as not converged below
+    // A NaN error stops the refinement at once (no bisection mends it); the final test below
+    // reports the cell as not converged.
+    let settled = |error: f64, value: f64| error.is_nan() || error <= tolerance(value);
+    let mut converged = settled(error, value);
     while !converged && heap.len() + done.len() < MAX_RECTANGLES {
         let Some(worst) = heap.pop() else { break };
         let split_mu = worst.error_mu >= worst.error_phi;
@@ -276,7 +279,7 @@ fn integrate_cell<F: Fn(DVec3) -> f64>(
         value += halves[0].value + halves[1].value - worst.value;
         error += halves[0].error() + halves[1].error() - worst.error();
         heap.extend(halves);
-        converged = !(error > tolerance(value));
+        converged = settled(error, value);
     }
     // Summed afresh: the running sums only steer the loop.
     let all = || heap.iter().chain(done.iter());

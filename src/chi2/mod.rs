@@ -527,14 +527,14 @@ fn judge(
             let (o, e) = (tally.hist[c] as f64, expected[c]);
             if e >= stats::MIN_EXPECTED {
                 Some((c, (o - e) / e.sqrt()))
-            } else if !(e > 0.0) && o > 0.0 {
+            } else if (e.is_nan() || e <= 0.0) && o > 0.0 {
                 Some((c, f64::INFINITY))
             } else {
                 None
             }
         })
         .fold(None, |best: Option<(usize, f64)>, (c, s)| match best {
-            Some((_, b)) if !(s.abs() > b.abs()) => best,
+            Some((_, b)) if s.abs() <= b.abs() => best,
             _ => Some((c, s)),
         })
         .map(|(c, sigma)| {

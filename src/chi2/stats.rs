@@ -194,17 +194,17 @@ mod tests {
 
     #[test]
     fn chi2_gamma_p_matches_the_exponential_and_erf() {
-        for &x in &[1e-6, 0.01, 0.3, 1.0, 1.9, 2.0, 2.1, 5.0, 20.0, 40.0] {
+        for &x in &[1e-6f64, 0.01, 0.3, 1.0, 1.9, 2.0, 2.1, 5.0, 20.0, 40.0] {
             close(
                 &format!("P(1, {x})"),
                 gamma_p(1.0, x),
-                -(-x as f64).exp_m1(),
+                -(-x).exp_m1(),
                 CLOSED_FORM,
             );
             close(
                 &format!("Q(1, {x})"),
                 gamma_q(1.0, x),
-                (-x as f64).exp(),
+                (-x).exp(),
                 CLOSED_FORM,
             );
             close(
@@ -261,11 +261,11 @@ mod tests {
     #[test]
     fn chi2_p_value_of_two_dof_is_exponential() {
         // χ²₂ is exponential with mean 2: p = e^{−s/2}, down to far tails.
-        for &s in &[0.1, 1.0, 10.0, 100.0, 1000.0] {
+        for &s in &[0.1f64, 1.0, 10.0, 100.0, 1000.0] {
             close(
                 &format!("p({s}, 2)"),
                 chi2_p_value(s, 2),
-                (-0.5 * s as f64).exp(),
+                (-0.5 * s).exp(),
                 CLOSED_FORM,
             );
         }
