@@ -418,4 +418,35 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn chi2_cells_meet_their_tolerance_cell_by_cell() {
+        // A power-cosine lobe about the normal, (n + 1)/(2π) μⁿ: each cell's integral is
+        // Δφ/(2π) (μ₁ⁿ⁺¹ − μ₀ⁿ⁺¹) in closed form. Every cell must be within its tolerance,
+        // max(RELATIVE_TOLERANCE · value, ABSOLUTE_TOLERANCE_DRAWS / N), and within its own error
+        // estimate, at n = 10 (smooth) and n = 10⁴ (all the mass in the top row, 0.02 in μ).
+        // The error estimate leaves out f64 rounding of the 225-term sums and of the closed form.
+        const ROUNDING: f64 = 1e-13;
+        let cells = Cells::new(100, 50);
+        let n_draws = 1u64 << 30;
+        for n in [10.0, 1e4] {
+            let pdf = |w: DVec3| (n + 1.0) / (2.0 * PI) * w.z.max(0.0).powf(n);
+            let ints = cells.integrate(&pdf, n_draws);
+            for c in 0..cells.len() {
+                let (phi, mu) = cells.bounds(c);
+                // μ₁ⁿ⁺¹ − μ₀ⁿ⁺¹ without cancellation: μ₁ⁿ⁺¹ (1 − (μ₀/μ₁)ⁿ⁺¹).
+                let want = (phi[1] - phi[0]) / (2.0 * PI)
+                    * mu[1].powf(n + 1.0)
+                    * -((n + 1.0) * (mu[0] / mu[1]).ln()).exp_m1();
+                let (got, estimate) = (ints.probability[c], ints.error[c]);
+                let err = (got - want).abs();
+                let tolerance =
+                    (RELATIVE_TOLERANCE * want).max(ABSOLUTE_TOLERANCE_DRAWS / n_draws as f64);
+                assert!(
+                    err <= tolerance && err <= estimate + ROUNDING * want,
+                    "n = {n}, cell {c} (μ {mu:?}): {got:e} vs {want:e}, error {err:e}, estimate {estimate:e}, tolerance {tolerance:e}"
+                );
+            }
+        }
+    }
 }
