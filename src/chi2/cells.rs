@@ -64,7 +64,7 @@ impl Cells {
         self.n_phi * self.n_cos
     }
 
-    /// Whether there are no cells (never, by construction).
+    /// Whether there are no cells (never for cells made by [`Cells::new`]).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

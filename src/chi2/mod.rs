@@ -125,6 +125,8 @@ pub struct DrawChecks {
     pub non_finite_weight: u64,
     /// Draws below the horizon or with pdf 0 whose weight is not 0.
     pub nonzero_weight_outside: u64,
+    /// Draws below the horizon reported with a pdf other than 0 (the contract asks for 0).
+    pub nonzero_pdf_below: u64,
     /// The largest relative difference |w − eval_cos/pdf| / max(|w|, |eval_cos/pdf|) over
     /// channels and draws counted in cells, and the draw (its index i) where it occurred.
     pub max_weight_error: f64,
@@ -144,6 +146,7 @@ impl DrawChecks {
             && self.non_unit == 0
             && self.non_finite_weight == 0
             && self.nonzero_weight_outside == 0
+            && self.nonzero_pdf_below == 0
             && self.max_weight_error <= DRAW_TOLERANCE
             && self.max_pdf_error <= DRAW_TOLERANCE
     }
@@ -301,6 +304,7 @@ impl Tally {
         c.zero_pdf += o.zero_pdf;
         c.non_finite_weight += o.non_finite_weight;
         c.nonzero_weight_outside += o.nonzero_weight_outside;
+        c.nonzero_pdf_below += o.nonzero_pdf_below;
         (c.max_weight_error, c.worst_weight_draw) = Tally::worse(
             (c.max_weight_error, c.worst_weight_draw),
             (o.max_weight_error, o.worst_weight_draw),
@@ -340,6 +344,8 @@ impl Tally {
             self.leaked += 1;
             if wi.z > 0.0 {
                 c.zero_pdf += 1;
+            } else if d.pdf != 0.0 {
+                c.nonzero_pdf_below += 1;
             }
             if d.weight != DVec3::ZERO {
                 c.nonzero_weight_outside += 1;
@@ -401,9 +407,17 @@ pub fn run<S: Sampler>(
     let cells = options
         .cells
         .unwrap_or_else(|| Cells::for_samples(options.samples));
+    if cells.is_empty() {
+        return Err(Error::Invalid(format!(
+            "cells {} × {}: the sampling test needs at least one step in φ and in cosθ",
+            cells.n_phi, cells.n_cos
+        )));
+    }
     let tests = 2 * options.directions.len();
     let corrected = sidak(options.significance, tests);
-    let total = options.samples * options.directions.len() as u64;
+    let total = options
+        .samples
+        .saturating_mul(options.directions.len() as u64);
     let mut done = 0u64;
     let mut results = Vec::with_capacity(options.directions.len());
     for (k, &[theta, phi]) in options.directions.iter().enumerate() {
@@ -597,11 +611,12 @@ fn judge(
     let c = &tally.checks;
     if !c.consistent() {
         failures.push(format!(
-            "draws: {} invalid, {} not of unit length, {} with non-finite weight, {} leaving with a weight; largest weight error {:.3e} (draw {:?}), pdf error {:.3e} (draw {:?}), allowed {DRAW_TOLERANCE:e}",
+            "draws: {} invalid, {} not of unit length, {} with non-finite weight, {} leaving with a weight, {} below the horizon with a pdf; largest weight error {:.3e} (draw {:?}), pdf error {:.3e} (draw {:?}), allowed {DRAW_TOLERANCE:e}",
             c.invalid,
             c.non_unit,
             c.non_finite_weight,
             c.nonzero_weight_outside,
+            c.nonzero_pdf_below,
             c.max_weight_error,
             c.worst_weight_draw,
             c.max_pdf_error,

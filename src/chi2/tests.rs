@@ -342,6 +342,29 @@ fn chi2_leak_equals_one_minus_the_integral() {
         d.missing_mass
     );
     assert_eq!(d.draws.nonzero_weight_outside, 0);
+    // The same draws reported below the horizon with a pdf (the contract asks for 0).
+    struct PdfBelow(PowerCosine);
+    impl Sampler for PdfBelow {
+        fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Drawn {
+            let d = self.0.sample(wo, uc, u);
+            let pdf = if d.wi.z <= 0.0 { 0.5 } else { d.pdf };
+            Drawn { pdf, ..d }
+        }
+        fn pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
+            self.0.pdf(wi, wo)
+        }
+        fn eval_cos(&self, wi: DVec3, wo: DVec3) -> DVec3 {
+            self.0.eval_cos(wi, wo)
+        }
+    }
+    let r = test(&PdfBelow(PowerCosine { n: 4.0 }), 1 << 20, &[[80.0, 0.0]]);
+    let e = &r.directions[0];
+    assert!(
+        e.histogram_passed && e.outside_passed && !e.passed,
+        "{}",
+        describe(&r)
+    );
+    assert_eq!((e.draws.nonzero_pdf_below, e.leaked), (d.leaked, d.leaked));
 }
 
 #[test]
@@ -477,6 +500,10 @@ fn chi2_refuses_bad_options() {
         options(10, &[[f64::NAN, 0.0]]),
         Options {
             significance: 0.0,
+            ..options(10, &[[0.0, 0.0]])
+        },
+        Options {
+            cells: Some(Cells { n_phi: 0, n_cos: 4 }),
             ..options(10, &[[0.0, 0.0]])
         },
     ] {
