@@ -11,6 +11,10 @@
 //!
 //! The number is the hash's top 24 bits as k/2²⁴, k ∈ [0, 2²⁴): exact in f32 as in f64, so an f32
 //! twin computing `float(h >> 8u) * (1.0 / 16777216.0)` gives the bit-identical value.
+//!
+//! 0 is among the numbers (one draw in 2²⁴) and 1 is not: a sampler that takes a root or a
+//! logarithm of u, or divides by it, must take u = 0 (1 − u lies in (0, 1]). At 2²⁸ draws the
+//! sampling test (`chi2`) sees the few draws a mishandled 0 sends astray.
 
 /// The largest number [`uniform`] returns is 1 − 2⁻²⁴; numbers are multiples of 2⁻²⁴.
 pub const RESOLUTION: f64 = 1.0 / (1u64 << 24) as f64;

@@ -70,7 +70,8 @@ impl Sampler for Cosine {
 }
 
 /// A power-cosine (Phong) lobe (n + 1)/(2π) cos^n α about the mirror direction of ωo (Lafortune
-/// & Willems 1994), drawn exactly: cos α = u₁^{1/(n+1)}. Draws below the horizon are returned
+/// & Willems 1994), drawn exactly: cos α = (1 − u₁)^{1/(n+1)} (1 − u₁ ∈ (0, 1]: u₁ = 0 itself, one
+/// draw in 2²⁴, would put cos α = 0 at the lobe's edge, a leak the test finds). Draws below the horizon are returned
 /// with pdf 0 and weight 0, so ∫ pdf over the hemisphere is 1 minus their share.
 struct PowerCosine {
     n: f64,
@@ -86,7 +87,7 @@ impl Sampler for PowerCosine {
     fn sample(&self, wo: DVec3, _uc: f64, u: DVec2) -> Drawn {
         let r = PowerCosine::axis(wo);
         let (t, b) = frame(r);
-        let cos_a = u.x.powf(1.0 / (self.n + 1.0));
+        let cos_a = (1.0 - u.x).powf(1.0 / (self.n + 1.0));
         let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
         let wi = (t * phi.cos() * sin_a + b * phi.sin() * sin_a + r * cos_a).normalize();
