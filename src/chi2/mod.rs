@@ -43,7 +43,9 @@ pub struct Drawn {
 
 /// What the test asks of a sampler: a draw, the density of a direction, and the value the
 /// weight must equal times the pdf. The same contract as a renderer's BSDF sampling (lobe's
-/// convention: ωi towards the light, ωo towards the viewer, both in the local frame, n = +z).
+/// convention: ωi towards the light, ωo towards the viewer, both in the local frame, n = +z;
+/// docs/design.md §13). A model's f64 reference implements it by forwarding its own sample and
+/// pdf, with `eval_cos` its f times max(cosθi, 0).
 pub trait Sampler: Sync {
     /// A draw for `wo` from the uniform numbers `uc` (to choose a lobe) and `u` (the direction).
     fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Drawn;
@@ -169,12 +171,12 @@ pub struct DirectionResult {
     pub expected: Vec<f64>,
     /// Each expected count's error estimate, in draws.
     pub expected_error: Vec<f64>,
-    /// ∫ pdf over the upper hemisphere (the cells' sum) and its error estimate.
+    /// ∫ pdf over the upper hemisphere (the cells' sum).
     pub integral: f64,
     /// The error estimate of `integral`.
     pub integral_error: f64,
-    /// The largest per-cell count error estimate against sqrt(expected) (max with 1): ≪ 1 for a
-    /// valid test.
+    /// The largest count error estimate against the count's noise over cells,
+    /// N · error / sqrt(max(expected, 1)): ≪ 1 for a valid test.
     pub expected_accuracy: f64,
     /// pdf evaluations spent on the expected counts.
     pub pdf_evaluations: u64,
