@@ -1,0 +1,452 @@
+//! The sampling test's cells over the upper hemisphere and their expected counts.
+//!
+//! Cells are a product grid in (φ, cosθ): `n_phi` equal steps of φ over [0, 2π) times `n_cos`
+//! equal steps of cosθ over [0, 1]. Since dω = dcosθ dφ, every cell has the same solid angle
+//! 2π / (n_phi n_cos). Cell (i_phi, i_cos) has index i_cos · n_phi + i_phi.
+//!
+//! A cell's expected count is N ∫_cell pdf dω = N ∫∫ pdf(ω(φ, μ)) dμ dφ, integrated in f64 by a
+//! globally adaptive product Gauss–Kronrod 7/15 rule in (μ, φ) on each cell alone: the test
+//! needs each count accurate to well under its own noise, sqrt(count), so every cell is refined
+//! to its own tolerance (docs/design.md §14).
+
+use crate::quadrature::{gk15_combine, gk15_nodes, Estimate};
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+use std::f64::consts::PI;
+
+/// Each cell's integral is refined until its error estimate is below this share of its value…
+pub const RELATIVE_TOLERANCE: f64 = 1e-6;
+/// …or below this many draws (divided by N, as a probability): a thousandth of one draw is
+/// negligible against the noise of any count, even a cell's that is pooled with others.
+pub const ABSOLUTE_TOLERANCE_DRAWS: f64 = 1e-3;
+/// Refinement of one cell stops at this many rectangles (225 evaluations each) even if the
+/// tolerance is not met; the reported accuracy then says so.
+pub const MAX_RECTANGLES: usize = 1000;
+
+/// The resolution Mitsuba 3's chi-square test uses over the sphere is 101 × 50 cells (φ × θ); over
+/// the upper hemisphere alone this is at most 100 × 50.
+pub const MAX_COS: usize = 50;
+/// Cells are made no smaller than this many expected draws under a uniform density, so that
+/// cells of a broad lobe stay well above the pooling threshold.
+pub const MIN_DRAWS_PER_CELL: f64 = 64.0;
+
+/// Cells of equal solid angle over (φ ∈ [0, 2π), cosθ ∈ [0, 1]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Cells {
+    /// Steps in φ.
+    pub n_phi: usize,
+    /// Steps in cosθ.
+    pub n_cos: usize,
+}
+
+impl Cells {
+    /// `n_phi` × `n_cos` cells (each at least 1).
+    pub fn new(n_phi: usize, n_cos: usize) -> Cells {
+        Cells {
+            n_phi: n_phi.max(1),
+            n_cos: n_cos.max(1),
+        }
+    }
+
+    /// The resolution for `samples` draws: twice as many steps in φ as in cosθ, as many as keep
+    /// [`MIN_DRAWS_PER_CELL`] draws per cell of a uniform density, at most 2·[`MAX_COS`] × [`MAX_COS`].
+    pub fn for_samples(samples: u64) -> Cells {
+        let n = (samples as f64 / (2.0 * MIN_DRAWS_PER_CELL)).sqrt().floor() as usize;
+        let n_cos = n.clamp(1, MAX_COS);
+        Cells::new(2 * n_cos, n_cos)
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.n_phi * self.n_cos
+    }
+
+    /// Whether there are no cells (never for cells made by [`Cells::new`]).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The cell of a unit direction with cosθ > 0 (None otherwise).
+    pub fn index(&self, w: DVec3) -> Option<usize> {
+        if w.z.is_nan() || w.z <= 0.0 {
+            return None;
+        }
+        let mut phi = w.y.atan2(w.x);
+        if phi < 0.0 {
+            phi += 2.0 * PI;
+        }
+        let i_phi = ((phi / (2.0 * PI) * self.n_phi as f64) as usize).min(self.n_phi - 1);
+        let i_cos = ((w.z * self.n_cos as f64) as usize).min(self.n_cos - 1);
+        Some(i_cos * self.n_phi + i_phi)
+    }
+
+    /// Cell `cell`'s range of φ (radians) and of cosθ.
+    pub fn bounds(&self, cell: usize) -> ([f64; 2], [f64; 2]) {
+        let (i_phi, i_cos) = (cell % self.n_phi, cell / self.n_phi);
+        let dphi = 2.0 * PI / self.n_phi as f64;
+        let dmu = 1.0 / self.n_cos as f64;
+        (
+            [i_phi as f64 * dphi, (i_phi + 1) as f64 * dphi],
+            [i_cos as f64 * dmu, ((i_cos + 1) as f64 * dmu).min(1.0)],
+        )
+    }
+
+    /// Each cell's integral of `pdf` (a density over solid angle), for a test of `samples` draws
+    /// (which sets the absolute tolerance), in parallel over cells.
+    pub fn integrate<F: Fn(DVec3) -> f64 + Sync>(&self, pdf: &F, samples: u64) -> Integrals {
+        let floor = ABSOLUTE_TOLERANCE_DRAWS / samples.max(1) as f64;
+        let per_cell: Vec<CellIntegral> = (0..self.len())
+            .into_par_iter()
+            .map(|c| {
+                let (phi, mu) = self.bounds(c);
+                integrate_cell(pdf, mu, phi, floor)
+            })
+            .collect();
+        let n = samples as f64;
+        let accuracy = per_cell
+            .iter()
+            .map(|c| n * c.error / (n * c.value).max(1.0).sqrt())
+            .fold(0.0, f64::max);
+        Integrals {
+            total: per_cell.iter().map(|c| c.value).sum(),
+            total_error: per_cell.iter().map(|c| c.error).sum(),
+            accuracy,
+            evaluations: per_cell.iter().map(|c| c.evals).sum(),
+            unconverged_cells: per_cell.iter().filter(|c| !c.converged).count(),
+            non_finite_cells: per_cell
+                .iter()
+                .filter(|c| !c.value.is_finite() || !c.error.is_finite())
+                .count(),
+            negative_cells: per_cell.iter().filter(|c| c.value < 0.0).count(),
+            probability: per_cell.iter().map(|c| c.value).collect(),
+            error: per_cell.iter().map(|c| c.error).collect(),
+        }
+    }
+}
+
+/// The cells' integrals of a pdf, with their error estimates.
+#[derive(Clone, Debug, Serialize)]
+pub struct Integrals {
+    /// ∫_cell pdf dω per cell (a probability).
+    pub probability: Vec<f64>,
+    /// Each cell's error estimate, absolute, as a probability.
+    pub error: Vec<f64>,
+    /// Σ over cells: ∫ pdf over the upper hemisphere.
+    pub total: f64,
+    /// Σ of the cells' error estimates.
+    pub total_error: f64,
+    /// The largest N · error / sqrt(max(N · probability, 1)) over cells: a cell's count error
+    /// against its noise. The test is valid while this is ≪ 1.
+    pub accuracy: f64,
+    /// pdf evaluations spent.
+    pub evaluations: u64,
+    /// Cells that stopped at [`MAX_RECTANGLES`] before meeting their tolerance.
+    pub unconverged_cells: usize,
+    /// Cells whose integral is NaN or infinite (the pdf returned such values).
+    pub non_finite_cells: usize,
+    /// Cells whose integral is negative (the pdf returned negative values).
+    pub negative_cells: usize,
+}
+
+struct CellIntegral {
+    value: f64,
+    error: f64,
+    evals: u64,
+    converged: bool,
+}
+
+/// One rectangle [μ0, μ1] × [φ0, φ1] with its product-rule integral and error estimates.
+#[derive(Clone, Copy)]
+struct Rect {
+    mu: [f64; 2],
+    phi: [f64; 2],
+    value: f64,
+    /// The part of the error estimate due to the rule in μ, and the part due to the rule in φ.
+    error_mu: f64,
+    error_phi: f64,
+}
+
+impl Rect {
+    fn error(&self) -> f64 {
+        self.error_mu + self.error_phi
+    }
+}
+
+impl PartialEq for Rect {
+    fn eq(&self, other: &Rect) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Rect {}
+impl PartialOrd for Rect {
+    fn partial_cmp(&self, other: &Rect) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Rect {
+    fn cmp(&self, other: &Rect) -> Ordering {
+        self.error().total_cmp(&other.error())
+    }
+}
+
+/// The direction at (φ, μ = cosθ).
+fn direction(phi: f64, mu: f64) -> DVec3 {
+    let s = (1.0 - mu * mu).max(0.0).sqrt();
+    DVec3::new(s * phi.cos(), s * phi.sin(), mu)
+}
+
+/// The 15 × 15 Kronrod product rule on a rectangle. Along φ at each μ node, K15 and its error
+/// |K15 − G7|; then K15 along μ of those: |K15 − G7| along μ is the μ part of the error, and the φ
+/// errors carried through the μ weights the φ part (quadrature::gk15_combine).
+fn rect<F: Fn(DVec3) -> f64>(pdf: &F, mu: [f64; 2], phi: [f64; 2]) -> Rect {
+    let phis = gk15_nodes(phi[0], phi[1]);
+    let rows: Vec<Estimate> = gk15_nodes(mu[0], mu[1])
+        .iter()
+        .map(|&m| {
+            let vals: Vec<Estimate> = phis
+                .iter()
+                .map(|&p| Estimate {
+                    value: DVec3::new(pdf(direction(p, m)), 0.0, 0.0),
+                    error: DVec3::ZERO,
+                    evals: 1,
+                })
+                .collect();
+            gk15_combine(phi[0], phi[1], &vals)
+        })
+        .collect();
+    let both = gk15_combine(mu[0], mu[1], &rows);
+    let bare: Vec<Estimate> = rows
+        .iter()
+        .map(|r| Estimate {
+            error: DVec3::ZERO,
+            ..*r
+        })
+        .collect();
+    let error_mu = gk15_combine(mu[0], mu[1], &bare).error.x;
+    Rect {
+        mu,
+        phi,
+        value: both.value.x,
+        error_mu,
+        error_phi: (both.error.x - error_mu).max(0.0),
+    }
+}
+
+/// One cell, refined adaptively: the rectangle with the largest error is bisected across the
+/// variable that contributes more of its error, until the summed error is within
+/// max(RELATIVE_TOLERANCE · |value|, floor) or MAX_RECTANGLES is reached.
+fn integrate_cell<F: Fn(DVec3) -> f64>(
+    pdf: &F,
+    mu: [f64; 2],
+    phi: [f64; 2],
+    floor: f64,
+) -> CellIntegral {
+    let first = rect(pdf, mu, phi);
+    let mut evals = 225u64;
+    let (mut value, mut error) = (first.value, first.error());
+    let mut heap = BinaryHeap::from([first]);
+    // Rectangles too narrow to bisect in f64 keep their error: counted, not hidden.
+    let mut done: Vec<Rect> = Vec::new();
+    let tolerance = |v: f64| (RELATIVE_TOLERANCE * v.abs()).max(floor);
+    // A NaN error stops the refinement at once (no bisection mends it); the final test below
+    // reports the cell as not converged.
+    let settled = |error: f64, value: f64| error.is_nan() || error <= tolerance(value);
+    let mut converged = settled(error, value);
+    while !converged && heap.len() + done.len() < MAX_RECTANGLES {
+        let Some(worst) = heap.pop() else { break };
+        let split_mu = worst.error_mu >= worst.error_phi;
+        let [lo, hi] = if split_mu { worst.mu } else { worst.phi };
+        let mid = 0.5 * (lo + hi);
+        if !(mid > lo && mid < hi) {
+            done.push(worst);
+            continue;
+        }
+        let halves = if split_mu {
+            [
+                rect(pdf, [lo, mid], worst.phi),
+                rect(pdf, [mid, hi], worst.phi),
+            ]
+        } else {
+            [
+                rect(pdf, worst.mu, [lo, mid]),
+                rect(pdf, worst.mu, [mid, hi]),
+            ]
+        };
+        evals += 450;
+        value += halves[0].value + halves[1].value - worst.value;
+        error += halves[0].error() + halves[1].error() - worst.error();
+        heap.extend(halves);
+        converged = settled(error, value);
+    }
+    // Summed afresh: the running sums only steer the loop.
+    let all = || heap.iter().chain(done.iter());
+    let value: f64 = all().map(|r| r.value).sum();
+    let error: f64 = all().map(|r| r.error()).sum();
+    CellIntegral {
+        value,
+        error,
+        evals,
+        converged: error <= tolerance(value),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_cells_have_equal_solid_angle_and_find_their_directions() {
+        let cells = Cells::new(12, 5);
+        for c in 0..cells.len() {
+            let (phi, mu) = cells.bounds(c);
+            let omega = (phi[1] - phi[0]) * (mu[1] - mu[0]);
+            assert!(
+                (omega - 2.0 * PI / 60.0).abs() < 1e-14,
+                "cell {c}: {omega} sr"
+            );
+            // The centre and points near the corners map back to the cell.
+            for (fp, fm) in [(0.5, 0.5), (1e-9, 1e-9), (1.0 - 1e-9, 1.0 - 1e-9)] {
+                let w = direction(
+                    phi[0] + fp * (phi[1] - phi[0]),
+                    mu[0] + fm * (mu[1] - mu[0]),
+                );
+                assert_eq!(cells.index(w), Some(c), "cell {c}, {w}");
+            }
+        }
+        assert_eq!(cells.index(DVec3::new(1.0, 0.0, 0.0)), None);
+        assert_eq!(cells.index(DVec3::new(0.6, 0.0, -0.8)), None);
+        assert_eq!(cells.index(DVec3::Z), Some(4 * 12));
+        // φ just below 2π falls in the last φ step, not past it.
+        assert_eq!(cells.index(DVec3::new(0.6, -1e-18, 0.7)), Some(3 * 12 + 11));
+    }
+
+    #[test]
+    fn chi2_cells_resolution_follows_the_sample_count() {
+        assert_eq!(Cells::for_samples(1 << 30), Cells::new(100, 50));
+        let c = Cells::for_samples(1 << 16);
+        assert_eq!((c.n_phi, c.n_cos), (44, 22));
+        assert!((1u64 << 16) as f64 / c.len() as f64 >= MIN_DRAWS_PER_CELL);
+        assert_eq!(Cells::for_samples(10), Cells::new(2, 1));
+    }
+
+    #[test]
+    fn chi2_cells_integrate_the_cosine_exactly() {
+        // ∫_cell cosθ/π dω = Δφ (μ1² − μ0²) / (2π): a polynomial the rule integrates exactly.
+        let cells = Cells::new(100, 50);
+        let n = 1u64 << 30;
+        let ints = cells.integrate(&|w: DVec3| w.z.max(0.0) / PI, n);
+        for c in 0..cells.len() {
+            let (phi, mu) = cells.bounds(c);
+            let want = (phi[1] - phi[0]) * (mu[1] * mu[1] - mu[0] * mu[0]) / (2.0 * PI);
+            let got = ints.probability[c];
+            assert!(
+                (got - want).abs() <= 1e-15 * want.max(1e-3),
+                "cell {c}: {got} vs {want}"
+            );
+        }
+        assert!((ints.total - 1.0).abs() < 1e-13, "total {}", ints.total);
+        assert!(ints.accuracy < 1e-6, "accuracy {}", ints.accuracy);
+        assert_eq!(ints.evaluations, 225 * 5000);
+        assert_eq!(ints.unconverged_cells, 0);
+    }
+
+    #[test]
+    fn chi2_cells_integrate_a_very_peaked_lobe() {
+        // A power-cosine lobe (n + 1)/(2π) cos^n α about a direction 30° from the normal, n = 10⁴:
+        // its width is ~1/sqrt(n) = 0.01 rad, a fraction of one cell of 100 × 50; all of its mass
+        // is in the upper hemisphere (cos α < cos 60° below the horizon: 0.5^10⁴ ≈ 0).
+        let n_exp = 1e4;
+        let axis = direction(2.0, 30f64.to_radians().cos());
+        let pdf = |w: DVec3| (n_exp + 1.0) / (2.0 * PI) * w.dot(axis).max(0.0).powf(n_exp);
+        let cells = Cells::new(100, 50);
+        let n = 1u64 << 30;
+        let ints = cells.integrate(&pdf, n);
+        assert!(
+            (ints.total - 1.0).abs() < 1e-9,
+            "total {} (error estimate {:e}), accuracy {:e}, {} evaluations",
+            ints.total,
+            ints.total_error,
+            ints.accuracy,
+            ints.evaluations
+        );
+        assert!(ints.accuracy < 1e-2, "accuracy {:e}", ints.accuracy);
+        assert_eq!(ints.unconverged_cells, 0);
+        // The cell holding the axis holds a large share, and almost no cell holds anything.
+        let peak = ints.probability.iter().cloned().fold(0.0, f64::max);
+        let holding = ints.probability.iter().filter(|&&p| p > 1e-6).count();
+        assert!(
+            peak > 0.2 && holding < 12,
+            "peak {peak}, {holding} cells above 1e-6"
+        );
+    }
+
+    #[test]
+    fn chi2_cells_integrate_a_sharp_ggx_reflection_lobe() {
+        // Reflection with the half vector drawn from GGX's D(h) cosθh at ωo = n: pdf(ωi) =
+        // D(h) / 4 with h = normalize(ωi + n) (Walter et al. 2007, eq. 14 with ωo·h = cosθh). ωi
+        // stays above the horizon while θh < 45°, and GGX's P(θh ≤ θ) = tan²θ / (α² + tan²θ), so
+        // ∫ pdf over the hemisphere is 1 / (1 + α²) exactly. At α = 0.01 the lobe is ~0.02 rad
+        // wide in ωi: the top row of cells holds nearly all of it, with a tail reaching the horizon.
+        for alpha in [0.1, 0.01] {
+            let a2: f64 = alpha * alpha;
+            let pdf = |w: DVec3| {
+                let h = (w + DVec3::Z).normalize();
+                let c2 = h.z * h.z;
+                let d = a2 / (PI * ((a2 - 1.0) * c2 + 1.0).powi(2));
+                if w.z > 0.0 {
+                    0.25 * d
+                } else {
+                    0.0
+                }
+            };
+            let ints = Cells::new(100, 50).integrate(&pdf, 1 << 30);
+            let want = 1.0 / (1.0 + a2);
+            assert!(
+                (ints.total - want).abs() < 1e-9,
+                "α = {alpha}: {} vs {want}, error estimate {:e}, accuracy {:e}",
+                ints.total,
+                ints.total_error,
+                ints.accuracy
+            );
+            assert!(
+                ints.accuracy < 1e-2 && ints.unconverged_cells == 0,
+                "α = {alpha}: {:e}",
+                ints.accuracy
+            );
+        }
+    }
+
+    #[test]
+    fn chi2_cells_meet_their_tolerance_cell_by_cell() {
+        // A power-cosine lobe about the normal, (n + 1)/(2π) μⁿ: each cell's integral is
+        // Δφ/(2π) (μ₁ⁿ⁺¹ − μ₀ⁿ⁺¹) in closed form. Every cell must be within its tolerance,
+        // max(RELATIVE_TOLERANCE · value, ABSOLUTE_TOLERANCE_DRAWS / N), and within its own error
+        // estimate, at n = 10 (smooth) and n = 10⁴ (all the mass in the top row, 0.02 in μ).
+        // The error estimate leaves out f64 rounding of the 225-term sums and of the closed form.
+        const ROUNDING: f64 = 1e-13;
+        let cells = Cells::new(100, 50);
+        let n_draws = 1u64 << 30;
+        for n in [10.0, 1e4] {
+            let pdf = |w: DVec3| (n + 1.0) / (2.0 * PI) * w.z.max(0.0).powf(n);
+            let ints = cells.integrate(&pdf, n_draws);
+            for c in 0..cells.len() {
+                let (phi, mu) = cells.bounds(c);
+                // μ₁ⁿ⁺¹ − μ₀ⁿ⁺¹ without cancellation: μ₁ⁿ⁺¹ (1 − (μ₀/μ₁)ⁿ⁺¹).
+                let want = (phi[1] - phi[0]) / (2.0 * PI)
+                    * mu[1].powf(n + 1.0)
+                    * -((n + 1.0) * (mu[0] / mu[1]).ln()).exp_m1();
+                let (got, estimate) = (ints.probability[c], ints.error[c]);
+                let err = (got - want).abs();
+                let tolerance =
+                    (RELATIVE_TOLERANCE * want).max(ABSOLUTE_TOLERANCE_DRAWS / n_draws as f64);
+                assert!(
+                    err <= tolerance && err <= estimate + ROUNDING * want,
+                    "n = {n}, cell {c} (μ {mu:?}): {got:e} vs {want:e}, error {err:e}, estimate {estimate:e}, tolerance {tolerance:e}"
+                );
+            }
+        }
+    }
+}
