@@ -55,6 +55,12 @@ enum Command {
     /// Directional albedo E(mu) (delta lobes added exactly and also shown apart) and the
     /// hemispherical albedo, with error estimates.
     Albedo(cli::albedo::AlbedoArgs),
+    /// The sampling test of a model's sampler: its draws against the integral of its pdf over
+    /// equal-solid-angle cells (chi-square with pooling, Sidak's correction over the view
+    /// directions), the share of draws leaving the hemisphere against 1 - integral of pdf, and
+    /// every draw's weight f cos/pdf and pdf. Exits 0 when it passes, 1 when the sampler is
+    /// rejected, 2 for bad usage.
+    Chi2(cli::chi2::Chi2Args),
     /// Energy report: every model at its presets and over a sweep of its main parameter, in its
     /// white configuration (colours at 1, specular lobes alone under the white furnace): the
     /// largest E(mu) and where, gain (E > 1) and loss (1 - E_avg).
@@ -169,6 +175,7 @@ fn main() {
         Command::Run(a) => cli::run::run(a),
         Command::Albedo(a) => cli::albedo::run(a),
         Command::Energy(a) => cli::energy::run(a),
+        Command::Chi2(a) => cli::chi2::run(a),
         Command::Plot(a) => cli::plot::run(a),
         Command::Fit(a) => cli::fit::run(a),
         Command::Compare(a) => cli::compare::run(a),

@@ -14,9 +14,11 @@
 //! The test knows no model: anything that implements [`Sampler`] can be judged.
 
 pub mod cells;
+mod model;
 pub mod stats;
 
 pub use cells::{Cells, Integrals};
+pub use model::test_model;
 pub use stats::{chi2_p_value, gamma_p, gamma_q, sidak, statistic, Statistic};
 
 use crate::error::{Error, Result};
@@ -249,10 +251,17 @@ fn direction_deg(theta: f64, phi: f64) -> DVec3 {
     DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
 }
 
-/// |a − b| / max(|a|, |b|), 0 when both are 0.
+/// Below this, values are compared as equal: a product whose factors are normal f64 numbers can
+/// land among the subnormals (below 2.2e-308), which keep ever fewer significant bits, and the
+/// same weight reached along two paths then differs in its leading digits (a Phong lobe of
+/// exponent 1000 in a channel whose diffuse part is 0 reaches 1e-310 far from its peak).
+/// 2⁵² times the smallest normal number leaves every bit of a normal result's precision.
+const TINY: f64 = f64::MIN_POSITIVE * (1u64 << 52) as f64;
+
+/// |a − b| / max(|a|, |b|), 0 when both are below [`TINY`].
 fn relative(a: f64, b: f64) -> f64 {
     let m = a.abs().max(b.abs());
-    if m == 0.0 {
+    if m < TINY {
         0.0
     } else if !m.is_finite() {
         if a == b {

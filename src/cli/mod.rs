@@ -4,6 +4,7 @@
 
 pub mod albedo;
 pub mod bench;
+pub mod chi2;
 pub mod compare;
 pub mod demo;
 pub mod energy;

@@ -221,7 +221,7 @@ fn ashikhmin_shirley_lobes(p: &ParamSet) -> Option<SamplingLobes> {
 
 /// A half vector h from Ashikhmin & Shirley 2000, §3 (eq. 9): φ = atan(√((nu + 1)/(nv + 1))
 /// tan(π ξ/2)) in the first quadrant, ξ = 4u₁ − q, and the quadrant q = ⌊4u₁⌋ by the density's
-/// symmetry in φ → π − φ, π + φ, −φ; cos θh = u₂^{1/(nu cos²φ + nv sin²φ + 1)}. Its density is
+/// symmetry in φ → π − φ, π + φ, −φ; cos θh = (1 − u₂)^{1/(nu cos²φ + nv sin²φ + 1)}. Its density is
 /// [`pdf_ashikhmin_shirley_h`].
 pub fn sample_ashikhmin_shirley_h(nu: f64, nv: f64, u: DVec2) -> DVec3 {
     let x = 4.0 * u.x;
@@ -237,9 +237,10 @@ pub fn sample_ashikhmin_shirley_h(nu: f64, nv: f64, u: DVec2) -> DVec3 {
     };
     let (c, s) = (phi.cos(), phi.sin());
     let e = nu * c * c + nv * s * s;
-    // 1 − cos θh = −expm1(ln u₂/(e + 1)): no cancellation for large exponents; u₂ = 0 gives
-    // θh = π/2, whose reflection is below the horizon.
-    let one_minus_c = -(u.y.ln() / (e + 1.0)).exp_m1();
+    // 1 − cos θh = −expm1(ln(1 − u₂)/(e + 1)): no cancellation for large exponents. 1 − u₂
+    // rather than u₂ (the same law): the generator gives u = 0 and never 1, and u₂ = 0 would
+    // give θh = π/2, a draw of density 0 below the horizon.
+    let one_minus_c = -((-u.y).ln_1p() / (e + 1.0)).exp_m1();
     let sin_h = (one_minus_c * (2.0 - one_minus_c)).max(0.0).sqrt();
     DVec3::new(sin_h * c, sin_h * s, 1.0 - one_minus_c)
 }

@@ -155,13 +155,14 @@ pub fn sample_by_cosine(u: DVec2, f: impl FnOnce(DVec3) -> DVec3) -> Sample {
 }
 
 /// A power-cosine lobe about the unit `axis` (Lafortune & Willems 1994, "Using the modified
-/// Phong reflectance model for physically based rendering", §4): cos α = u₁^{1/(n+1)}, the
-/// angle α from the axis, and φ = 2π u₂ about it; density (n + 1)/(2π) cosⁿα
+/// Phong reflectance model for physically based rendering", §4): cos α = (1 − u₁)^{1/(n+1)},
+/// the angle α from the axis, and φ = 2π u₂ about it; density (n + 1)/(2π) cosⁿα
 /// ([`pdf_power_cosine`]). The draw may leave the upper hemisphere of the surface.
 pub fn sample_power_cosine(axis: DVec3, n: f64, u: DVec2) -> DVec3 {
-    // 1 − cos α = −expm1(ln u₁ /(n + 1)): no cancellation for the small angles of a large n;
-    // u₁ = 0 gives ln = −∞, 1 − cos α = 1: α = π/2, the rim of the lobe's support.
-    let one_minus_c = -(u.x.ln() / (n + 1.0)).exp_m1();
+    // 1 − cos α = −expm1(ln(1 − u₁)/(n + 1)): no cancellation for the small angles of a large
+    // n. 1 − u₁ rather than u₁ (the same law): the generator gives u = 0 (once in 2²⁴ draws)
+    // and never 1, and u₁ = 0 would put the draw on the lobe's rim, where its density is 0.
+    let one_minus_c = -((-u.x).ln_1p() / (n + 1.0)).exp_m1();
     let c = 1.0 - one_minus_c;
     let s = (one_minus_c * (2.0 - one_minus_c)).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;

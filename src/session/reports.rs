@@ -1,4 +1,5 @@
-//! The reports: energy, stability, speed-for-accuracy trade-offs, comparisons and fits.
+//! The reports: energy, stability, speed-for-accuracy trade-offs, comparisons, fits and the
+//! sampling test.
 
 use super::Session;
 use crate::energy::{self, EnergyRow, Series};
@@ -77,6 +78,41 @@ impl Session {
             (Err(_), Some(e)) => Err(e),
             (rows, _) => rows.lobe(),
         }
+    }
+
+    /// The sampling test of `params`' sampler ([`crate::chi2`], `lobe chi2`): at each ωo of
+    /// `options`, its draws against the integral of its pdf over equal-solid-angle cells, the
+    /// share of draws that leave the hemisphere against 1 − ∫pdf, and every draw's weight and
+    /// pdf against f cos/pdf and pdf(ωi). Drawn and judged in f64 on the CPU, whatever this
+    /// session's backend; stopped by its cancellation token. `progress` hears (draws done,
+    /// draws in all).
+    ///
+    /// ```
+    /// let session = lobe::Session::cpu();
+    /// let ggx = lobe::ParamSet::for_model("microfacet")?;
+    /// let options = lobe::chi2::Options {
+    ///     directions: vec![[40.0, 0.0]],
+    ///     samples: 1 << 16,
+    ///     ..Default::default()
+    /// };
+    /// let report = session.chi2(&ggx, false, &options, &mut |_, _| {})?;
+    /// assert!(report.passed, "{:?}", report.directions[0].failures);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn chi2(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        options: &crate::chi2::Options,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<crate::chi2::Report> {
+        crate::chi2::test_model(
+            params,
+            white_furnace,
+            options,
+            Some(self.cancel_token()),
+            progress,
+        )
     }
 
     /// The stability sweep over `models` (every model's parameter edges × extreme directions),

@@ -1,0 +1,43 @@
+//! The sampling test of a model's own sampler: the f64 reference's `sample` and `pdf`
+//! (docs/design.md §13) judged by [`run`](super::run).
+
+use super::{Drawn, Options, Report, Sampler};
+use crate::error::Result;
+use crate::interrupt::CancelToken;
+use crate::model::{ParamSet, Reference};
+use glam::{DVec2, DVec3};
+
+impl Sampler for Reference {
+    fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Drawn {
+        let s = Reference::sample(self, wo, uc, u);
+        Drawn {
+            wi: s.wi,
+            weight: s.weight,
+            pdf: s.pdf,
+            delta: s.delta,
+        }
+    }
+
+    fn pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
+        Reference::pdf(self, wi, wo)
+    }
+
+    fn eval_cos(&self, wi: DVec3, wo: DVec3) -> DVec3 {
+        self.eval(wi, wo) * wi.z.max(0.0)
+    }
+}
+
+/// The sampling test of `params`' sampler (with every Fresnel factor at 1 under
+/// `white_furnace`), drawn and judged in f64 on the CPU. A model without an f64 reference (a
+/// `.brdf` shader) is refused with a sentence.
+pub fn test_model(
+    params: &ParamSet,
+    white_furnace: bool,
+    options: &Options,
+    cancel: Option<&CancelToken>,
+    progress: impl FnMut(u64, u64),
+) -> Result<Report> {
+    params.model().require_reference("the sampling test")?;
+    let reference = Reference::new(params, white_furnace);
+    super::run(&reference, options, cancel, progress)
+}
