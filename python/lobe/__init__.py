@@ -357,6 +357,22 @@ class Session:
                          report=report)
 
 
+    def chi2(self, model, params=None, material=None, theta_o_deg=(0.0, 30.0, 60.0, 85.0),
+             phi_o_deg=0.0, samples=1 << 20, seed=0, significance=0.01, white_furnace=False):
+        thetas = [float(t) for t in _reals("theta_o_deg", theta_o_deg).reshape(-1)]
+        for k, t in enumerate(thetas):
+            if not (0.0 <= t < 90.0):
+                raise ValueError(f"theta_o_deg: {t} at index {k} is out of range; view angles must be in [0, 90) degrees")
+        significance = _finite("significance", significance)
+        if not (0.0 < significance < 1.0):
+            raise ValueError(f"significance: {significance} is out of range; expected a probability in (0, 1)")
+        samples = _positive_ints("samples", samples, 1)[0]
+        seed = int(seed)
+        if not (0 <= seed < 2**32):
+            raise ValueError(f"seed: {seed} is out of range; expected an integer from 0 to 2^32 - 1")
+        return json.loads(_lobe.chi2(self._s, _model(model), material, _sets(params), bool(white_furnace),
+                                     thetas, _finite("phi_o_deg", phi_o_deg), samples, seed, significance))
+
     def compare(self, a, b, params_a=None, params_b=None, grid=None, res=None, mu=(0.1, 0.5, 1.0),
                 method="peak", samples=None, albedo=True, white_furnace=False):
         mus = [float(m) for m in _reals("mu", mu).reshape(-1)]

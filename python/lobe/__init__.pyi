@@ -272,6 +272,18 @@ class Session:
         average). ``res``: (Nmu, Np); rows are the roughness axis (``p``: alpha or r; ``axis``:
         the perceptual value), columns are mu_j = (j + 0.5)/Nmu."""
 
+    def chi2(self, model: ModelSpec, params: Optional[Params] = None,
+             material: Optional[str] = None,
+             theta_o_deg: Sequence[float] = (0.0, 30.0, 60.0, 85.0), phi_o_deg: float = 0.0,
+             samples: int = 1 << 20, seed: int = 0, significance: float = 0.01,
+             white_furnace: bool = False) -> Dict[str, Any]:
+        """The sampling test of the model's own sampler, as ``lobe chi2 --format json``
+        reports it: per view direction theta_o (degrees, at azimuth ``phi_o_deg``) the observed
+        and expected histograms, the chi-square statistic, dof and p-value, the share of draws
+        leaving the hemisphere against 1 - integral of pdf, the draw-by-draw checks and the
+        verdicts (``"passed"``). Drawn and judged in f64 on the CPU; ``seed`` picks the random
+        stream."""
+
     def fit(self, target: ModelSpec, model: ModelSpec, free: Union[str, Sequence[str]],
             params: Optional[Params] = None, target_params: Optional[Params] = None,
             loss: str = "log", max_bins: int = 65536, starts: int = 4,

@@ -2,6 +2,7 @@
 //! set the way the command line does and runs one [`lobe::Session`] job; the package's
 //! `__init__.py` checks the arrays and keyword arguments and shapes the results.
 
+mod chi2;
 mod compare;
 mod errors;
 mod fit;
@@ -304,6 +305,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(luts::albedo_lut, m)?)?;
     m.add_function(wrap_pyfunction!(luts::engine_lut, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(chi2::chi2, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(plot::plot, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;

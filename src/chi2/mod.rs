@@ -243,6 +243,17 @@ impl Report {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
+
+    /// The report of a model's sampler as `lobe chi2 --format json` prints it (and Python's
+    /// `Session.chi2` returns it): [`Report::to_json`] with the model, its parameters and where
+    /// it was drawn.
+    pub fn to_json_for(&self, params: &crate::model::ParamSet) -> serde_json::Value {
+        let mut j = self.to_json();
+        j["model"] = serde_json::json!(params.model().name());
+        j["parameters"] = params.to_json();
+        j["backend"] = serde_json::json!("cpu (f64 reference)");
+        j
+    }
 }
 
 /// ωo from (θo, φo) in degrees.
@@ -256,7 +267,7 @@ fn direction_deg(theta: f64, phi: f64) -> DVec3 {
 /// same weight reached along two paths then differs in its leading digits (a Phong lobe of
 /// exponent 1000 in a channel whose diffuse part is 0 reaches 1e-310 far from its peak).
 /// 2⁵² times the smallest normal number leaves every bit of a normal result's precision.
-const TINY: f64 = f64::MIN_POSITIVE * (1u64 << 52) as f64;
+pub const TINY: f64 = f64::MIN_POSITIVE * (1u64 << 52) as f64;
 
 /// |a − b| / max(|a|, |b|), 0 when both are below [`TINY`].
 fn relative(a: f64, b: f64) -> f64 {

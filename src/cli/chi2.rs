@@ -108,7 +108,7 @@ pub fn run(a: Chi2Args) -> Result<()> {
         Chi2Format::Json => writeln!(
             out,
             "{}",
-            serde_json::to_string_pretty(&json(&params, &report))?
+            serde_json::to_string_pretty(&report.to_json_for(&params))?
         )?,
         Chi2Format::Text => write_text(&mut out, &params, &report)?,
     }
@@ -147,15 +147,6 @@ fn check(a: &Chi2Args) -> Result<(), String> {
         ));
     }
     Ok(())
-}
-
-/// The report with the model and its parameters.
-fn json(params: &lobe::ParamSet, r: &Report) -> serde_json::Value {
-    let mut j = r.to_json();
-    j["model"] = serde_json::json!(params.model().name());
-    j["parameters"] = params.to_json();
-    j["backend"] = serde_json::json!("cpu (f64 reference)");
-    j
 }
 
 fn write_text(out: &mut dyn Write, params: &lobe::ParamSet, r: &Report) -> std::io::Result<()> {
