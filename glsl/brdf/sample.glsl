@@ -179,17 +179,28 @@ float erfc_signed(float x) {
 }
 
 // The x in [lo, hi] with cdf(x) = u for the visible slopes seen from tan_t, cdf(x) =
-// (erfc(-x)/2 + k e^{-x^2}) / total, density max(0, 1 - x tan_t) e^{-x^2} / (sqrt(pi) total);
-// tan_t = k = 0 and total = 1 give the normal slope of variance 1/2. Newton's method from the
-// middle kept inside the bracket that the signs of cdf - u maintain, as the twin's invert_cdf
-// (which takes the two functions as closures); the stop is 4 ulp of f32, and 64 steps bound
-// the loop (bisection alone halves the bracket of width 20 to an f32 ulp in 30).
+// F(x) / total, F(x) = erfc(-x)/2 + k e^{-x^2}, total = F(x_max), density
+// max(0, 1 - x tan_t) e^{-x^2} / (sqrt(pi) total); tan_t = k = 0 and x_max = SLOPE_RANGE give the
+// normal slope of variance 1/2. Newton's method from the middle kept inside the bracket that the
+// signs of cdf - u maintain, as the twin's invert_cdf (which takes the two functions as
+// closures); the stop is 4 ulp of f32, and 64 steps bound the loop (bisection alone halves the
+// bracket of width 20 to an f32 ulp in 30).
+// One difference, for f32: for x > 0, where cdf nears 1 and its f32 rounding (2^-25 absolute)
+// would move x by 2^-25 / density (0.01 at u = 1 - 1e-6), cdf - u is taken as
+// (1 - u) - (total - F(x)) / total, 1 - u exact for the draws' numbers (src/random.rs) and
+// total - F(x) = (erfc(x) - erfc(x_max))/2 + k (e^{-x_max^2} - e^{-x^2}) (erfc(-x) = 2 - erfc(x))
+// formed without rounding near 1. The twin's f64 has the digits to spare.
 float invert_slope_cdf(float u, float lo, float hi, float tan_t, float k, float total) {
+    float x_max = hi;
+    float erfc_max = erfc_signed(x_max), exp_max = exp(-x_max * x_max);
     float x = clamp(0.0, lo, hi);
     for (int i = 0; i < 64; ++i) {
-        float g = (0.5 * erfc_signed(-x) + k * exp(-x * x)) / total - u;
+        float e = exp(-x * x);
+        float g = x > 0.0
+            ? (1.0 - u) - (0.5 * (erfc_approx(x) - erfc_max) + k * (exp_max - e)) / total
+            : (0.5 * erfc_signed(-x) + k * e) / total - u;
         if (g > 0.0) hi = x; else lo = x;
-        float d = max(1.0 - x * tan_t, 0.0) * exp(-x * x) / (SQRT_PI * total);
+        float d = max(1.0 - x * tan_t, 0.0) * e / (SQRT_PI * total);
         float newton = x - g / d;
         float next = d > 0.0 && newton > lo && newton < hi ? newton : 0.5 * (lo + hi);
         if (abs(next - x) <= 4.0 * 1.1920929e-7 * max(abs(x), 1.0) || hi - lo <= 0.0) return next;
