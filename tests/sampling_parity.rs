@@ -501,3 +501,100 @@ fn every_built_in_model_has_a_draws_kernel() {
         assert!(Model::Microfacet(c).spirv("sample").is_some());
     }
 }
+
+/// A measured BRDF (a MERL file, here Cook–Torrance's gold written on the CPU) is drawn by the
+/// cosine on both sides, with the same checks as a built-in model.
+#[test]
+fn gpu_draws_equal_cpu_draws_for_a_merl_file() {
+    common::on_gpu("sampling parity, MERL", false, |gpu: &Gpu| {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("sampled_gold.binary");
+        let gold = lobe::resolve_params("cook_torrance", Some("gold"), &[]).expect("gold");
+        lobe::Session::cpu()
+            .write_merl(&gold, &path, &mut |_, _| {})
+            .expect("a MERL file");
+        let model = lobe::merl::model::load(&path).expect("the MERL file").model;
+        let p = ParamSet::defaults(model);
+        let (mut failures, mut largest) = (Vec::new(), Largest::default());
+        for (k, &theta) in THETAS.iter().enumerate() {
+            let wo = direction(theta, PHI);
+            let q = Query::one(&p);
+            let cpu = CpuBackend
+                .draws(q, wo, SEED, k as u32, 0, DRAWS, None)
+                .unwrap();
+            let g = gpu.draws(q, wo, SEED, k as u32, 0, DRAWS, None).unwrap();
+            compare(
+                "merl gold",
+                &p,
+                false,
+                theta,
+                k as u32,
+                &cpu,
+                &g,
+                &mut largest,
+                &mut failures,
+            );
+        }
+        eprintln!(
+            "MERL draws: ωi {:.3e}, pdf {:.3e}, weight {:.3e}, eval_cos {:.3e}",
+            largest.wi.0, largest.pdf.0, largest.weight.0, largest.eval_cos.0
+        );
+        failures.truncate(10);
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    });
+}
+
+/// A `.brdf` file's shader has no f64 twin, so the CPU backend cannot draw it; its GPU draws
+/// are the cosine's (the draws kernel's fallback sampler) and must equal the reference's
+/// cosine draws in ωi and pdf, and agree with the kernel's own f cos θi.
+#[test]
+fn a_brdf_file_is_drawn_by_the_cosine_on_the_gpu() {
+    common::on_gpu("sampling parity, .brdf", false, |gpu: &Gpu| {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("sampled_lobe.brdf");
+        let text = "analytic\n::begin parameters\nfloat a 0 1 0.5\n::end parameters\n\
+                    ::begin shader\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {\n\
+                    vec3 r = reflect(-L, N);\n\
+                    return vec3(0.1) + vec3(a) * pow(max(dot(r, V), 0.0), 10.0);\n}\n\
+                    ::end shader\n";
+        std::fs::write(&path, text).unwrap();
+        let model = lobe::brdf::load(&path, &lobe::brdf::LoadOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .model;
+        let p = ParamSet::defaults(model);
+        let r = Reference::new(&p, false);
+        let mut worst = 0.0f64;
+        for (k, &theta) in THETAS.iter().enumerate() {
+            let wo = direction(theta, PHI);
+            let g = gpu
+                .draws(Query::one(&p), wo, SEED, k as u32, 0, DRAWS, None)
+                .unwrap();
+            for (i, d) in g.iter().enumerate() {
+                let (uc, u) = random::draw_numbers(SEED, i as u64, k as u32);
+                let s = r.sample(wo, uc, u);
+                let e = max_abs3(s.wi.to_array(), d.wi);
+                worst = worst.max(e);
+                assert!(
+                    e <= WI_TOL,
+                    "θo={theta}° draw {i}: ωi {:?} vs {:?}",
+                    s.wi,
+                    d.wi
+                );
+                assert!(
+                    rel(s.pdf, d.pdf) <= REL_TOL,
+                    "θo={theta}° draw {i}: pdf {} vs {}",
+                    s.pdf,
+                    d.pdf
+                );
+                assert!(!d.delta && rel(d.pdf, d.pdf_at) <= REL_TOL);
+                let w = d.eval_cos.map(|f| f / d.pdf);
+                assert!(
+                    max_rel3(w, d.weight) <= REL_TOL,
+                    "draw {i}: weight {:?} vs {w:?}",
+                    d.weight
+                );
+            }
+        }
+        eprintln!(".brdf draws: ωi {worst:.3e}");
+    });
+}

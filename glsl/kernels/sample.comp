@@ -6,7 +6,23 @@
 // (wi, pdf, weight, delta) and, at the drawn wi, the model's density MODEL_PDF and f cos(theta_i),
 // for the host to check the three against each other and against the f64 reference.
 #include "kernels/eval.glsl"
+#include "brdf/sample.glsl"
 #include "random.glsl"
+
+#ifndef MODEL_SAMPLE
+// A model without a sampler of its own (a .brdf file's shader) is drawn by the cosine, as
+// Reference::sample draws every model defined at run time (sample_by_cosine in the twin).
+Sample sample_by_cosine(MODEL_PARAMS p, vec3 wo, float uc, vec2 u) {
+    vec3 wi = sample_cosine(u);
+    return sample_from_draw(wi, pdf_cosine(wi), brdf(p, wi, wo));
+}
+
+float pdf_by_cosine(MODEL_PARAMS p, vec3 wi, vec3 wo) {
+    return pdf_cosine(wi);
+}
+#define MODEL_SAMPLE sample_by_cosine
+#define MODEL_PDF pdf_by_cosine
+#endif
 
 // wo, and the stream: seed, the group of dimensions (the direction's index in a test) and the
 // request's first draw index as two 32-bit words (low, high).

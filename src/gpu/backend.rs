@@ -119,8 +119,8 @@ impl Backend for Gpu {
         let model = params.model();
         if model.spirv(Kernel::Sample.name()).is_none() {
             anyhow::bail!(
-                "model {} has no draws kernel on the GPU (the kernels of a .brdf file are compiled \
-                 without a sampler); its draws run on the CPU backend",
+                "model {} has no sample kernel (a model defined at run time is given its \
+                 kernels one by one); its draws run on the CPU backend",
                 model.name()
             );
         }
