@@ -118,6 +118,17 @@ mod tests {
     }
 
     #[test]
+    fn random_draw_numbers_are_dimensions_0_to_2() {
+        for i in [0u64, 1, 4095, (1 << 32) - 1, 1 << 32] {
+            for g in [0, 2, 7] {
+                let u = uniform4(13, i, g);
+                let (uc, uv) = draw_numbers(13, i, g);
+                assert_eq!((uc, uv.x, uv.y), (u[0], u[1], u[2]), "draw {i}, group {g}");
+            }
+        }
+    }
+
+    #[test]
     fn random_values_are_24_bit_fractions_exact_in_f32() {
         for i in 0..100_000u64 {
             for d in 0..4 {

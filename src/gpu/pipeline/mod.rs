@@ -32,7 +32,7 @@ pub enum Kernel {
     /// glsl/kernels/albedo.comp and src/gpu/albedo_kernel.rs.
     Albedo,
     /// Draws of the model's sampler for one ωo (bindings 0 params, 1 the request, 3 out); see
-    /// glsl/kernels/sample.comp and [`crate::gpu::Gpu::draws`].
+    /// glsl/kernels/sample.comp and [`crate::gpu::Gpu::sample_draws`].
     Sample,
 }
 
