@@ -598,3 +598,42 @@ fn a_brdf_file_is_drawn_by_the_cosine_on_the_gpu() {
         eprintln!(".brdf draws: ωi {worst:.3e}");
     });
 }
+
+/// The test of the boundary rule: a draw whose uc lies within UC_SLACK of Phong's component
+/// boundary P, drawn on the other side of P, is recognised as a boundary switch; the same draw
+/// against another draw's numbers is not.
+#[test]
+fn a_switch_at_a_component_boundary_is_recognised() {
+    use lobe::model::phong::{phong_lobe_probability, Phong};
+    let p = set("phong", &["shininess=20"]);
+    let prob = phong_lobe_probability(&Phong::new(&p));
+    let r = Reference::new(&p, false);
+    let wo = direction(45.0, PHI);
+    // uc is uniform on multiples of 2⁻²⁴: one draw in 1e5 falls within UC_SLACK/2 of P.
+    let i = (0..10_000_000u64)
+        .find(|&i| (random::draw_numbers(SEED, i, 0).0 - prob).abs() < 0.5 * UC_SLACK)
+        .expect("a draw next to the boundary");
+    let (uc, u) = random::draw_numbers(SEED, i, 0);
+    // The other side of P, as a GPU whose P rounds past uc would draw it.
+    let other = if uc < prob {
+        prob + 0.25 * UC_SLACK
+    } else {
+        prob - 0.25 * UC_SLACK
+    };
+    let s = r.sample(wo, other, u);
+    let record = DrawRecord {
+        wi: s.wi.to_array(),
+        pdf: s.pdf,
+        weight: s.weight.to_array(),
+        delta: s.delta,
+        pdf_at: s.pdf,
+        eval_cos: [0.0; 3],
+    };
+    let own = r.sample(wo, uc, u);
+    assert!(
+        max_abs3(own.wi.to_array(), record.wi) > WI_TOL,
+        "the two components drew the same direction"
+    );
+    assert!(switched_at_boundary(&r, wo, i, 0, &record));
+    assert!(!switched_at_boundary(&r, wo, i + 1, 0, &record));
+}
