@@ -2,7 +2,6 @@
 //! numbers of [`crate::random::draw_numbers`], in chunks.
 
 use super::buffer::Buffer;
-use super::error::GpuError;
 use super::pipeline::{ChunkPush, Dispatcher, Kernel};
 use super::Gpu;
 use crate::interrupt::CancelToken;
@@ -71,7 +70,7 @@ impl Gpu {
                 n_wo: 0,
                 n_wi: 0,
             };
-            dispatcher.run_one(&push).map_err(GpuError::from)?;
+            dispatcher.run_one(&push)?;
             out.extend(out_buf.read_f32(n * DRAW_FLOATS));
             done += n;
         }

@@ -40,7 +40,7 @@ pub struct SmoothLayered {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct SmoothLayeredParams {
-    /// `diffuse` / π (the mirror spike is the integrators', not the kernels').
+    /// `diffuse` / π (the mirror spike is the integrators' and the draws kernel's, from `r0`).
     pub diffuse_over_pi: [f32; 3],
     /// Schlick's R0 from `ior`, for the mirror spike's albedo in the sampler.
     pub r0: f32,
