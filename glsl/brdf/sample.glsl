@@ -78,7 +78,8 @@ float log_unit(float u) {
 }
 
 // Two unit vectors completing n to a right-handed orthonormal frame (Duff et al. 2017, "Building
-// an orthonormal basis, revisited", JCGT 6(1), listing 3).
+// an orthonormal basis, revisited", JCGT 6(1), listing 3). GLSL has no copysign: n.z = -0 takes
+// the sign +1 here and -1 in the twin, a case no sampler meets (its axes have n.z > 0).
 void frame(vec3 n, out vec3 t, out vec3 b) {
     float sign_z = n.z >= 0.0 ? 1.0 : -1.0;
     float a = -1.0 / (sign_z + n.z);
