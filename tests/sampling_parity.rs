@@ -637,3 +637,27 @@ fn a_switch_at_a_component_boundary_is_recognised() {
     assert!(switched_at_boundary(&r, wo, i, 0, &record));
     assert!(!switched_at_boundary(&r, wo, i + 1, 0, &record));
 }
+
+/// Through the `Evaluator`, a set cancellation token stops the draws on either backend before
+/// the first chunk, and an unset one lets them through unchanged.
+#[test]
+fn draws_stop_once_cancelled() {
+    common::on_gpu("sampling cancel", false, |gpu: &Gpu| {
+        let p = set("phong", &[]);
+        let wo = direction(30.0, PHI);
+        let token = lobe::interrupt::CancelToken::new();
+        let gpu_eval = lobe::Evaluator::gpu(gpu).with_cancel(&token);
+        let cpu_eval = lobe::Evaluator::cpu().with_cancel(&token);
+        let plain = gpu.draws(Query::one(&p), wo, 1, 0, 0, 100, None).unwrap();
+        assert_eq!(gpu_eval.draws(&p, wo, 1, 0, 0, 100).unwrap(), plain);
+        assert_eq!(cpu_eval.draws(&p, wo, 1, 0, 0, 100).unwrap().len(), 100);
+        token.cancel();
+        for (name, e) in [("gpu", gpu_eval), ("cpu", cpu_eval)] {
+            let err = e.draws(&p, wo, 1, 0, 0, 100).expect_err("cancelled");
+            assert!(
+                err.downcast_ref::<lobe::interrupt::Interrupted>().is_some(),
+                "{name}: {err:#}"
+            );
+        }
+    });
+}
