@@ -3,7 +3,8 @@
 //!
 //! A kernel names its model through the virtual include `"model.glsl"`, which this script
 //! resolves to `brdf/<model>.glsl`, and through the macros `MODEL_PARAMS` (the parameter
-//! struct) and `MODEL_EVAL` (the BRDF function). A GLSL error fails the build with glslang's
+//! struct), `MODEL_EVAL` (the BRDF function), `MODEL_SAMPLE` (its sampler, `sample_<model>`)
+//! and `MODEL_PDF` (the sampler's density, `pdf_<model>`). A GLSL error fails the build with glslang's
 //! message, which names the file and the line.
 
 use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
@@ -67,8 +68,8 @@ fn main() {
 
     let models: Vec<String> = stems(&root.join("brdf"), "glsl")
         .into_iter()
-        // Files of shared terms that models include, not models themselves.
-        .filter(|m| m != "terms" && m != "kulla_conty")
+        // Files of shared terms and samplers that models include, not models themselves.
+        .filter(|m| m != "terms" && m != "kulla_conty" && m != "sample")
         .collect();
     let kernels = stems(&root.join("kernels"), "comp");
     let compiler = Compiler::acquire().expect("glslang compiler is already in use");
@@ -86,6 +87,8 @@ fn main() {
             let defines = [
                 ("MODEL_PARAMS".to_string(), Some(params_struct(model))),
                 ("MODEL_EVAL".to_string(), Some(model.clone())),
+                ("MODEL_SAMPLE".to_string(), Some(format!("sample_{model}"))),
+                ("MODEL_PDF".to_string(), Some(format!("pdf_{model}"))),
             ];
             let defines: Vec<(&str, Option<&str>)> = defines
                 .iter()

@@ -1,7 +1,9 @@
 //! The jobs' handle on a backend: the [`Backend`] behind one interface with the cancellation
 //! token, the invalid-value policy and the speed-for-accuracy switches.
 
-use crate::backend::{Backend, CpuBackend, Precision, Quadrants, Query, TableSink, UpperTriangle};
+use crate::backend::{
+    Backend, CpuBackend, DrawRecord, Precision, Quadrants, Query, TableSink, UpperTriangle,
+};
 use crate::finite::InvalidCount;
 use crate::gpu::Gpu;
 use crate::grid::Grid;
@@ -154,6 +156,22 @@ impl<'a> Evaluator<'a> {
     /// Device time of every dispatch since the last call, where the backend has such a clock.
     pub fn take_device_time(&self) -> Option<Duration> {
         self.backend.take_device_time()
+    }
+
+    /// Draws `first .. first + count` of the sampler of the query's first set for `wo` in the
+    /// stream (`seed`, `group`) ([`Backend::draws`], docs/design.md §13): the same directions on
+    /// either backend, stopped between chunks once the token is set.
+    pub fn draws<'q>(
+        &self,
+        query: impl Into<Query<'q>>,
+        wo: DVec3,
+        seed: u32,
+        group: u32,
+        first: u64,
+        count: usize,
+    ) -> Result<Vec<DrawRecord>> {
+        self.backend
+            .draws(query.into(), wo, seed, group, first, count, self.cancel)
     }
 
     /// f at each (ωi, ωo) pair, for one parameter set.

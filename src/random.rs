@@ -56,6 +56,16 @@ pub fn uniform4(seed: u32, index: u64, group: u32) -> [f64; 4] {
     pcg4d(words(seed, index, group)).map(to_unit)
 }
 
+/// The numbers a sampler takes for draw `index` of the direction `group` in the stream `seed`:
+/// dimension 0 of [`uniform4`] is `uc`, the choice of a mixture's component, and dimensions 1
+/// and 2 are `u`, the draw within it (dimension 3 is unused). The sampling test
+/// ([`crate::chi2`]) and both backends' draws (`Backend::draws`) take their numbers from here;
+/// `draw_numbers` in `glsl/random.glsl` is the twin.
+pub fn draw_numbers(seed: u32, index: u64, group: u32) -> (f64, glam::DVec2) {
+    let u = uniform4(seed, index, group);
+    (u[0], glam::DVec2::new(u[1], u[2]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -103,6 +113,17 @@ mod tests {
                         "draw {i}, dimension {dim}"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn random_draw_numbers_are_dimensions_0_to_2() {
+        for i in [0u64, 1, 4095, (1 << 32) - 1, 1 << 32] {
+            for g in [0, 2, 7] {
+                let u = uniform4(13, i, g);
+                let (uc, uv) = draw_numbers(13, i, g);
+                assert_eq!((uc, uv.x, uv.y), (u[0], u[1], u[2]), "draw {i}, group {g}");
             }
         }
     }

@@ -10,7 +10,7 @@ use lobe::model::Model;
 fn parameter_blocks_match_between_rust_and_glsl() {
     for model in Model::ALL {
         let (rust_fields, rust_size) = model.gpu_layout();
-        for kernel in ["table", "pairs"] {
+        for kernel in ["table", "pairs", "sample"] {
             let words = spirv(kernel, model.name())
                 .unwrap_or_else(|| panic!("no {kernel} kernel for {}", model.name()));
             let glsl = struct_layout(words, model.gpu_struct_name()).unwrap_or_else(|| {
@@ -72,6 +72,29 @@ fn pair_and_chunk_blocks_match() {
         ("n_wi".to_string(), offset_of!(ChunkPush, n_wi) as u32),
     ];
     assert_eq!(chunk.members, expected);
+}
+
+/// The draws kernel's request block (`DrawRequest` in glsl/kernels/sample.comp) and its host twin.
+#[test]
+fn draw_request_block_matches() {
+    use lobe::gpu::GpuDrawRequest;
+    use std::mem::{offset_of, size_of};
+    let request = struct_layout(spirv("sample", "lambert").unwrap(), "DrawRequest")
+        .expect("struct DrawRequest");
+    let expected: Vec<(String, u32)> = [
+        ("wo", offset_of!(GpuDrawRequest, wo)),
+        ("seed", offset_of!(GpuDrawRequest, seed)),
+        ("group", offset_of!(GpuDrawRequest, group)),
+        ("first_lo", offset_of!(GpuDrawRequest, first_lo)),
+        ("first_hi", offset_of!(GpuDrawRequest, first_hi)),
+        ("pad", offset_of!(GpuDrawRequest, pad)),
+    ]
+    .into_iter()
+    .map(|(n, o)| (n.to_string(), o as u32))
+    .collect();
+    assert_eq!(request.members, expected);
+    let size = size_of::<GpuDrawRequest>() as u32;
+    assert!(request.array_stride.is_none_or(|s| s == size));
 }
 
 /// Only the models and kernels that exist are embedded: one module per (kernel, model).

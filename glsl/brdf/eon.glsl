@@ -6,6 +6,7 @@
 // r = 0 is Lambert exactly. The multiscatter choice is specialization constant 3, so a pipeline
 // holds only the branch it uses. Twin of src/model/eon.rs (derivations and citations there).
 #include "brdf/terms.glsl"
+#include "brdf/sample.glsl"
 
 layout(constant_id = 3) const uint EON_MULTISCATTER = 0u;  // 0 exact, 1 approx, 2 none
 
@@ -23,6 +24,7 @@ struct EonParams {
     vec3 ms_scale;        // rho_ms/pi B/(c1 - c2)
     float b;
     float a_one_minus_r;  // A (1 - r)
+    float roughness;      // r, for the sampler's fits
 };
 
 // theta = atan2(s, mu) for s, mu >= 0 on the unit circle, in plain arithmetic: the Vulkan spec
@@ -92,4 +94,83 @@ vec3 eon(EonParams p, vec3 wi, vec3 wo) {
     vec3 f_ss = p.albedo_over_pi * lobe;
     if (EON_MULTISCATTER == 2u) return f_ss;
     return f_ss + p.ms_scale * (eon_loss(mu_o) * eon_loss(mu_i));
+}
+
+// The probability of the uniform lobe in the mixture that samples EON (Portsmouth, Kutz & Hill
+// 2025, section 5, the fit P_u(mu_o, r) of their listing), clamped to [0, 1]; 0 at r = 0.
+float eon_uniform_probability(EonParams p, vec3 wo) {
+    float mu = clamp(wo.z, 0.0, 1.0);
+    float r = clamp(p.roughness, 0.0, 1.0);
+    float fit = 0.162925 + mu * (-0.372058 + mu * (0.538233 - 0.290822 * mu));
+    return clamp(pow(r, 0.1) * fit, 0.0, 1.0);
+}
+
+// The transform M = [[a, 0, b], [0, c, 0], [d, 0, 1]] of EON's clipped linearly transformed
+// cosine (ibid., section 5, the coefficients' rational fits in mu_o and r); both denominators are
+// negative on [0, 1].
+vec4 eon_ltc_coefficients(float mu, float r) {
+    float a = 1.0 + r * (0.303392 + (-0.518982 + 0.111709 * mu) * mu + (-0.276266 + 0.335918 * mu) * r);
+    float b = r * (-1.16407 + 1.15859 * mu + (0.150815 - 0.150105 * mu) * r) / (mu * mu * mu - 1.43545);
+    float c = 1.0 + r * (0.20013 + (-0.506373 + 0.261777 * mu) * mu);
+    float d = r * (0.540852 + (-1.01625 + 0.475392 * mu) * mu) / (-1.0743 + (0.0725628 + mu) * mu);
+    return vec4(a, b, c, d);
+}
+
+// The frame's X, the unit azimuth of wo (+x for wo along the normal); Y = Z x X.
+void eon_ltc_frame(vec3 wo, out vec3 x, out vec3 y) {
+    float len = sqrt(wo.x * wo.x + wo.y * wo.y);
+    x = len > 0.0 ? vec3(wo.x / len, wo.y / len, 0.0) : vec3(1.0, 0.0, 0.0);
+    y = vec3(-x.y, x.x, 0.0);
+}
+
+// The share (1 + 1/sqrt(1 + d^2))/2 of the cosine-weighted disk that the clip keeps.
+float eon_clip_share(float d) {
+    return 0.5 * (1.0 + inversesqrt(1.0 + d * d));
+}
+
+// A direction of EON's clipped linearly transformed cosine: a uniform point of the kept part of
+// the unit disk (squeezed as in Heitz 2018, section 4.2), lifted to the hemisphere, then
+// wi = M w / |M w| in the frame of wo.
+vec3 sample_eon_cltc(EonParams p, vec3 wo, vec2 u) {
+    vec4 m = eon_ltc_coefficients(clamp(wo.z, 0.0, 1.0), p.roughness);
+    float s = eon_clip_share(m.w);
+    float radius = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    float x0 = radius * cos(phi), y = radius * sin(phi);
+    float side = m.w > 0.0 ? 1.0 : -1.0;
+    float x = side * ((1.0 - s) * sqrt(max(1.0 - y * y, 0.0)) + s * x0);
+    float z = sqrt(max(1.0 - x * x - y * y, 0.0));
+    vec3 w = normalize(vec3(m.x * x + m.y * z, m.z * y, m.w * x + z));
+    vec3 fx, fy;
+    eon_ltc_frame(wo, fx, fy);
+    return normalize(w.x * fx + w.y * fy + vec3(0.0, 0.0, w.z));
+}
+
+// The density of sample_eon_cltc: det(M)^2 max(0, w_z) / (pi s |w|^4), w = adj(M) wi in the
+// frame of wo (Heitz, Dupuy, Hill & Neubelt 2016, "Real-Time Polygonal-Light Shading with
+// Linearly Transformed Cosines").
+float pdf_eon_cltc(EonParams p, vec3 wi, vec3 wo) {
+    vec4 m = eon_ltc_coefficients(clamp(wo.z, 0.0, 1.0), p.roughness);
+    vec3 fx, fy;
+    eon_ltc_frame(wo, fx, fy);
+    float x = dot(wi, fx), y = dot(wi, fy), z = wi.z;
+    vec3 w = vec3(m.z * (x - m.y * z), (m.x - m.y * m.w) * y, m.z * (m.x * z - m.w * x));
+    float det = m.z * (m.x - m.y * m.w);
+    float len2 = dot(w, w);
+    return det * det * max(w.z, 0.0) / (PI * eon_clip_share(m.w) * len2 * len2);
+}
+
+// P_u/(2 pi) + (1 - P_u) pdf_eon_cltc; 0 below the horizon.
+float pdf_eon(EonParams p, vec3 wi, vec3 wo) {
+    if (wi.z <= 0.0) return 0.0;
+    float pu = eon_uniform_probability(p, wo);
+    return pu * pdf_uniform_hemisphere(wi) + (1.0 - pu) * pdf_eon_cltc(p, wi, wo);
+}
+
+// The paper's mixture: the uniform hemisphere with probability P_u (by uc), else the clipped
+// transformed cosine.
+Sample sample_eon(EonParams p, vec3 wo, float uc, vec2 u) {
+    vec3 wi = uc < eon_uniform_probability(p, wo) ? sample_uniform_hemisphere(u)
+                                                  : sample_eon_cltc(p, wo, u);
+    return sample_from_draw(wi, pdf_eon(p, wi, wo), eon(p, wi, wo));
 }

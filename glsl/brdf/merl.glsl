@@ -6,6 +6,7 @@
 // every red bin, then every green, then every blue; bin = phi_d + 180 (theta_d + 90 theta_h). The
 // host has applied MERL's channel scales and written missing bins (negative in the file) as 0.
 #include "common.glsl"
+#include "brdf/sample.glsl"
 
 struct MerlParams {
     uint lookup;  // MERL_NEAREST or MERL_TRILINEAR (the `lookup` choice)
@@ -102,4 +103,15 @@ vec3 merl_trilinear(vec3 u) {
 vec3 merl(MerlParams p, vec3 wi, vec3 wo) {
     vec3 u = merl_coordinates(merl_half_diff(wi, wo));
     return p.lookup == MERL_TRILINEAR ? merl_trilinear(u) : merl_nearest(u);
+}
+
+// A measured BRDF is drawn by the cosine, as every model defined at run time is
+// (Reference::sample in src/model/mod.rs).
+Sample sample_merl(MerlParams p, vec3 wo, float uc, vec2 u) {
+    vec3 wi = sample_cosine(u);
+    return sample_from_draw(wi, pdf_cosine(wi), merl(p, wi, wo));
+}
+
+float pdf_merl(MerlParams p, vec3 wi, vec3 wo) {
+    return pdf_cosine(wi);
 }

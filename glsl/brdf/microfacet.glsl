@@ -6,6 +6,7 @@
 // the twin); D and G come as (numerator, denominator) pairs, so that one division serves the
 // specular lobe.
 #include "brdf/terms.glsl"
+#include "brdf/sample.glsl"
 #include "brdf/kulla_conty.glsl"
 
 layout(constant_id = 3) const uint MF_DISTRIBUTION = 1u;  // 0 beckmann, 1 ggx
@@ -31,6 +32,9 @@ struct MicrofacetParams {
     float kc_scale_white;    // the same with F_avg = 1 (white furnace)
     vec4 kc_weights;         // Lagrange weights in sqrt(alpha) (kulla_conty.glsl)
     uint kc_row;             // the first of their four knots
+    float lobe_luminance;    // luminance of specular F_avg, for the sampler
+    float kc_luminance;      // luminance of the Kulla-Conty lobe's specular F_ms
+    float kc_luminance_white;  // the same with F_avg = 1
 };
 
 // Smith Lambda of direction w (c = w.z > 0) for Beckmann's exact G1 (GGX needs none:
@@ -120,3 +124,33 @@ vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
     return microfacet_from_sum(p, wi, wo, wi + wo);
 }
 #define MODEL_EVAL_SUM microfacet_from_sum
+
+// The specular lobe's probability against the cosine's (diffuse and, with Kulla-Conty, that
+// lobe's directional albedo at wo, specular F_ms L(mu_o)); the luminances come from the host.
+float microfacet_lobe_probability(MicrofacetParams p, vec3 wo) {
+    float cosine = luminance(p.diffuse_over_pi) * PI;
+    if (MF_MULTISCATTER == 1u) {
+        float kc = WHITE_FURNACE ? p.kc_luminance_white : p.kc_luminance;
+        cosine += kc * kc_loss(wo.z, int(p.kc_row), p.kc_weights);
+    }
+    float lobe = WHITE_FURNACE ? luminance(p.specular) : p.lobe_luminance;
+    return mixture_share(lobe, cosine);
+}
+
+// (1 - P) cos(theta_i)/pi + P D(h) / (4 c_o (1 + Lambda(wo))), the distribution's exact Lambda
+// whatever masking f uses.
+float pdf_microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
+    if (wi.z <= 0.0 || wo.z <= 0.0) return 0.0;
+    float lobe = microfacet_lobe_probability(p, wo);
+    float vndf = pdf_vndf(MF_DISTRIBUTION, wi, wo, sqrt(p.alpha2_x), sqrt(p.alpha2_y));
+    return (1.0 - lobe) * pdf_cosine(wi) + lobe * vndf;
+}
+
+// The mixture of wo reflected about a visible normal of the distribution (GGX by spherical caps,
+// Beckmann by Heitz & d'Eon's slopes) and the cosine.
+Sample sample_microfacet(MicrofacetParams p, vec3 wo, float uc, vec2 u) {
+    vec3 wi = uc < microfacet_lobe_probability(p, wo)
+        ? reflect_about(wo, sample_vndf(MF_DISTRIBUTION, wo, sqrt(p.alpha2_x), sqrt(p.alpha2_y), u))
+        : sample_cosine(u);
+    return sample_from_draw(wi, pdf_microfacet(p, wi, wo), microfacet(p, wi, wo));
+}

@@ -4,7 +4,7 @@
 
 use super::scene::Scene;
 use super::shade::render_cells_cpu;
-use super::{Backend, NodeRule, Precision, Query, RowSums, TableSink};
+use super::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
 use crate::finite;
 use crate::interrupt::CancelToken;
 use crate::model::{Model, Reference};
@@ -50,6 +50,47 @@ impl Backend for CpuBackend {
 
     fn supports(&self, model: Model) -> Result<()> {
         Ok(model.require_reference("the CPU backend")?)
+    }
+
+    fn draws(
+        &self,
+        query: Query,
+        wo: DVec3,
+        seed: u32,
+        group: u32,
+        first: u64,
+        count: usize,
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<DrawRecord>> {
+        let refs = self.references(&Query {
+            sets: &query.sets[..query.sets.len().min(1)],
+            ..query
+        })?;
+        let Some(r) = refs.first() else {
+            return Ok(Vec::new());
+        };
+        let mut out = Vec::with_capacity(count);
+        // Chunks of CPU_CHUNK_CELLS draws, with a look at `cancel` between them.
+        let mut done = 0u64;
+        while (done as usize) < count {
+            check(cancel)?;
+            let n = CPU_CHUNK_CELLS.min(count as u64 - done);
+            let start = first + done;
+            out.par_extend((start..start + n).into_par_iter().map(|i| {
+                let (uc, u) = crate::random::draw_numbers(seed, i, group);
+                let s = r.sample(wo, uc, u);
+                DrawRecord {
+                    wi: s.wi.to_array(),
+                    pdf: s.pdf,
+                    weight: s.weight.to_array(),
+                    delta: s.delta,
+                    pdf_at: r.pdf(s.wi, wo),
+                    eval_cos: (r.eval(s.wi, wo) * s.wi.z.max(0.0)).to_array(),
+                }
+            }));
+            done += n;
+        }
+        Ok(out)
     }
 
     fn pairs(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<Vec<[f64; 3]>>> {

@@ -87,6 +87,26 @@ impl<'a> From<&'a ParamSet> for Query<'a> {
     }
 }
 
+/// One draw of a model's sampler as a backend returns it ([`Backend::draws`]): the sample
+/// (docs/design.md §13) and, at its ωi, the model's density and f cos θi, so that a caller can
+/// check the three against each other.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DrawRecord {
+    /// The direction drawn, towards the light (kept below the horizon, where the draw is lost).
+    pub wi: [f64; 3],
+    /// The sampler's density at ωi (for a delta sample, the probability of the spike); 0 for a
+    /// lost draw.
+    pub pdf: f64,
+    /// f cos θi / pdf per channel (for a delta sample, the spike's albedo over its probability).
+    pub weight: [f64; 3],
+    /// Whether the draw is the mirror spike.
+    pub delta: bool,
+    /// The model's density function at (ωi, ωo), `Reference::pdf` or the kernel's `MODEL_PDF`.
+    pub pdf_at: f64,
+    /// f(ωi, ωo) max(0, cos θi), f one-sided (0 below the horizon).
+    pub eval_cos: [f64; 3],
+}
+
 /// The arithmetic a backend evaluates and sums in: what an error estimate must allow for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Precision {
@@ -198,6 +218,22 @@ pub trait Backend: Send + Sync {
         wo: &[DVec3],
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<RowSums>>;
+
+    /// Draws `first .. first + count` of the sampler of the query's first set for `wo` in the
+    /// stream (`seed`, `group`): draw i takes its numbers from
+    /// [`crate::random::draw_numbers`]`(seed, i, group)`, so both backends draw the same
+    /// directions (the GPU's within f32 rounding). Stops between chunks once `cancel` is set.
+    #[allow(clippy::too_many_arguments)]
+    fn draws(
+        &self,
+        query: Query,
+        wo: DVec3,
+        seed: u32,
+        group: u32,
+        first: u64,
+        count: usize,
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<DrawRecord>>;
 
     /// The radiance of every pixel of one cell per parameter set of `query` (cell k shaded with
     /// set k), in the order (cell, row from the top, column).

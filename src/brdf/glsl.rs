@@ -1,4 +1,4 @@
-//! The four kernels for a `.brdf` file, compiled at run time with glslang.
+//! The kernels for a `.brdf` file, compiled at run time with glslang.
 //!
 //! Each kernel of `glsl/kernels/` (embedded here as text) is compiled as build.rs compiles it for
 //! a built-in model, with the virtual include `model.glsl` resolved to a parameter struct and a
@@ -40,6 +40,7 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("table", include_str!("../../glsl/kernels/table.comp")),
     ("albedo", include_str!("../../glsl/kernels/albedo.comp")),
     ("preview", include_str!("../../glsl/kernels/preview.comp")),
+    ("sample", include_str!("../../glsl/kernels/sample.comp")),
 ];
 
 /// The files the kernels include (besides the generated `model.glsl`).
@@ -48,6 +49,15 @@ const INCLUDES: &[(&str, &str)] = &[
     (
         "kernels/eval.glsl",
         include_str!("../../glsl/kernels/eval.glsl"),
+    ),
+    ("random.glsl", include_str!("../../glsl/random.glsl")),
+    (
+        "brdf/terms.glsl",
+        include_str!("../../glsl/brdf/terms.glsl"),
+    ),
+    (
+        "brdf/sample.glsl",
+        include_str!("../../glsl/brdf/sample.glsl"),
     ),
 ];
 

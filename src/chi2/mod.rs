@@ -2,7 +2,7 @@
 //! its weights f cos / pdf? (docs/design.md §14)
 //!
 //! For each outgoing direction ωo, N directions ωi are drawn (draw i from
-//! [`random::uniform4`], so any chunking gives the same draws) and
+//! [`random::draw_numbers`], so any chunking gives the same draws) and
 //! counted in cells of equal solid angle over the upper hemisphere ([`Cells`]); the expected
 //! count of each cell is N ∫_cell pdf dω, integrated adaptively to well under the count's own
 //! noise. A chi-square test with pooling (as Mitsuba 3 and pbrt-v4 test their BSDFs) compares the
@@ -461,8 +461,8 @@ pub fn run<S: Sampler>(
                     |mut t, chunk| {
                         let last = ((chunk + 1) * CHUNK).min(options.samples);
                         for i in chunk * CHUNK..last {
-                            let u = random::uniform4(options.seed, i, group);
-                            let d = sampler.sample(wo, u[0], DVec2::new(u[1], u[2]));
+                            let (uc, u) = random::draw_numbers(options.seed, i, group);
+                            let d = sampler.sample(wo, uc, u);
                             t.draw(sampler, &cells, wo, i, d);
                         }
                         t

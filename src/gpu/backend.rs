@@ -1,9 +1,10 @@
 //! The Vulkan kernels as a [`Backend`]: directions and parameter blocks in their std430 forms,
 //! f32 results widened to f64.
 
-use super::{Gpu, GpuPair, TableSwitches};
+use super::pipeline::Kernel;
+use super::{Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
 use crate::backend::scene::Scene;
-use crate::backend::{Backend, NodeRule, Precision, Query, RowSums, TableSink};
+use crate::backend::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
 use crate::interrupt::CancelToken;
 use crate::model::{Brdf, Model, ParamSet};
 use anyhow::Result;
@@ -99,6 +100,53 @@ impl Backend for Gpu {
         Ok(out
             .chunks(pairs.len())
             .map(|c| c.iter().map(|v| v.map(f64::from)).collect())
+            .collect())
+    }
+
+    fn draws(
+        &self,
+        query: Query,
+        wo: DVec3,
+        seed: u32,
+        group: u32,
+        first: u64,
+        count: usize,
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<DrawRecord>> {
+        let Some(params) = query.sets.first() else {
+            return Ok(Vec::new());
+        };
+        let model = params.model();
+        if model.spirv(Kernel::Sample.name()).is_none() {
+            anyhow::bail!(
+                "model {} has no sample kernel (a model defined at run time is given its \
+                 kernels one by one); its draws run on the CPU backend",
+                model.name()
+            );
+        }
+        let request = GpuDrawRequest {
+            wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+            seed,
+            group,
+            first_lo: first as u32,
+            first_hi: (first >> 32) as u32,
+            pad: 0,
+        };
+        let block = Brdf::new(params).gpu_block();
+        let out = self.sample_draws(model, &block, request, count, query.white_furnace, cancel)?;
+        Ok(out
+            .chunks_exact(DRAW_FLOATS)
+            .map(|d| {
+                let v = |k: usize| f64::from(d[k]);
+                DrawRecord {
+                    wi: [v(0), v(1), v(2)],
+                    pdf: v(3),
+                    weight: [v(4), v(5), v(6)],
+                    delta: d[7] != 0.0,
+                    pdf_at: v(8),
+                    eval_cos: [v(9), v(10), v(11)],
+                }
+            })
             .collect())
     }
 

@@ -68,8 +68,11 @@ pub struct AshikhminShirleyParams {
     pub spec_norm: f32,
     /// (nu + nv)/2, the exponent at h = n.
     pub mean_exponent: f32,
+    /// The luminance of the base's `diffuse` (1 − `specular`), against which the sampler weighs
+    /// the coat ([`ashikhmin_shirley_lobe_probability`]).
+    pub base_luminance: f32,
     /// Padding to the std430 size of 64 bytes; always 0.
-    pub _pad: [f32; 3],
+    pub _pad: [f32; 2],
 }
 
 /// Byte offset of every field of [`AshikhminShirleyParams`], checked against the compiled kernels.
@@ -89,6 +92,10 @@ pub const GPU_LAYOUT: Layout = &[
     (
         "mean_exponent",
         offset_of!(AshikhminShirleyParams, mean_exponent),
+    ),
+    (
+        "base_luminance",
+        offset_of!(AshikhminShirleyParams, base_luminance),
     ),
 ];
 
@@ -163,7 +170,8 @@ impl AshikhminShirley {
             one_minus_specular: f32x3(DVec3::ONE - self.specular),
             spec_norm: (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() / (8.0 * PI)) as f32,
             mean_exponent: (0.5 * (self.nu + self.nv)) as f32,
-            _pad: [0.0; 3],
+            base_luminance: luminance(self.diffuse * (DVec3::ONE - self.specular)) as f32,
+            _pad: [0.0; 2],
         }
     }
 }

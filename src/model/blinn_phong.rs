@@ -51,8 +51,8 @@ pub struct BlinnPhongParams {
     pub exponent: f32,
     /// `specular` (N + 8)/(8π).
     pub specular_norm: [f32; 3],
-    /// Padding to the std430 size of 32 bytes; always 0.
-    pub _pad: f32,
+    /// [`blinn_phong_lobe_probability`], for the sampler.
+    pub lobe_probability: f32,
 }
 
 /// Byte offset of every field of [`BlinnPhongParams`], checked against the compiled kernels.
@@ -63,6 +63,10 @@ pub const GPU_LAYOUT: Layout = &[
     ),
     ("exponent", offset_of!(BlinnPhongParams, exponent)),
     ("specular_norm", offset_of!(BlinnPhongParams, specular_norm)),
+    (
+        "lobe_probability",
+        offset_of!(BlinnPhongParams, lobe_probability),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -124,7 +128,7 @@ impl BlinnPhong {
             diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
             exponent: n as f32,
             specular_norm: f32x3(self.specular * ((n + 8.0) / (8.0 * PI))),
-            _pad: 0.0,
+            lobe_probability: blinn_phong_lobe_probability(self) as f32,
         }
     }
 }

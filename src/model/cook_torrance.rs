@@ -65,8 +65,10 @@ pub struct CookTorranceParams {
     pub r0: f32,
     /// 1 − R0.
     pub one_minus_r0: f32,
-    /// Padding to the std430 size of 48 bytes; always 0.
-    pub _pad: [f32; 2],
+    /// [`cook_torrance_lobe_probability`], for the sampler.
+    pub lobe_probability: f32,
+    /// The same under the white furnace.
+    pub lobe_probability_white: f32,
 }
 
 /// Byte offset of every field of [`CookTorranceParams`], checked against the compiled kernels.
@@ -80,6 +82,14 @@ pub const GPU_LAYOUT: Layout = &[
     ("d_norm", offset_of!(CookTorranceParams, d_norm)),
     ("r0", offset_of!(CookTorranceParams, r0)),
     ("one_minus_r0", offset_of!(CookTorranceParams, one_minus_r0)),
+    (
+        "lobe_probability",
+        offset_of!(CookTorranceParams, lobe_probability),
+    ),
+    (
+        "lobe_probability_white",
+        offset_of!(CookTorranceParams, lobe_probability_white),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -150,7 +160,8 @@ impl CookTorrance {
             d_norm: (FRAC_1_PI / m2) as f32,
             r0: r0 as f32,
             one_minus_r0: (1.0 - r0) as f32,
-            _pad: [0.0; 2],
+            lobe_probability: cook_torrance_lobe_probability(self, false) as f32,
+            lobe_probability_white: cook_torrance_lobe_probability(self, true) as f32,
         }
     }
 }

@@ -41,12 +41,15 @@ pub struct Coupled {
 pub struct CoupledParams {
     /// `matte` 21/(20π) (1 − R0).
     pub matte_scale: [f32; 3],
-    /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
-    pub _pad: f32,
+    /// Schlick's R0 from `ior`, for the mirror spike's albedo in the sampler.
+    pub r0: f32,
 }
 
 /// Byte offset of every field of [`CoupledParams`], checked against the compiled kernels.
-pub const GPU_LAYOUT: Layout = &[("matte_scale", offset_of!(CoupledParams, matte_scale))];
+pub const GPU_LAYOUT: Layout = &[
+    ("matte_scale", offset_of!(CoupledParams, matte_scale)),
+    ("r0", offset_of!(CoupledParams, r0)),
+];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
@@ -102,7 +105,7 @@ impl Coupled {
     pub fn gpu_params(&self) -> CoupledParams {
         CoupledParams {
             matte_scale: f32x3(self.matte * (21.0 / (20.0 * PI) * (1.0 - r0_from_ior(self.ior)))),
-            _pad: 0.0,
+            r0: r0_from_ior(self.ior) as f32,
         }
     }
 }

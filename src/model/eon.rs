@@ -146,8 +146,10 @@ pub struct EonParams {
     pub b: f32,
     /// A (1 − r).
     pub a_one_minus_r: f32,
+    /// The roughness r, for the sampler's fits.
+    pub roughness: f32,
     /// Padding to the std430 size of 48 bytes; always 0.
-    pub _pad: [f32; 3],
+    pub _pad: [f32; 2],
 }
 
 /// Byte offset of every field of [`EonParams`], checked against the compiled kernels.
@@ -157,6 +159,7 @@ pub const GPU_LAYOUT: Layout = &[
     ("ms_scale", offset_of!(EonParams, ms_scale)),
     ("b", offset_of!(EonParams, b)),
     ("a_one_minus_r", offset_of!(EonParams, a_one_minus_r)),
+    ("roughness", offset_of!(EonParams, roughness)),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -221,7 +224,8 @@ impl Eon {
             ms_scale: f32x3(rho_ms * FRAC_1_PI * (b / (C1 - C2))),
             b: b as f32,
             a_one_minus_r: (a * (1.0 - r)) as f32,
-            _pad: [0.0; 3],
+            roughness: r as f32,
+            _pad: [0.0; 2],
         }
     }
 }

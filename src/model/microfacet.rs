@@ -180,8 +180,12 @@ pub struct MicrofacetParams {
     pub kc_weights: [f32; 4],
     /// The first knot of those weights.
     pub kc_row: u32,
-    /// Padding to the std430 size of 144 bytes; always 0.
-    pub _pad: [u32; 3],
+    /// The sampler's luminances ([`Microfacet::lobe_luminances`]): of `specular` F_avg,
+    pub lobe_luminance: f32,
+    /// of the Kulla–Conty lobe's `specular` F_ms,
+    pub kc_luminance: f32,
+    /// and of the same with F_avg = 1 (white furnace).
+    pub kc_luminance_white: f32,
 }
 
 /// Byte offset of every field of [`MicrofacetParams`], checked against the compiled kernels.
@@ -214,6 +218,15 @@ pub const GPU_LAYOUT: Layout = &[
     ),
     ("kc_weights", offset_of!(MicrofacetParams, kc_weights)),
     ("kc_row", offset_of!(MicrofacetParams, kc_row)),
+    (
+        "lobe_luminance",
+        offset_of!(MicrofacetParams, lobe_luminance),
+    ),
+    ("kc_luminance", offset_of!(MicrofacetParams, kc_luminance)),
+    (
+        "kc_luminance_white",
+        offset_of!(MicrofacetParams, kc_luminance_white),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -309,6 +322,23 @@ impl Microfacet {
         m
     }
 
+    /// What [`microfacet_lobe_probability`] weighs, from the parameters alone: the luminances
+    /// of `specular` F_avg, of the Kulla–Conty lobe's `specular` F_ms (0 without that lobe) and of
+    /// the latter with F_avg = 1 (the white furnace's), F_ms = [`kulla_conty::fresnel_ms`] at the
+    /// table's L_avg(α), α = √(αx αy).
+    pub fn lobe_luminances(&self) -> [f64; 3] {
+        let lobe = luminance(self.specular * self.f_avg);
+        if !self.config.kulla_conty() {
+            return [lobe, 0.0, 0.0];
+        }
+        let table = &kulla_conty::tables()[kulla_conty::table_index(self.config)];
+        let avg_loss = table.avg_at((self.alpha_x * self.alpha_y).sqrt());
+        let ms = |f_avg: DVec3| {
+            luminance(self.specular * f_avg.map(|f| kulla_conty::fresnel_ms(f, avg_loss)))
+        };
+        [lobe, ms(self.f_avg), ms(DVec3::ONE)]
+    }
+
     /// Whether the two roughnesses are equal, so that f depends on φi and φo only through φo − φi.
     pub fn is_isotropic(&self) -> bool {
         self.alpha_x == self.alpha_y
@@ -320,6 +350,7 @@ impl Microfacet {
         let (ax, ay) = (self.alpha_x, self.alpha_y);
         let e2m1 = |eta: f64| (eta - 1.0) * (eta + 1.0);
         let (row, weights, scale, scale_white) = self.kulla_conty_constants();
+        let lum = self.lobe_luminances();
         MicrofacetParams {
             specular: f32x3(self.specular),
             alpha2_x: (ax * ax) as f32,
@@ -337,7 +368,9 @@ impl Microfacet {
             kc_scale_white: scale_white as f32,
             kc_weights: weights.map(|w| w as f32),
             kc_row: row as u32,
-            _pad: [0; 3],
+            lobe_luminance: lum[0] as f32,
+            kc_luminance: lum[1] as f32,
+            kc_luminance_white: lum[2] as f32,
         }
     }
 
@@ -467,16 +500,20 @@ fn has_v_cavity(model: Model) -> bool {
 /// two lobes, `diffuse` and, with Kulla–Conty's lobe, its exact directional albedo at ωo,
 /// `specular` F_ms (1 − E(μo)) (its f_ms integrates to that against cos θi).
 pub fn microfacet_lobe_probability(p: &Microfacet, wo: DVec3, white_furnace: bool) -> f64 {
-    let f_avg = if white_furnace { DVec3::ONE } else { p.f_avg };
+    let [lobe, kc, kc_white] = p.lobe_luminances();
     let mut cosine = luminance(p.diffuse);
     if p.config.kulla_conty() {
         let table = &kulla_conty::tables()[kulla_conty::table_index(p.config)];
         let alpha = (p.alpha_x * p.alpha_y).sqrt();
-        let avg_loss = table.avg_at(alpha);
-        let f_ms = f_avg.map(|f| kulla_conty::fresnel_ms(f, avg_loss));
-        cosine += luminance(p.specular * f_ms) * table.loss_at(wo.z, alpha);
+        let kc = if white_furnace { kc_white } else { kc };
+        cosine += kc * table.loss_at(wo.z, alpha);
     }
-    mixture_share(luminance(p.specular * f_avg), cosine)
+    let lobe = if white_furnace {
+        luminance(p.specular)
+    } else {
+        lobe
+    };
+    mixture_share(lobe, cosine)
 }
 
 /// Draws ωi from the mixture of the specular lobe, ωo reflected about a visible normal of the

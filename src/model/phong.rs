@@ -51,8 +51,8 @@ pub struct PhongParams {
     pub shininess: f32,
     /// `specular` (n + 2)/(2π).
     pub specular_norm: [f32; 3],
-    /// Padding to the std430 size of 32 bytes; always 0.
-    pub _pad: f32,
+    /// [`phong_lobe_probability`], for the sampler.
+    pub lobe_probability: f32,
 }
 
 /// Byte offset of every field of [`PhongParams`], checked against the compiled kernels.
@@ -60,6 +60,10 @@ pub const GPU_LAYOUT: Layout = &[
     ("diffuse_over_pi", offset_of!(PhongParams, diffuse_over_pi)),
     ("shininess", offset_of!(PhongParams, shininess)),
     ("specular_norm", offset_of!(PhongParams, specular_norm)),
+    (
+        "lobe_probability",
+        offset_of!(PhongParams, lobe_probability),
+    ),
 ];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
@@ -126,7 +130,7 @@ impl Phong {
             diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
             shininess: self.shininess as f32,
             specular_norm: f32x3(self.specular * ((self.shininess + 2.0) / (2.0 * PI))),
-            _pad: 0.0,
+            lobe_probability: phong_lobe_probability(self) as f32,
         }
     }
 }

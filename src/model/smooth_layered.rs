@@ -40,17 +40,20 @@ pub struct SmoothLayered {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct SmoothLayeredParams {
-    /// `diffuse` / π (the mirror spike is the integrators', not the kernels').
+    /// `diffuse` / π (the mirror spike is the integrators' and the draws kernel's, from `r0`).
     pub diffuse_over_pi: [f32; 3],
-    /// Padding to the 16-byte size of a std430 struct holding a vec3; always 0.
-    pub _pad: f32,
+    /// Schlick's R0 from `ior`, for the mirror spike's albedo in the sampler.
+    pub r0: f32,
 }
 
 /// Byte offset of every field of [`SmoothLayeredParams`], checked against the compiled kernels.
-pub const GPU_LAYOUT: Layout = &[(
-    "diffuse_over_pi",
-    offset_of!(SmoothLayeredParams, diffuse_over_pi),
-)];
+pub const GPU_LAYOUT: Layout = &[
+    (
+        "diffuse_over_pi",
+        offset_of!(SmoothLayeredParams, diffuse_over_pi),
+    ),
+    ("r0", offset_of!(SmoothLayeredParams, r0)),
+];
 
 /// What the rest of the crate knows about this model (see [`super::registry`]).
 pub const INFO: ModelInfo = ModelInfo {
@@ -104,7 +107,7 @@ impl SmoothLayered {
     pub fn gpu_params(&self) -> SmoothLayeredParams {
         SmoothLayeredParams {
             diffuse_over_pi: f32x3(self.diffuse * FRAC_1_PI),
-            _pad: 0.0,
+            r0: r0_from_ior(self.ior) as f32,
         }
     }
 }

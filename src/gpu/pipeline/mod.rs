@@ -31,6 +31,9 @@ pub enum Kernel {
     /// 1 nodes, 2 entries, 3 partial sums, 4 the nodes as a texel buffer); see
     /// glsl/kernels/albedo.comp and src/gpu/albedo_kernel.rs.
     Albedo,
+    /// Draws of the model's sampler for one ωo (bindings 0 params, 1 the request, 3 out); see
+    /// glsl/kernels/sample.comp and [`crate::gpu::Gpu::sample_draws`].
+    Sample,
 }
 
 impl Kernel {
@@ -41,6 +44,7 @@ impl Kernel {
             Kernel::Pairs => "pairs",
             Kernel::Preview => "preview",
             Kernel::Albedo => "albedo",
+            Kernel::Sample => "sample",
         }
     }
 
@@ -51,7 +55,7 @@ impl Kernel {
         match self {
             // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
             Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T), (6, S)],
-            Kernel::Pairs => &[(0, S), (1, S), (3, S)],
+            Kernel::Pairs | Kernel::Sample => &[(0, S), (1, S), (3, S)],
             Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
             // 4: the nodes again, as a texel buffer (TEXEL_NODES).
             Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
@@ -62,7 +66,7 @@ impl Kernel {
     pub(crate) fn cleared(self) -> &'static [u32] {
         match self {
             Kernel::Table => &[6],
-            Kernel::Pairs | Kernel::Preview | Kernel::Albedo => &[],
+            Kernel::Pairs | Kernel::Preview | Kernel::Albedo | Kernel::Sample => &[],
         }
     }
 }

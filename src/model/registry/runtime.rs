@@ -221,7 +221,7 @@ impl RuntimeModel {
         })
     }
 
-    /// Adds the SPIR-V of one kernel (`table`, `pairs`, `albedo`, `preview`), compiled against
+    /// Adds the SPIR-V of one kernel (`table`, `pairs`, `albedo`, `preview`, `sample`), compiled against
     /// the parameter block of [`std430_layout`].
     pub fn with_kernel(mut self, kernel: &str, spirv: &[u8]) -> RuntimeModel {
         self.kernels.insert(
