@@ -54,7 +54,8 @@ vec3 sample_ashikhmin_shirley_h(float nu, float nv, vec2 u) {
     float phi = q == 0 ? phi1 : q == 1 ? PI - phi1 : q == 2 ? PI + phi1 : 2.0 * PI - phi1;
     float c = cos(phi), s = sin(phi);
     float e = nu * c * c + nv * s * s;
-    float one_minus_c = u.y > 0.0 ? -expm1_nonpositive(log_unit(u.y) / (e + 1.0)) : 1.0;
+    // 1 - u2 rather than u2, as the twin: the draws' numbers include 0 and never 1.
+    float one_minus_c = -expm1_nonpositive(log1m(u.y) / (e + 1.0));
     float sin_h = sqrt(max(one_minus_c * (2.0 - one_minus_c), 0.0));
     return vec3(sin_h * c, sin_h * s, 1.0 - one_minus_c);
 }

@@ -70,13 +70,6 @@ float expm1_nonpositive(float x) {
     return exp(x) - 1.0;
 }
 
-// log(u) for 0 < u < 1 with u a multiple of 2^-24 (the draws' numbers, src/random.rs), where 1 - u
-// is exact: log1m(1 - u) (terms.glsl) keeps a few ulp for u near 1, where log's absolute error
-// bound of 2^-21 (Vulkan spec) would swamp log(u) ~ -6e-8.
-float log_unit(float u) {
-    return log1m(1.0 - u);
-}
-
 // Two unit vectors completing n to a right-handed orthonormal frame (Duff et al. 2017, "Building
 // an orthonormal basis, revisited", JCGT 6(1), listing 3). GLSL has no copysign: n.z = -0 takes
 // the sign +1 here and -1 in the twin, a case no sampler meets (its axes have n.z > 0).
@@ -111,10 +104,10 @@ float pdf_uniform_hemisphere(vec3 wi) {
 }
 
 // A power-cosine lobe about the unit axis (Lafortune & Willems 1994, section 4):
-// 1 - cos(alpha) = -expm1(ln(u1) / (n + 1)), phi = 2 pi u2; u1 = 0 gives the lobe's rim, alpha =
-// pi/2 (the twin's ln 0 = -inf; GLSL's log(0) is undefined, hence the branch).
+// 1 - cos(alpha) = -expm1(ln(1 - u1) / (n + 1)), phi = 2 pi u2. 1 - u1 rather than u1 (the same
+// law): the draws' numbers include 0 and never 1; log1m (terms.glsl) keeps a few ulp for small u1.
 vec3 sample_power_cosine(vec3 axis, float n, vec2 u) {
-    float one_minus_c = u.x > 0.0 ? -expm1_nonpositive(log_unit(u.x) / (n + 1.0)) : 1.0;
+    float one_minus_c = -expm1_nonpositive(log1m(u.x) / (n + 1.0));
     float c = 1.0 - one_minus_c;
     float s = sqrt(max(one_minus_c * (2.0 - one_minus_c), 0.0));
     float phi = 2.0 * PI * u.y;
