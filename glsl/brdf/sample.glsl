@@ -137,12 +137,14 @@ vec3 unstretch(vec3 h, float ax, float ay) {
 }
 
 // A GGX visible normal by Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical
-// Caps" (HPG), section 3.
+// Caps" (HPG), section 3; 1 - z = u2 (1 + v.z) and sin^2 = (1 - z)(1 + z), free of the
+// cancellation of 1 - z^2 near the pole.
 vec3 sample_ggx_vndf(vec3 wo, float ax, float ay, vec2 u) {
     vec3 v = stretch(wo, ax, ay);
     float phi = 2.0 * PI * u.x;
-    float z = (1.0 - u.y) * (1.0 + v.z) - v.z;
-    float s = sqrt(max(1.0 - z * z, 0.0));
+    float one_minus_z = u.y * (1.0 + v.z);
+    float z = 1.0 - one_minus_z;
+    float s = sqrt(max(one_minus_z * (2.0 - one_minus_z), 0.0));
     vec3 c = vec3(s * cos(phi), s * sin(phi), z);
     return unstretch(c + v, ax, ay);
 }

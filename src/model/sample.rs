@@ -203,13 +203,15 @@ fn unstretch(h: DVec3, ax: f64, ay: f64) -> DVec3 {
 /// Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps" (HPG), §3: in the
 /// stretched configuration the visible normals are v + c/|v + c| for c uniform on the spherical
 /// cap {c : |c| = 1, c.z ≥ −v.z}, v = ωo stretched; so z = u₂' (1 + v.z) − v.z with
-/// u₂' = 1 − u₂ uniform on [−v.z, 1] and φ = 2π u₁. The default GGX sampler (fewer operations
+/// u₂' = 1 − u₂ uniform on [−v.z, 1] and φ = 2π u₁. Taken as 1 − z = u₂ (1 + v.z) and
+/// sin² = (1 − z)(1 + z): near the pole (u₂ → 0) 1 − z² would cancel, which the f32 twin feels. The default GGX sampler (fewer operations
 /// than [`sample_ggx_vndf_hemisphere`], the same density, both tested).
 pub fn sample_ggx_vndf(wo: DVec3, ax: f64, ay: f64, u: DVec2) -> DVec3 {
     let v = stretch(wo, ax, ay);
     let phi = 2.0 * PI * u.x;
-    let z = (1.0 - u.y) * (1.0 + v.z) - v.z;
-    let s = (1.0 - z * z).max(0.0).sqrt();
+    let one_minus_z = u.y * (1.0 + v.z);
+    let z = 1.0 - one_minus_z;
+    let s = (one_minus_z * (2.0 - one_minus_z)).max(0.0).sqrt();
     let c = DVec3::new(s * phi.cos(), s * phi.sin(), z);
     unstretch(c + v, ax, ay)
 }
