@@ -1,5 +1,6 @@
-// Counter-based random numbers; twin of src/random.rs. Draw i of a run is a pure function of
-// (seed, i, group), so the GPU draws the same numbers as the CPU in any order or chunking.
+// Counter-based random numbers; twin of src/random.rs. The numbers of draw i depend only on the
+// stream's seed (`lobe chi2 --seed`), i and the group (one per view direction), so the GPU draws
+// the same numbers as the CPU in any order or chunking.
 #ifndef LOBE_RANDOM_GLSL
 #define LOBE_RANDOM_GLSL
 
@@ -21,7 +22,7 @@ uvec4 pcg4d(uvec4 v) {
 }
 
 // The hash's input: the index as two 32-bit words (low, high), GLSL having no 64-bit integers
-// without an extension, then the seed and the group of four dimensions.
+// without an extension, then the stream's seed and the group of four dimensions.
 uvec4 random_words(uint seed, uint index_lo, uint index_hi, uint group) {
     return uvec4(index_lo, index_hi, seed, group);
 }
