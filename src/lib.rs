@@ -47,6 +47,7 @@ pub mod grid;
 pub mod input;
 pub mod integrate;
 pub mod interrupt;
+pub mod light;
 pub mod loss;
 pub mod lut;
 pub mod material;

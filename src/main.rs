@@ -44,6 +44,10 @@ enum Command {
     /// A labelled contact sheet (rows materials, columns models) of shaded spheres or the lab's
     /// icosahedron under the lab's four lights: PNG (sRGB) and EXR (linear radiance).
     Preview(cli::preview::PreviewArgs),
+    /// The unit sphere seen from +z under an environment map (built-in or a lat-long EXR or
+    /// .hdr file), f cos L summed exactly over every texel for every pixel: EXR (linear
+    /// radiance), PNG (sRGB) and JSON (the settings).
+    Light(cli::light::LightArgs),
     /// Sweep every model over the edges of its domain (extreme parameters, grazing, mirror and
     /// opposite directions) on both backends (--backend cpu: the CPU reference alone); count NaN,
     /// Inf and negative values and report the largest GPU-vs-CPU error. Exits non-zero if any
@@ -171,6 +175,7 @@ fn main() {
         Command::Bench(a) => cli::bench::run(a),
         Command::Tradeoff(a) => cli::tradeoff::run(a),
         Command::Preview(a) => cli::preview::run(a),
+        Command::Light(a) => cli::light::run(a),
         Command::Stability(a) => cli::stability::run(a),
         Command::Run(a) => cli::run::run(a),
         Command::Albedo(a) => cli::albedo::run(a),

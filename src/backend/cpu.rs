@@ -2,6 +2,7 @@
 //! evaluate every cell, reciprocal ones too ([`Backend::makes_upper_triangle`] is false): the
 //! reference makes each cell from its own directions.
 
+use super::light::{SpherePixel, WeightedTexels};
 use super::scene::Scene;
 use super::shade::render_cells_cpu;
 use super::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
@@ -153,6 +154,30 @@ impl Backend for CpuBackend {
         rules
             .iter()
             .map(|&rule| sum_rule_rows(model.name(), &refs, rule, wo, cancel))
+            .collect()
+    }
+
+    fn light(
+        &self,
+        query: Query,
+        texels: &WeightedTexels,
+        pixels: &[SpherePixel],
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<[f64; 3]>> {
+        let refs = self.references(&Query {
+            sets: &query.sets[..query.sets.len().min(1)],
+            ..query
+        })?;
+        let Some(r) = refs.first() else {
+            return Ok(Vec::new());
+        };
+        // Ctrl-C: one pixel's sum at most runs on past the token.
+        pixels
+            .par_iter()
+            .map(|p| {
+                check(cancel)?;
+                Ok(texels.light_pixel(p, |wi, wo| r.eval(wi, wo)).to_array())
+            })
             .collect()
     }
 

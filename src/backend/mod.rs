@@ -6,6 +6,7 @@
 //! and rules as node lists, and results as f64.
 
 mod cpu;
+pub mod light;
 mod mirror;
 mod quadrants;
 pub mod scene;
@@ -234,6 +235,17 @@ pub trait Backend: Send + Sync {
         count: usize,
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<DrawRecord>>;
+
+    /// The radiance toward the camera of each of `pixels` of the sphere lit by `texels`, for the
+    /// query's first set: per pixel Σ f(ωi, ωo) cos θi L ΔΩ over the texels above its horizon
+    /// (docs/design.md §15), in the order of `pixels`. Stops between chunks once `cancel` is set.
+    fn light(
+        &self,
+        query: Query,
+        texels: &light::WeightedTexels,
+        pixels: &[light::SpherePixel],
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<[f64; 3]>>;
 
     /// The radiance of every pixel of one cell per parameter set of `query` (cell k shaded with
     /// set k), in the order (cell, row from the top, column).

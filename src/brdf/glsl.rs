@@ -41,6 +41,7 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("albedo", include_str!("../../glsl/kernels/albedo.comp")),
     ("preview", include_str!("../../glsl/kernels/preview.comp")),
     ("sample", include_str!("../../glsl/kernels/sample.comp")),
+    ("light", include_str!("../../glsl/kernels/light.comp")),
 ];
 
 /// The files the kernels include (besides the generated `model.glsl`).

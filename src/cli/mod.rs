@@ -11,6 +11,7 @@ pub mod energy;
 pub mod eval;
 pub mod explore;
 pub mod fit;
+pub mod light;
 pub mod models;
 pub mod plot;
 pub mod preview;

@@ -3,6 +3,7 @@
 
 use super::pipeline::Kernel;
 use super::{Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
+use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::backend::scene::Scene;
 use crate::backend::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
 use crate::interrupt::CancelToken;
@@ -204,6 +205,30 @@ impl Backend for Gpu {
         };
         let blocks = blocks(query.sets);
         super::sums::sum_rules(self, model, &blocks, query.white_furnace, rules, wo, cancel)
+    }
+
+    fn light(
+        &self,
+        query: Query,
+        texels: &WeightedTexels,
+        pixels: &[SpherePixel],
+        cancel: Option<&CancelToken>,
+    ) -> Result<Vec<[f64; 3]>> {
+        let Some(params) = query.sets.first() else {
+            return Ok(Vec::new());
+        };
+        let model = params.model();
+        if model.spirv(Kernel::Light.name()).is_none() {
+            anyhow::bail!(
+                "model {} has no light kernel (a model defined at run time is given its kernels \
+                 one by one); light it on the CPU backend",
+                model.name()
+            );
+        }
+        let block = Brdf::new(params).gpu_block();
+        let out =
+            self.light_pixels(model, &block, texels, pixels, query.white_furnace, cancel)?;
+        Ok(out.iter().map(|v| v.map(f64::from)).collect())
     }
 
     fn preview(&self, query: Query, scene: &Scene) -> Result<Vec<[f32; 3]>> {

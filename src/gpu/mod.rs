@@ -8,6 +8,7 @@ pub mod buffer;
 pub mod device;
 mod draws;
 pub mod error;
+mod light;
 pub mod pipeline;
 pub mod preview;
 pub mod spirv;

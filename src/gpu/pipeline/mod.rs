@@ -34,6 +34,10 @@ pub enum Kernel {
     /// Draws of the model's sampler for one ωo (bindings 0 params, 1 the request, 3 out); see
     /// glsl/kernels/sample.comp and [`crate::gpu::Gpu::sample_draws`].
     Sample,
+    /// `lobe light`'s exact sum: one lit sphere pixel per evaluation, summed over every texel of
+    /// an environment map (bindings 0 params, 1 pixels, 2 texels, 3 out); see
+    /// glsl/kernels/light.comp and src/gpu/light.rs.
+    Light,
 }
 
 impl Kernel {
@@ -45,6 +49,7 @@ impl Kernel {
             Kernel::Preview => "preview",
             Kernel::Albedo => "albedo",
             Kernel::Sample => "sample",
+            Kernel::Light => "light",
         }
     }
 
@@ -56,7 +61,7 @@ impl Kernel {
             // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
             Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T), (6, S)],
             Kernel::Pairs | Kernel::Sample => &[(0, S), (1, S), (3, S)],
-            Kernel::Preview => &[(0, S), (1, S), (2, S), (3, S)],
+            Kernel::Preview | Kernel::Light => &[(0, S), (1, S), (2, S), (3, S)],
             // 4: the nodes again, as a texel buffer (TEXEL_NODES).
             Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
         }
@@ -66,7 +71,11 @@ impl Kernel {
     pub(crate) fn cleared(self) -> &'static [u32] {
         match self {
             Kernel::Table => &[6],
-            Kernel::Pairs | Kernel::Preview | Kernel::Albedo | Kernel::Sample => &[],
+            Kernel::Pairs
+            | Kernel::Preview
+            | Kernel::Albedo
+            | Kernel::Sample
+            | Kernel::Light => &[],
         }
     }
 }

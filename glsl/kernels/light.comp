@@ -1,0 +1,58 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// `lobe light`'s exact sum (docs/design.md §15): one pixel of the lit sphere per evaluation, the
+// radiance toward the camera as the sum over every texel of the environment map of
+// f(wi, wo) cos(theta_i) L dOmega, texels below the pixel's horizon skipped. Twin of
+// `WeightedTexels::light_pixel` (src/backend/light.rs): the host makes each pixel's frame and
+// each texel's direction and L dOmega in f64 and hands them over rounded to f32, so the kernel
+// only rotates, evaluates and sums.
+//
+// f32 accumulation: each map row is summed on its own, then the rows' sums are added, so a
+// term meets at most (width + height) additions instead of width * height (a rounding error
+// bound of about (W + H) 2^-24 relative to the sum of |terms| rather than W H 2^-24).
+#include "kernels/eval.glsl"
+
+struct Pixel {
+    vec4 t;  // tangent (world), w = wo.x
+    vec4 b;  // bitangent (world), w = wo.y
+    vec4 n;  // normal (world), w = wo.z
+};
+
+struct Texel {
+    vec4 direction;  // the texel centre's world direction, w unused
+    vec4 weight;     // rgb: radiance times the texel's solid angle, w unused
+};
+
+layout(std430, set = 0, binding = 1) readonly buffer Pixels {
+    uvec4 map;  // texels per row, rows, unused, unused
+    Pixel pixels[];
+};
+layout(std430, set = 0, binding = 2) readonly buffer Texels { Texel texels[]; };
+
+vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
+    vec3 wo = vec3(px.t.w, px.b.w, px.n.w);
+    vec3 total = vec3(0.0);
+    uint k = 0u;
+    for (uint row = 0u; row < map.y; ++row) {
+        vec3 sum = vec3(0.0);
+        for (uint col = 0u; col < map.x; ++col, ++k) {
+            vec3 d = texels[k].direction.xyz;
+            vec3 wi = vec3(dot(d, px.t.xyz), dot(d, px.b.xyz), dot(d, px.n.xyz));
+            if (wi.z > 0.0) {
+                sum += brdf(p, wi, wo) * wi.z * texels[k].weight.rgb;
+            }
+        }
+        total += sum;
+    }
+    return total;
+}
+
+void main() {
+    MODEL_PARAMS p = params[0];
+    uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
+    for (uint k = 0u; k < EVALS_PER_INVOCATION; ++k) {
+        uint local_index = base + k;
+        if (local_index >= chunk.count) return;
+        store(local_index, light_pixel(p, pixels[chunk.first + local_index]));
+    }
+}

@@ -1,0 +1,183 @@
+//! Environment light: the unit sphere seen from +z, lit only by a lat-long environment map, its
+//! radiance toward the camera summed exactly over every texel for every pixel (docs/design.md
+//! §15). The geometry both backends share (pixel frames, texel directions and solid angles) is in
+//! [`crate::backend::light`]; this job reads the maps ([`maps`]), runs the sum in bands of rows
+//! on the evaluator's backend, and writes the output set ([`files`]).
+
+pub mod files;
+pub mod maps;
+
+use crate::backend::light::{sphere_pixels, EnvMap};
+use crate::backend::Query;
+use crate::eval::Evaluator;
+use crate::input::BadInput;
+use crate::model::ParamSet;
+use anyhow::Result;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub use crate::backend::light::{MAX_MAP_SIDE, MAX_MAP_TEXELS};
+
+/// The default image size (pixels per side).
+pub const DEFAULT_SIZE: u32 = 256;
+
+/// The largest image side: 4096² pixels of a 256 × 128 map is already 4 × 10^11 evaluations.
+pub const MAX_SIZE: u32 = 4096;
+
+/// Texel evaluations per band of rows handed to the backend at once: a band is one step of the
+/// progress and the unit Ctrl-C waits for (about a second on lavapipe's two cores).
+const EVALS_PER_BAND: u64 = 1 << 27;
+
+/// The lit sphere: `size` × `size` pixels of linear RGB radiance, row 0 at +y, 0 outside the
+/// sphere.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightImage {
+    /// Pixels per side.
+    pub size: u32,
+    /// Row-major RGB radiance.
+    pub pixels: Vec<[f64; 3]>,
+}
+
+impl LightImage {
+    /// The pixel at (row, column).
+    pub fn at(&self, row: u32, col: u32) -> [f64; 3] {
+        self.pixels[(row * self.size + col) as usize]
+    }
+}
+
+/// Refuses an image size outside [1, [`MAX_SIZE`]].
+pub fn check_image_size(size: u32) -> Result<(), BadInput> {
+    if !(1..=MAX_SIZE).contains(&size) {
+        return Err(BadInput::new(
+            "size",
+            format!("size {size}: the image is 1 to {MAX_SIZE} pixels per side"),
+        ));
+    }
+    Ok(())
+}
+
+/// The exact sum (docs/design.md §15.2) of `params` under `map` on the evaluator's backend, in
+/// bands of rows; `progress` gets (rows done, rows). A NaN, ±Inf or negative pixel (a model's
+/// f that is not a BRDF) is refused, naming the first.
+pub fn exact(
+    eval: &Evaluator,
+    params: &ParamSet,
+    map: &EnvMap,
+    size: u32,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<LightImage> {
+    check_image_size(size)?;
+    eval.supports(params.model())?;
+    let texels = map.weighted_texels();
+    let per_row = size as u64 * texels.terms.len() as u64;
+    let band = (EVALS_PER_BAND / per_row.max(1)).clamp(1, size as u64) as u32;
+    let mut pixels = vec![[0.0f64; 3]; size as usize * size as usize];
+    let mut row = 0u32;
+    progress(0, size as u64);
+    while row < size {
+        eval.check_cancelled()?;
+        let end = (row + band).min(size);
+        let band_pixels = sphere_pixels(size, row..end);
+        let values = eval.backend().light(
+            Query::one(params),
+            &texels,
+            &band_pixels,
+            eval.cancel_token(),
+        )?;
+        for (p, v) in band_pixels.iter().zip(values) {
+            if v.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                anyhow::bail!(
+                    "model {} lit pixel (row {}, column {}) with {v:?}: f must be finite and >= 0",
+                    params.model().name(),
+                    p.row,
+                    p.col
+                );
+            }
+            pixels[(p.row * size + p.col) as usize] = v;
+        }
+        row = end;
+        progress(row as u64, size as u64);
+    }
+    Ok(LightImage { size, pixels })
+}
+
+/// What [`write`] made: where, on what, in how long.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightSummary {
+    /// The EXR, the PNG and the JSON.
+    pub paths: [PathBuf; 3],
+    /// The backend, as the evaluator names it.
+    pub backend: String,
+    /// Seconds the sum took (reading the map and writing the files not included).
+    pub seconds: f64,
+    /// Pixels that see the sphere.
+    pub lit_pixels: usize,
+}
+
+/// The tone map of the PNG, as the JSON states it.
+pub const TONE_MAP: &str =
+    "each channel L * 2^exposure clipped to [0, 1], then the sRGB transfer function (IEC 61966-2-1), 8 bits";
+
+/// [`exact`], written as `exr_path`, its PNG at `exposure` stops and its JSON
+/// ([`files`]): the destinations are checked before the sum, and the three files replace what
+/// was there together or not at all. `env` names the map in the JSON and the EXR header.
+#[allow(clippy::too_many_arguments)]
+pub fn write(
+    eval: &Evaluator,
+    params: &ParamSet,
+    map: &EnvMap,
+    env: &str,
+    size: u32,
+    exposure: f64,
+    exr_path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<LightSummary> {
+    if !exposure.is_finite() {
+        return Err(BadInput::new(
+            "exposure",
+            format!("exposure {exposure}: expected a finite number of stops"),
+        )
+        .into());
+    }
+    check_image_size(size)?;
+    let set = files::create(exr_path)?;
+    let started = Instant::now();
+    let image = exact(eval, params, map, size, progress)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let backend = eval.name();
+    let model = params.model().name().to_string();
+    let settings = json!({
+        "kind": "light",
+        "model": model,
+        "parameters": params.to_json(),
+        "env": env,
+        "map": { "width": map.width(), "height": map.height() },
+        "size": size,
+        "method": "exact",
+        "exposure": exposure,
+        "tone_map": TONE_MAP,
+        "view": "unit sphere seen from +z by an orthographic camera over [-1, 1]^2, row 0 at +y, column 0 at -x; 0 outside the sphere",
+        "map_convention": "lat-long as Mitsuba 3's envmap: +y up, u = atan2(x, -z) / 2pi mod 1, v = acos(y) / pi; radiance constant over each texel",
+        "units": "linear RGB radiance toward the camera",
+        "backend": backend,
+        "seconds": seconds,
+    });
+    let attributes = [
+        ("lobe.kind", "light".to_string()),
+        ("lobe.model", model),
+        ("lobe.parameters", params.to_json().to_string()),
+        ("lobe.env", env.to_string()),
+        ("lobe.method", "exact".to_string()),
+        ("lobe.units", "linear RGB radiance toward the camera; 0 outside the sphere".to_string()),
+        ("lobe.backend", backend.clone()),
+    ];
+    let lit_pixels = sphere_pixels(size, 0..size).len();
+    files::write(set, &image, &attributes, exposure, &settings)?;
+    Ok(LightSummary {
+        paths: files::paths(exr_path)?,
+        backend,
+        seconds,
+        lit_pixels,
+    })
+}

@@ -1,0 +1,61 @@
+//! Environment light: the sphere lit by a lat-long map, summed exactly over its texels.
+
+use super::Session;
+use crate::error::{IntoLobe, Result};
+use crate::light::{self, LightImage, LightSummary};
+use crate::model::ParamSet;
+use std::path::Path;
+
+pub use crate::backend::light::EnvMap;
+
+impl Session {
+    /// The `size` × `size` sphere of `params` lit by `map` (docs/design.md §15), the exact sum
+    /// over every texel for every pixel; `progress` gets (rows done, rows).
+    ///
+    /// ```
+    /// use lobe::light::maps::Builtin;
+    /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
+    /// let map = lobe::light::maps::procedural_map(16, 8, |_| lobe::glam::DVec3::ONE)?;
+    /// let image = lobe::Session::cpu().light(&lambert, &map, 8, &mut |_, _| {})?;
+    /// // A constant map of radiance 1 lights a Lambert sphere to its albedo.
+    /// assert!((image.at(4, 4)[0] - 0.5).abs() < 1e-2);
+    /// assert_eq!(image.at(0, 0), [0.0; 3]); // outside the sphere
+    /// # let _ = Builtin::Sky;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn light(
+        &self,
+        params: &ParamSet,
+        map: &EnvMap,
+        size: u32,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<LightImage> {
+        light::exact(&self.evaluator(), params, map, size, progress).lobe()
+    }
+
+    /// [`Session::light`] written as `exr_path` with its PNG at `exposure` stops and its JSON,
+    /// all three or none, as `lobe light` does; `env` names the map in the files.
+    #[allow(clippy::too_many_arguments)]
+    pub fn write_light(
+        &self,
+        params: &ParamSet,
+        map: &EnvMap,
+        env: &str,
+        size: u32,
+        exposure: f64,
+        exr_path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<LightSummary> {
+        light::write(
+            &self.evaluator(),
+            params,
+            map,
+            env,
+            size,
+            exposure,
+            exr_path,
+            progress,
+        )
+        .lobe()
+    }
+}
