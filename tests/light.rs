@@ -297,6 +297,37 @@ fn the_gpu_sum_matches_the_cpu_reference() {
     });
 }
 
+/// The same at full size: a 70² sphere under the built-in sky (256 × 128 texels) is summed in two
+/// bands of rows by the job and in chunks of 2048 pixels by the GPU runner, so every seam
+/// between bands and chunks is crossed (an earlier kernel that made four pixels per invocation
+/// went wrong only there, on large maps).
+#[test]
+fn the_gpu_sum_matches_the_cpu_reference_across_bands_and_chunks() {
+    let map = Builtin::Sky.map();
+    let models = [
+        ParamSet::for_model("lambert").unwrap(),
+        spec("microfacet", &["distribution=ggx", "alpha=0.3"]),
+    ];
+    common::on_gpu("the_gpu_sum_matches_the_cpu_reference_across_bands_and_chunks", false, |gpu| {
+        for p in &models {
+            let size = 70;
+            let cpu = lobe::light::exact(&Evaluator::on(&CpuBackend), p, &map, size, &mut |_, _| {}).unwrap();
+            let dev = lobe::light::exact(&Evaluator::on(gpu), p, &map, size, &mut |_, _| {}).unwrap();
+            let peak = cpu.pixels.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
+            for (k, (c, g)) in cpu.pixels.iter().zip(&dev.pixels).enumerate() {
+                let d = (0..3).map(|ch| (c[ch] - g[ch]).abs()).fold(0.0, f64::max) / peak;
+                assert!(
+                    d <= GPU_RTOL_OF_PEAK,
+                    "{} under sky, pixel ({}, {}) of {size}²: cpu {c:?} gpu {g:?}, {d:e} of the peak {peak}",
+                    p.model().name(),
+                    k as u32 / size,
+                    k as u32 % size
+                );
+            }
+        }
+    });
+}
+
 /// Writes an RGB float EXR of `w` × `h` texels from `f(column, row)`.
 fn write_exr(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> (f32, f32, f32) + Sync) {
     exr::prelude::write_rgb_file(path, w, h, |x, y| f(x, y)).unwrap();
@@ -407,3 +438,4 @@ fn the_command_refuses_bad_requests_and_writes_nothing() {
         assert_eq!(files.len(), 1, "{args:?} left {files:?}");
     }
 }
+

@@ -47,12 +47,10 @@ vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
     return total;
 }
 
+// One pixel per invocation (the runner sets EVALS_PER_INVOCATION to 1 for this kernel: the loop
+// over every texel is work enough to carry an invocation's overhead).
 void main() {
-    MODEL_PARAMS p = params[0];
-    uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
-    for (uint k = 0u; k < EVALS_PER_INVOCATION; ++k) {
-        uint local_index = base + k;
-        if (local_index >= chunk.count) return;
-        store(local_index, light_pixel(p, pixels[chunk.first + local_index]));
-    }
+    uint local_index = gl_GlobalInvocationID.x;
+    if (local_index >= chunk.count) return;
+    store(local_index, light_pixel(params[0], pixels[chunk.first + local_index]));
 }

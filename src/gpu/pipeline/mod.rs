@@ -273,6 +273,10 @@ impl Pipeline {
                     "a table pipeline's walk names its evaluations"
                 );
                 walk.evals
+            } else if kernel == Kernel::Light {
+                // One pixel per invocation: its loop over every texel of the map is work
+                // enough to carry the invocation's overhead.
+                1
             } else {
                 evals_per_invocation(dev.cpu_kernels())
             },
