@@ -295,6 +295,19 @@ class Session:
         table's ``.npy``. ``loss``: "log" (cosine-weighted log error) or "l2" (relative L2).
         A key both given a value and set free is refused (ValueError naming ``free``)."""
 
+    def light(self, model: ModelSpec, env: Union[str, os.PathLike, npt.ArrayLike], size: int = 256,
+              params: Optional[Params] = None, material: Optional[str] = None,
+              method: str = "exact") -> np.ndarray:
+        """The unit sphere seen from +z under an environment map, as ``lobe light`` computes it:
+        a (size, size, 3) float64 array of linear radiance toward the camera, row 0 at +y,
+        column 0 at -x, 0 outside the sphere; each pixel the sum of f cos(theta_i) L dOmega over
+        every texel of the map above its horizon. ``env``: "sky", "studio", "constant", the path
+        of a lat-long OpenEXR or Radiance .hdr file (Mitsuba's envmap layout: +y up,
+        u = atan2(x, -z) / 2pi, v = acos(y) / pi), or an (H, W, 3) array of radiance in that
+        layout (row 0 at +y; finite and >= 0). ``method``: "exact" (the only one so far). A bad
+        map raises ValueError naming the first bad texel or what is wrong with the file; a
+        missing file, FileNotFoundError."""
+
     def compare(self, a: ModelSpec, b: ModelSpec, params_a: Optional[Params] = None,
                 params_b: Optional[Params] = None, grid: Optional[str] = None,
                 res: Optional[Sequence[int]] = None, mu: npt.ArrayLike = (0.1, 0.5, 1.0),

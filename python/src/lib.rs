@@ -7,6 +7,7 @@ mod compare;
 mod errors;
 mod fit;
 mod job;
+mod light;
 mod luts;
 mod model;
 mod plot;
@@ -306,6 +307,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(luts::engine_lut, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(chi2::chi2, m)?)?;
+    m.add_function(wrap_pyfunction!(light::light, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(plot::plot, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;
