@@ -63,27 +63,31 @@ fn a_constant_map_lights_a_lambert_sphere_to_its_albedo() {
         .unwrap();
     let l = 2.5;
     let map = constant_map(MAP_W, MAP_H, l);
-    on_both("a_constant_map_lights_a_lambert_sphere_to_its_albedo", |b, name| {
-        let image = lobe::light::exact(&Evaluator::on(b), &p, &map, SIZE, &mut |_, _| {}).unwrap();
-        let want = 0.6 * l;
-        let mut worst = 0.0f64;
-        for row in 0..SIZE {
-            for col in 0..SIZE {
-                let v = image.at(row, col);
-                if sphere_pixel(SIZE, row, col).is_none() {
-                    assert_eq!(v, [0.0; 3], "{name}: ({row}, {col}) is outside the sphere");
-                    continue;
-                }
-                for c in v {
-                    worst = worst.max((c - want).abs() / want);
+    on_both(
+        "a_constant_map_lights_a_lambert_sphere_to_its_albedo",
+        |b, name| {
+            let image =
+                lobe::light::exact(&Evaluator::on(b), &p, &map, SIZE, &mut |_, _| {}).unwrap();
+            let want = 0.6 * l;
+            let mut worst = 0.0f64;
+            for row in 0..SIZE {
+                for col in 0..SIZE {
+                    let v = image.at(row, col);
+                    if sphere_pixel(SIZE, row, col).is_none() {
+                        assert_eq!(v, [0.0; 3], "{name}: ({row}, {col}) is outside the sphere");
+                        continue;
+                    }
+                    for c in v {
+                        worst = worst.max((c - want).abs() / want);
+                    }
                 }
             }
-        }
-        assert!(
+            assert!(
             worst <= CONSTANT_MAP_RTOL,
             "{name}: a Lambert sphere (albedo 0.6) under L = {l}: largest relative error {worst:e} > {CONSTANT_MAP_RTOL:e}"
         );
-    });
+        },
+    );
 }
 
 /// For a GGX lobe of α = 0.5 on a 128 × 64 map (2.8° texels, a tenth of the lobe's width) the
@@ -96,7 +100,10 @@ const GGX_ALBEDO_RTOL: f64 = 1e-3;
 /// reference E is lobe's adaptive f64 integral (integrate::reference_albedo), not a texel sum.
 #[test]
 fn a_ggx_conductor_with_f_1_shows_its_directional_albedo() {
-    let p = spec("microfacet", &["distribution=ggx", "fresnel=none", "alpha=0.5"]);
+    let p = spec(
+        "microfacet",
+        &["distribution=ggx", "fresnel=none", "alpha=0.5"],
+    );
     let map = constant_map(128, 64, 1.0);
     let r = Reference::new(&p, false);
     let pixels: Vec<SpherePixel> = sphere_pixels(SIZE, 0..SIZE)
@@ -108,11 +115,13 @@ fn a_ggx_conductor_with_f_1_shows_its_directional_albedo() {
         .map(|q| lobe::integrate::reference_albedo(&r, q.wo(), 1e-6).value.x)
         .collect();
     let texels = map.weighted_texels();
-    on_both("a_ggx_conductor_with_f_1_shows_its_directional_albedo", |b, name| {
-        let got = b.light(Query::one(&p), &texels, &pixels, None).unwrap();
-        for ((q, g), e) in pixels.iter().zip(&got).zip(&want) {
-            let rel = (g[0] - e).abs() / e;
-            assert!(
+    on_both(
+        "a_ggx_conductor_with_f_1_shows_its_directional_albedo",
+        |b, name| {
+            let got = b.light(Query::one(&p), &texels, &pixels, None).unwrap();
+            for ((q, g), e) in pixels.iter().zip(&got).zip(&want) {
+                let rel = (g[0] - e).abs() / e;
+                assert!(
                 rel <= GGX_ALBEDO_RTOL,
                 "{name}: GGX alpha 0.5, F = 1 at pixel ({}, {}), mu_o = {:.4}: light {} vs E = {e} (relative {rel:e} > {GGX_ALBEDO_RTOL:e})",
                 q.row,
@@ -120,8 +129,9 @@ fn a_ggx_conductor_with_f_1_shows_its_directional_albedo() {
                 q.wo().z,
                 g[0]
             );
-        }
-    });
+            }
+        },
+    );
 }
 
 /// A smooth map with no symmetry the sphere could hide an error behind (positive everywhere).
@@ -216,18 +226,26 @@ const QUADRATURE_RTOL: f64 = 1e-3;
 fn the_exact_sum_converges_to_an_independent_integral_at_chosen_pixels() {
     let models = [
         ParamSet::for_model("lambert").unwrap(),
-        spec("microfacet", &["distribution=ggx", "alpha=0.4", "diffuse=0.2"]),
+        spec(
+            "microfacet",
+            &["distribution=ggx", "alpha=0.4", "diffuse=0.2"],
+        ),
     ];
     let size = 33;
     let chosen = [(16, 16), (16, 31), (5, 9), (28, 20)];
-    let coarse = procedural_map(128, 64, smooth_radiance).unwrap().weighted_texels();
-    let fine = procedural_map(256, 128, smooth_radiance).unwrap().weighted_texels();
+    let coarse = procedural_map(128, 64, smooth_radiance)
+        .unwrap()
+        .weighted_texels();
+    let fine = procedural_map(256, 128, smooth_radiance)
+        .unwrap()
+        .weighted_texels();
     for p in &models {
         let r = Reference::new(p, false);
         for &(row, col) in &chosen {
             let q = sphere_pixel(size, row, col).unwrap();
             let want = independent_integral(&r, &q);
-            let sum = |t| DVec3::from_array(CpuBackend.light(Query::one(p), t, &[q], None).unwrap()[0]);
+            let sum =
+                |t| DVec3::from_array(CpuBackend.light(Query::one(p), t, &[q], None).unwrap()[0]);
             let (e_coarse, e_fine) = (
                 ((sum(&coarse) - want) / want).abs().max_element(),
                 ((sum(&fine) - want) / want).abs().max_element(),
@@ -261,19 +279,31 @@ const GPU_RTOL_OF_PEAK: f64 = 2e-5;
 #[test]
 fn the_gpu_sum_matches_the_cpu_reference() {
     let maps = [
-        ("sky", procedural_map(MAP_W, MAP_H, |d| Builtin::Sky.radiance(d)).unwrap()),
-        ("studio", procedural_map(MAP_W, MAP_H, |d| Builtin::Studio.radiance(d)).unwrap()),
+        (
+            "sky",
+            procedural_map(MAP_W, MAP_H, |d| Builtin::Sky.radiance(d)).unwrap(),
+        ),
+        (
+            "studio",
+            procedural_map(MAP_W, MAP_H, |d| Builtin::Studio.radiance(d)).unwrap(),
+        ),
     ];
     let models = [
         ParamSet::for_model("lambert").unwrap(),
         ParamSet::preset("gold", "cook_torrance").unwrap(),
-        spec("microfacet", &["distribution=ggx", "alpha=0.2", "diffuse=0.1"]),
+        spec(
+            "microfacet",
+            &["distribution=ggx", "alpha=0.2", "diffuse=0.1"],
+        ),
     ];
     common::on_gpu("the_gpu_sum_matches_the_cpu_reference", false, |gpu| {
         for (env, map) in &maps {
             for p in &models {
-                let cpu = lobe::light::exact(&Evaluator::on(&CpuBackend), p, map, SIZE, &mut |_, _| {}).unwrap();
-                let dev = lobe::light::exact(&Evaluator::on(gpu), p, map, SIZE, &mut |_, _| {}).unwrap();
+                let cpu =
+                    lobe::light::exact(&Evaluator::on(&CpuBackend), p, map, SIZE, &mut |_, _| {})
+                        .unwrap();
+                let dev =
+                    lobe::light::exact(&Evaluator::on(gpu), p, map, SIZE, &mut |_, _| {}).unwrap();
                 let peak = cpu.pixels.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
                 let (mut worst, mut at) = (0.0f64, 0usize);
                 for (k, (c, g)) in cpu.pixels.iter().zip(&dev.pixels).enumerate() {
@@ -308,24 +338,31 @@ fn the_gpu_sum_matches_the_cpu_reference_across_bands_and_chunks() {
         ParamSet::for_model("lambert").unwrap(),
         spec("microfacet", &["distribution=ggx", "alpha=0.3"]),
     ];
-    common::on_gpu("the_gpu_sum_matches_the_cpu_reference_across_bands_and_chunks", false, |gpu| {
-        for p in &models {
-            let size = 70;
-            let cpu = lobe::light::exact(&Evaluator::on(&CpuBackend), p, &map, size, &mut |_, _| {}).unwrap();
-            let dev = lobe::light::exact(&Evaluator::on(gpu), p, &map, size, &mut |_, _| {}).unwrap();
-            let peak = cpu.pixels.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
-            for (k, (c, g)) in cpu.pixels.iter().zip(&dev.pixels).enumerate() {
-                let d = (0..3).map(|ch| (c[ch] - g[ch]).abs()).fold(0.0, f64::max) / peak;
-                assert!(
+    common::on_gpu(
+        "the_gpu_sum_matches_the_cpu_reference_across_bands_and_chunks",
+        false,
+        |gpu| {
+            for p in &models {
+                let size = 70;
+                let cpu =
+                    lobe::light::exact(&Evaluator::on(&CpuBackend), p, &map, size, &mut |_, _| {})
+                        .unwrap();
+                let dev =
+                    lobe::light::exact(&Evaluator::on(gpu), p, &map, size, &mut |_, _| {}).unwrap();
+                let peak = cpu.pixels.iter().flatten().fold(0.0f64, |a, &b| a.max(b));
+                for (k, (c, g)) in cpu.pixels.iter().zip(&dev.pixels).enumerate() {
+                    let d = (0..3).map(|ch| (c[ch] - g[ch]).abs()).fold(0.0, f64::max) / peak;
+                    assert!(
                     d <= GPU_RTOL_OF_PEAK,
                     "{} under sky, pixel ({}, {}) of {size}²: cpu {c:?} gpu {g:?}, {d:e} of the peak {peak}",
                     p.model().name(),
                     k as u32 / size,
                     k as u32 % size
                 );
+                }
             }
-        }
-    });
+        },
+    );
 }
 
 /// Writes an RGB float EXR of `w` × `h` texels from `f(column, row)`.
@@ -343,15 +380,31 @@ fn bad_maps_are_refused_and_good_ones_read() {
     write_exr(&good, 8, 4, |x, y| (x as f32, y as f32, 1.0));
     let map = read_map(&good).unwrap();
     assert_eq!((map.width(), map.height()), (8, 4));
-    assert_eq!(map.texel(3, 5), [5.0, 3.0, 1.0], "row 3 (toward -y), column 5");
+    assert_eq!(
+        map.texel(3, 5),
+        [5.0, 3.0, 1.0],
+        "row 3 (toward -y), column 5"
+    );
 
     let nan = dir.path().join("nan.exr");
-    write_exr(&nan, 8, 4, |x, y| if (x, y) == (6, 2) { (0.0, f32::NAN, 0.0) } else { (1.0, 1.0, 1.0) });
+    write_exr(&nan, 8, 4, |x, y| {
+        if (x, y) == (6, 2) {
+            (0.0, f32::NAN, 0.0)
+        } else {
+            (1.0, 1.0, 1.0)
+        }
+    });
     let e = format!("{:#}", read_map(&nan).unwrap_err());
     assert!(e.contains("row 2, column 6") && e.contains("finite"), "{e}");
 
     let neg = dir.path().join("neg.exr");
-    write_exr(&neg, 8, 4, |x, _| if x == 1 { (-1.0, 0.0, 0.0) } else { (1.0, 1.0, 1.0) });
+    write_exr(&neg, 8, 4, |x, _| {
+        if x == 1 {
+            (-1.0, 0.0, 0.0)
+        } else {
+            (1.0, 1.0, 1.0)
+        }
+    });
     let e = format!("{:#}", read_map(&neg).unwrap_err());
     assert!(e.contains("row 0, column 1") && e.contains(">= 0"), "{e}");
 
@@ -367,14 +420,22 @@ fn bad_maps_are_refused_and_good_ones_read() {
     assert!(e.contains("is not an environment map"), "{e}");
 
     let big = dir.path().join("big.hdr");
-    std::fs::write(&big, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 12000 +X 24000\n").unwrap();
+    std::fs::write(
+        &big,
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 12000 +X 24000\n",
+    )
+    .unwrap();
     let e = format!("{:#}", read_map(&big).unwrap_err());
     assert!(e.contains("each side must be in [1, 16384]"), "{e}");
 
     let hdr = dir.path().join("m.hdr");
     std::fs::write(&hdr, lobe::light::maps::encode_hdr(&map)).unwrap();
     let back = read_map(&hdr).unwrap();
-    assert_eq!(back.texel(3, 5), [5.0, 3.0, 1.0], "RGBE holds small integers exactly");
+    assert_eq!(
+        back.texel(3, 5),
+        [5.0, 3.0, 1.0],
+        "RGBE holds small integers exactly"
+    );
 }
 
 fn lobe_cli(dir: &Path, args: &[&str]) -> std::process::Output {
@@ -392,15 +453,36 @@ fn the_command_writes_what_the_library_computes() {
     let dir = tempfile::tempdir().unwrap();
     let out = lobe_cli(
         dir.path(),
-        &["light", "--model", "lambert", "--set", "albedo=0.5", "--env", "studio", "--size", "24", "--backend", "cpu", "-o", "lit.exr"],
+        &[
+            "light",
+            "--model",
+            "lambert",
+            "--set",
+            "albedo=0.5",
+            "--env",
+            "studio",
+            "--size",
+            "24",
+            "--backend",
+            "cpu",
+            "-o",
+            "lit.exr",
+        ],
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     for f in ["lit.exr", "lit.png", "lit.json"] {
         assert!(dir.path().join(f).exists(), "{f}");
     }
     let (size, rgb) = lobe::light::files::read_exr(&dir.path().join("lit.exr")).unwrap();
     assert_eq!(size, 24);
-    let p = ParamSet::for_model("lambert").unwrap().with("albedo", 0.5).unwrap();
+    let p = ParamSet::for_model("lambert")
+        .unwrap()
+        .with("albedo", 0.5)
+        .unwrap();
     let lib = lobe::Session::cpu()
         .light(&p, &Builtin::Studio.map(), 24, &mut |_, _| {})
         .unwrap();
@@ -434,8 +516,10 @@ fn the_command_refuses_bad_requests_and_writes_nothing() {
         assert!(!out.status.success(), "{args:?} succeeded");
         assert!(err.contains(want), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
-        let files: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let files: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(files.len(), 1, "{args:?} left {files:?}");
     }
 }
-

@@ -29,11 +29,7 @@ pub fn light<'py>(
             let (h, w) = (a.shape()[0], a.shape()[1]);
             let side = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
             lobe::backend::light::check_size(side(w), side(h)).map_err(|e| invalid("env", e))?;
-            let texels = a
-                .rows()
-                .into_iter()
-                .map(|t| [t[0], t[1], t[2]])
-                .collect();
+            let texels = a.rows().into_iter().map(|t| [t[0], t[1], t[2]]).collect();
             lobe::backend::light::EnvMap::new(w as u32, h as u32, texels)
                 .map_err(|e| invalid("env", e))?
         }

@@ -282,8 +282,14 @@ mod tests {
                 let d = texel_direction(w, h, i, j);
                 let u = (d.x.atan2(-d.z) / (2.0 * PI)).rem_euclid(1.0);
                 let v = d.y.acos() / PI;
-                assert!((u - (j as f64 + 0.5) / w as f64).abs() < 1e-12, "u at {i},{j}");
-                assert!((v - (i as f64 + 0.5) / h as f64).abs() < 1e-12, "v at {i},{j}");
+                assert!(
+                    (u - (j as f64 + 0.5) / w as f64).abs() < 1e-12,
+                    "u at {i},{j}"
+                );
+                assert!(
+                    (v - (i as f64 + 0.5) / h as f64).abs() < 1e-12,
+                    "v at {i},{j}"
+                );
             }
         }
     }
@@ -322,7 +328,9 @@ mod tests {
         t[7] = [-1.0, 0.0, 0.0];
         let e = EnvMap::new(4, 2, t).unwrap_err().to_string();
         assert!(e.contains("row 1, column 2"), "{e}");
-        let e = EnvMap::new(4, 2, vec![[-0.5, 0.0, 0.0]; 8]).unwrap_err().to_string();
+        let e = EnvMap::new(4, 2, vec![[-0.5, 0.0, 0.0]; 8])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("row 0, column 0") && e.contains(">= 0"), "{e}");
         let e = EnvMap::new(0, 2, vec![]).unwrap_err().to_string();
         assert!(e.contains("[1, 16384]"), "{e}");

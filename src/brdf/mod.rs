@@ -1,6 +1,6 @@
 //! BRDF Explorer `.brdf` files ("analytic" BRDFs: parameters and a GLSL function) as models.
 //!
-//! [`load`] reads a file ([`parse()`]), compiles its shader into lobe's five kernels at run time
+//! [`load`] reads a file ([`parse()`]), compiles its shader into lobe's six kernels at run time
 //! ([`mod@glsl`]), and registers the result as a [`RuntimeModel`] named after the file, so that every
 //! job takes it like a built-in model. The parameters become the model's parameter table: a
 //! `float NAME MIN MAX DEFAULT` a scalar in [MIN, MAX], a `bool NAME 0|1` a flag, a

@@ -24,7 +24,12 @@ pub struct LightArgs {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     exposure: f64,
     /// Output EXR (linear radiance); the tone-mapped .png and the .json of settings go beside it.
-    #[arg(short = 'o', long = "output", value_name = "PATH.exr", default_value = "light.exr")]
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH.exr",
+        default_value = "light.exr"
+    )]
     output: PathBuf,
     #[command(flatten)]
     backend: BackendArgs,
@@ -42,7 +47,10 @@ fn flag(option: &str) -> Option<String> {
 
 pub fn run(a: LightArgs) -> Result<()> {
     if !a.exposure.is_finite() {
-        anyhow::bail!("--exposure {}: expected a finite number of stops", a.exposure);
+        anyhow::bail!(
+            "--exposure {}: expected a finite number of stops",
+            a.exposure
+        );
     }
     with_flag(
         lobe::light::check_image_size(a.size).map_err(Into::into),

@@ -226,8 +226,7 @@ impl Backend for Gpu {
             );
         }
         let block = Brdf::new(params).gpu_block();
-        let out =
-            self.light_pixels(model, &block, texels, pixels, query.white_furnace, cancel)?;
+        let out = self.light_pixels(model, &block, texels, pixels, query.white_furnace, cancel)?;
         Ok(out.iter().map(|v| v.map(f64::from)).collect())
     }
 

@@ -85,7 +85,8 @@ impl Gpu {
                 weight: f32x4(w, 0.0),
             })
             .collect();
-        let mut pixel_data: Vec<u8> = bytemuck::bytes_of(&[texels.width, rows as u32, 0, 0]).to_vec();
+        let mut pixel_data: Vec<u8> =
+            bytemuck::bytes_of(&[texels.width, rows as u32, 0, 0]).to_vec();
         for p in pixels {
             let wo = p.wo();
             let gp = GpuLightPixel {

@@ -101,7 +101,10 @@ fn encode_png(image: &LightImage, exposure: f64, out: &Pending) -> Result<()> {
 pub fn read_exr(path: &Path) -> Result<(usize, Vec<[f32; 3]>)> {
     let (w, h, rgb) = crate::preview::read_exr(path)?;
     if w != h {
-        bail!("{}: a light image is square, this is {w} x {h}", path.display());
+        bail!(
+            "{}: a light image is square, this is {w} x {h}",
+            path.display()
+        );
     }
     Ok((w, rgb))
 }

@@ -423,14 +423,25 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = write(dir.path(), "a.png", b"\x89PNG\r\n\x1a\n....");
         let e = format!("{:#}", read_map(&p).unwrap_err());
-        assert!(e.contains("is not an environment map") && e.contains("89 50 4e 47"), "{e}");
-        let p = write(dir.path(), "x.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\0\0\0\0");
+        assert!(
+            e.contains("is not an environment map") && e.contains("89 50 4e 47"),
+            "{e}"
+        );
+        let p = write(
+            dir.path(),
+            "x.hdr",
+            b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\0\0\0\0",
+        );
         let e = format!("{:#}", read_map(&p).unwrap_err());
         assert!(e.contains("xyze"), "{e}");
         let p = write(dir.path(), "f.hdr", b"#?RADIANCE\n\n+Y 1 +X 1\n\0\0\0\0");
         let e = format!("{:#}", read_map(&p).unwrap_err());
         assert!(e.contains("-Y H +X W"), "{e}");
-        let p = write(dir.path(), "big.hdr", b"#?RADIANCE\n\n-Y 100000 +X 100000\n");
+        let p = write(
+            dir.path(),
+            "big.hdr",
+            b"#?RADIANCE\n\n-Y 100000 +X 100000\n",
+        );
         let e = format!("{:#}", read_map(&p).unwrap_err());
         assert!(e.contains("[1, 16384]"), "{e}");
         let p = write(dir.path(), "nohead.hdr", b"#?RADIANCE\nno end");

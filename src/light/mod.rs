@@ -169,7 +169,10 @@ pub fn write(
         ("lobe.parameters", params.to_json().to_string()),
         ("lobe.env", env.to_string()),
         ("lobe.method", "exact".to_string()),
-        ("lobe.units", "linear RGB radiance toward the camera; 0 outside the sphere".to_string()),
+        (
+            "lobe.units",
+            "linear RGB radiance toward the camera; 0 outside the sphere".to_string(),
+        ),
         ("lobe.backend", backend.clone()),
     ];
     let lit_pixels = sphere_pixels(size, 0..size).len();

@@ -71,11 +71,9 @@ impl Kernel {
     pub(crate) fn cleared(self) -> &'static [u32] {
         match self {
             Kernel::Table => &[6],
-            Kernel::Pairs
-            | Kernel::Preview
-            | Kernel::Albedo
-            | Kernel::Sample
-            | Kernel::Light => &[],
+            Kernel::Pairs | Kernel::Preview | Kernel::Albedo | Kernel::Sample | Kernel::Light => {
+                &[]
+            }
         }
     }
 }
