@@ -39,7 +39,7 @@ pub struct LightArgs {
 fn flag(option: &str) -> Option<String> {
     match option {
         "env" => Some("--env".into()),
-        "size" => Some(format!("--size (at most {})", lobe::light::MAX_SIZE)),
+        "size" => Some("--size".into()),
         "exposure" => Some("--exposure".into()),
         _ => None,
     }
@@ -66,6 +66,7 @@ pub fn run(a: LightArgs) -> Result<()> {
     let summary = session
         .write_light(
             &params,
+            a.model.white_furnace,
             &map,
             &a.env,
             a.size,

@@ -58,11 +58,13 @@ pub fn check_image_size(size: u32) -> Result<(), BadInput> {
 }
 
 /// The exact sum (docs/design.md §15.2) of `params` under `map` on the evaluator's backend, in
-/// bands of rows; `progress` gets (rows done, rows). A NaN, ±Inf or negative pixel (a model's
-/// f that is not a BRDF) is refused, naming the first.
+/// bands of rows, every specular Fresnel factor replaced by 1 where `white_furnace`; `progress`
+/// gets (rows done, rows). A NaN, ±Inf or negative pixel (a model's f that is not a BRDF) is
+/// refused, naming the first.
 pub fn exact(
     eval: &Evaluator,
     params: &ParamSet,
+    white_furnace: bool,
     map: &EnvMap,
     size: u32,
     progress: &mut dyn FnMut(u64, u64),
@@ -80,7 +82,7 @@ pub fn exact(
         let end = (row + band).min(size);
         let band_pixels = sphere_pixels(size, row..end);
         let values = eval.backend().light(
-            Query::one(params),
+            Query::one(params).with_white_furnace(white_furnace),
             &texels,
             &band_pixels,
             eval.cancel_token(),
@@ -119,13 +121,14 @@ pub struct LightSummary {
 pub const TONE_MAP: &str =
     "each channel L * 2^exposure clipped to [0, 1], then the sRGB transfer function (IEC 61966-2-1), 8 bits";
 
-/// [`exact`], written as `exr_path`, its PNG at `exposure` stops and its JSON
+/// [`exact`] (with `white_furnace`), written as `exr_path`, its PNG at `exposure` stops and its JSON
 /// ([`files`]): the destinations are checked before the sum, and the three files replace what
 /// was there together or not at all. `env` names the map in the JSON and the EXR header.
 #[allow(clippy::too_many_arguments)]
 pub fn write(
     eval: &Evaluator,
     params: &ParamSet,
+    white_furnace: bool,
     map: &EnvMap,
     env: &str,
     size: u32,
@@ -143,7 +146,7 @@ pub fn write(
     check_image_size(size)?;
     let set = files::create(exr_path)?;
     let started = Instant::now();
-    let image = exact(eval, params, map, size, progress)?;
+    let image = exact(eval, params, white_furnace, map, size, progress)?;
     let seconds = started.elapsed().as_secs_f64();
     let backend = eval.name();
     let model = params.model().name().to_string();
@@ -151,6 +154,7 @@ pub fn write(
         "kind": "light",
         "model": model,
         "parameters": params.to_json(),
+        "white_furnace": white_furnace,
         "env": env,
         "map": { "width": map.width(), "height": map.height() },
         "size": size,
@@ -167,6 +171,7 @@ pub fn write(
         ("lobe.kind", "light".to_string()),
         ("lobe.model", model),
         ("lobe.parameters", params.to_json().to_string()),
+        ("lobe.white_furnace", white_furnace.to_string()),
         ("lobe.env", env.to_string()),
         ("lobe.method", "exact".to_string()),
         (

@@ -30,15 +30,17 @@ impl Session {
         size: u32,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<LightImage> {
-        light::exact(&self.evaluator(), params, map, size, progress).lobe()
+        light::exact(&self.evaluator(), params, false, map, size, progress).lobe()
     }
 
     /// [`Session::light`] written as `exr_path` with its PNG at `exposure` stops and its JSON,
-    /// all three or none, as `lobe light` does; `env` names the map in the files.
+    /// all three or none, as `lobe light` does; `env` names the map in the files; every specular
+    /// Fresnel factor is 1 where `white_furnace` (`--white-furnace`).
     #[allow(clippy::too_many_arguments)]
     pub fn write_light(
         &self,
         params: &ParamSet,
+        white_furnace: bool,
         map: &EnvMap,
         env: &str,
         size: u32,
@@ -49,6 +51,7 @@ impl Session {
         light::write(
             &self.evaluator(),
             params,
+            white_furnace,
             map,
             env,
             size,
