@@ -218,7 +218,8 @@ def fit(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]], mod
         for spec, free in model_list:
             if not spec.lower().endswith(".brdf"):
                 _check_model(spec, free, "cpu", None)
-    with Ledger(out, FIT_COLUMNS, ("target", "model", "free"), "fit", options, resume) as ledger:
+    with _run.Runner(ray) as runner, \
+            Ledger(out, FIT_COLUMNS, ("target", "model", "free"), "fit", options, resume) as ledger:
         pairs = [(t, spec, free) for t in target_list for spec, free in model_list]
         todo = [p for p in pairs if (p[0], p[1], ",".join(p[2])) not in ledger.done]
         summary = Summary(out, len(pairs), len(pairs) - len(todo), 0, notes=list(ledger.notes))
@@ -226,7 +227,7 @@ def fit(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]], mod
         workers = set()
         calls = [(t, spec, free, options) for t, spec, free in todo]
         try:
-            for i, result in _run.results(ray, _work.fit_one, calls):
+            for i, result in runner.results(_work.fit_one, calls):
                 if isinstance(result, BaseException):
                     t, spec, free = todo[i]
                     summary.failed.append((f"{t} x {spec} --free {','.join(free)}", str(result)))
@@ -299,7 +300,7 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
         options.update(param=param, range=None if range is None else [float(v) for v in range],
                        mapping=mapping, method=method, samples=samples)
     # The first point, here and now, checks the model and every option before the batch starts.
-    check = dict(options, res=[min(r, 4) for r in options["res"]], samples=None if kind == "table" else 64)
+    check = dict(options, res=[min(r, 4) for r in options["res"]])
     if ray is None or not model.lower().endswith(".brdf"):
         try:
             _work.sweep_one(0, points[0], check if ray is None else dict(check, backend="cpu", device=None))
@@ -307,12 +308,18 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
             raise BatchError(f"sweep of {model}: {e}") from None
     if os.path.exists(out) and not os.path.isdir(out):
         raise BatchError(f"{out}: is a file; a sweep writes into a folder")
-    os.makedirs(out, exist_ok=True)
     index_path = os.path.join(out, "index.csv")
     stem = "table" if kind == "table" else "albedo-lut"
     suffixes = (".exr", ".npy", ".json") if kind == "table" else (".npz",)
     names = [f"{stem}-{k:05d}" for k in builtins.range(len(points))]
-    with Ledger(index_path, SWEEP_COLUMNS, ("file",), "sweep index", options, resume) as ledger:
+    if os.path.isdir(out) and not os.path.exists(index_path):
+        theirs = sorted(n for n in os.listdir(out) if n.startswith(("table-", "albedo-lut-")))
+        if theirs:
+            raise BatchError(f"{out}: holds {theirs[0]} but no index.csv, so its files are not a "
+                             "sweep's; give a new or empty folder")
+    with _run.Runner(ray) as runner:
+        os.makedirs(out, exist_ok=True)
+        ledger = Ledger(index_path, SWEEP_COLUMNS, ("file",), "sweep index", options, resume)
         todo = [k for k in builtins.range(len(points))
                 if not ((names[k] + suffixes[0],) in ledger.done
                         and all(os.path.isfile(os.path.join(out, names[k] + s)) for s in suffixes))]
@@ -321,7 +328,7 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
         workers = set()
         calls = [(k, points[k], options) for k in todo]
         try:
-            for i, result in _run.results(ray, _work.sweep_one, calls):
+            for i, result in runner.results(_work.sweep_one, calls):
                 k = todo[i]
                 if isinstance(result, BaseException):
                     summary.failed.append((f"{names[k]} {json.dumps(points[k])}", str(result)))
@@ -334,6 +341,7 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
                     workers.add(result["worker"])
                 progress.step(isinstance(result, BaseException))
         finally:
+            ledger.close()
             summary.workers = sorted(workers)
             _finish(summary, started, progress, quiet)
     return summary

@@ -79,13 +79,28 @@ def local(fn: Callable[..., Any], calls: Sequence[Tuple[Any, ...]]) -> Iterator[
             yield i, e
 
 
-def on_ray(address: str, fn: Callable[..., Any],
-           calls: Sequence[Tuple[Any, ...]]) -> Iterator[Tuple[int, Any]]:
-    """Each call of ``fn`` as a Ray task on the cluster at ``address``, as they finish. A task
-    asks for one CPU, and one GPU where the cluster has any (its worker then has a device of
-    its own); Ray runs it again when its worker dies."""
-    ray = connect(address)
-    try:
+class Runner:
+    """Where the pieces run: this process (``ray=None``), or the Ray cluster at ``ray``, joined
+    when the runner is made (so a cluster that does not answer stops the batch before it
+    writes anything) and left by :meth:`close`."""
+
+    def __init__(self, ray: Optional[str]) -> None:
+        self.address = ray
+        self.ray = None if ray is None else connect(ray)
+
+    def results(self, fn: Callable[..., Any],
+                calls: Sequence[Tuple[Any, ...]]) -> Iterator[Tuple[int, Any]]:
+        """Each call of ``fn``, as it finishes: (its index in ``calls``, its result or the
+        exception it raised)."""
+        if self.ray is None:
+            return local(fn, calls)
+        return self._on_ray(fn, calls) if calls else iter(())
+
+    def _on_ray(self, fn: Callable[..., Any],
+                calls: Sequence[Tuple[Any, ...]]) -> Iterator[Tuple[int, Any]]:
+        # A task asks for one CPU, and one GPU where the cluster has any (its worker then has a
+        # device of its own); Ray runs it again when its worker dies.
+        ray = self.ray
         gpus = ray.cluster_resources().get("GPU", 0) > 0
         remote = ray.remote(fn).options(num_cpus=1, num_gpus=1 if gpus else 0,
                                         max_retries=TASK_RETRIES, retry_exceptions=False)
@@ -101,15 +116,17 @@ def on_ray(address: str, fn: Callable[..., Any],
                     yield index[ref], cause if isinstance(cause, Exception) else e
                 except ray.exceptions.RayError as e:
                     yield index[ref], e
-    finally:
-        ray.shutdown()
 
+    def close(self) -> None:
+        if self.ray is not None:
+            self.ray.shutdown()
+            self.ray = None
 
-def results(ray: Optional[str], fn: Callable[..., Any],
-            calls: Sequence[Tuple[Any, ...]]) -> Iterator[Tuple[int, Any]]:
-    if not calls:
-        return iter(())
-    return local(fn, calls) if ray is None else on_ray(ray, fn, calls)
+    def __enter__(self) -> "Runner":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
 
 
 class Progress:
