@@ -117,14 +117,15 @@ def cluster():
             time.sleep(0.5)
         yield address
     finally:
-        # The head node, its raylet, GCS and workers are one process group (start_new_session).
-        for sig in (signal.SIGTERM, signal.SIGKILL):
+        # The head node, its raylet, GCS and workers are one process group (start_new_session):
+        # asked to stop, then killed, so that nothing of the cluster outlives the tests.
+        for sig, wait_s in ((signal.SIGTERM, 3), (signal.SIGKILL, 15)):
             try:
                 os.killpg(head.pid, sig)
             except ProcessLookupError:
                 break
             try:
-                head.wait(timeout=15)
+                head.wait(timeout=wait_s)
             except subprocess.TimeoutExpired:
                 continue
         subprocess.run(["rm", "-rf", folder], check=False)
@@ -339,6 +340,8 @@ def test_a_target_lobe_does_not_read_is_refused(tmp_path):
     empty = tmp_path / "empty"
     empty.mkdir()
     refused(fit_args(out, targets=[str(empty)]), "holds no file lobe reads")
+    refused(fit_args(out, targets=["blinn_phong{shininess=80}"]), "blinn_phong{shininess=80}",
+            "unknown parameter 'shininess'", "smoothness")
     assert not out.exists()
 
 

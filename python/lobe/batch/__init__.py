@@ -70,9 +70,9 @@ def _is_file_target(text: str) -> bool:
 
 
 def expand_targets(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]]) -> List[str]:
-    """The targets one by one: model specs as they are, files checked, folders expanded to the
-    files in them lobe reads (sorted by name). Refuses a missing file, a file lobe does not
-    read and a folder with no targets in it."""
+    """The targets one by one: model specs as they are (checked), files by absolute path, folders
+    expanded to the files in them lobe reads (sorted by name). Refuses a spec that does not
+    resolve, a missing file, a file lobe does not read and a folder with no targets in it."""
     items = [targets] if isinstance(targets, (str, os.PathLike)) else list(targets)
     if not items:
         raise BatchError("targets: none given; give model specs, MERL .binary, .brdf or lobe "
@@ -105,6 +105,11 @@ def expand_targets(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathL
             # By absolute path: a worker of a cluster runs in a folder of its own.
             out.append(os.path.abspath(text))
         else:
+            try:
+                # Resolving the spec (no device needed) checks its name and parameters.
+                lobe.parity_tolerance(text, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
+            except (ValueError, TypeError) as e:
+                raise BatchError(f"targets: {text}: {e}") from None
             out.append(text)
     seen = set()
     return [t for t in out if not (t in seen or seen.add(t))]

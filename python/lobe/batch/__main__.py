@@ -15,8 +15,8 @@ EXAMPLES = """examples:
       --model cook_torrance --free diffuse,specular,roughness --out fits.csv
   python -m lobe.batch fit --targets merl/ --model phong --free diffuse,specular,shininess \\
       --out fits.csv --ray auto
-  python -m lobe.batch sweep --model microfacet --vary alpha=0.05:1:20 --kind albedo-lut \\
-      --param fresnel_f0 --range 0,1 --res 32,32 --out luts/
+  python -m lobe.batch sweep --model microfacet --vary ior=1.2:2:5 --kind albedo-lut \\
+      --param alpha --range 0.05,1 --res 32,32 --out luts/
   python -m lobe.batch report fits.csv -o fits.png
   python -m lobe.batch merge shard-*.csv -o fits.csv
 """

@@ -79,15 +79,26 @@ def colour_map(t: float) -> str:
 
 
 def _short(text: str, chars: int) -> str:
-    return text if len(text) <= chars else "…" + text[-(chars - 1):]
+    return text if len(text) <= chars else text[:chars - 1] + "…"
+
+
+#: The width of a character of the labels, a little over DejaVu Sans's mean advance (0.55 em),
+#: so that a label is never wider than the room it gets.
+CHAR_W = 0.6 * FONT
+#: The longest labels kept whole: a material's (rows), a model's (columns).
+ROW_CHARS, COLUMN_CHARS = 48, 60
 
 
 def svg(m: Matrix) -> Tuple[str, int, int]:
     """The heat map as SVG text, with its width and height: colour by log10 of the loss over
     the table's range, the value in each cell, the best model of each material outlined."""
-    label_w = 8 * min(48, max(len(os.path.basename(x)) for x in m.materials)) + 24
-    top = 150
-    width = label_w + CELL_W * len(m.models) + 20
+    rows = [_short(os.path.basename(x) or x, ROW_CHARS) for x in m.materials]
+    columns = [_short(x, COLUMN_CHARS) for x in m.models]
+    title = "Fit loss per material and model"
+    subtitle = "outlined: the best model of each material; colour: log10 of the loss"
+    label_w = round(CHAR_W * max(len(r) for r in rows)) + 24
+    top = 64 + round(CHAR_W * max(len(c) for c in columns))
+    width = max(label_w + CELL_W * len(m.models) + 20, round(CHAR_W * len(subtitle)) + 40)
     height = top + CELL_H * len(m.materials) + 40
     logs = [math.log10(v) for row in m.loss for v in row if v > 0 and not math.isnan(v)]
     lo, hi = (min(logs), max(logs)) if logs else (0.0, 1.0)
@@ -95,16 +106,15 @@ def svg(m: Matrix) -> Tuple[str, int, int]:
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
            f'viewBox="0 0 {width} {height}" font-family="DejaVu Sans" font-size="{FONT}">',
            f'<rect width="{width}" height="{height}" fill="white"/>',
-           f'<text x="10" y="24" font-size="17" font-weight="bold">Fit loss, material × model '
-           f'(outlined: the best model of each material)</text>']
-    for j, name in enumerate(m.models):
-        x = label_w + CELL_W * j + CELL_W / 2
-        out.append(f'<text transform="translate({x:.1f},{top - 8}) rotate(-30)">'
-                   f'{escape(_short(name, 28))}</text>')
+           f'<text x="10" y="24" font-size="17" font-weight="bold">{title}</text>',
+           f'<text x="10" y="46">{subtitle}</text>']
+    for j, name in enumerate(columns):
+        x = label_w + CELL_W * j + CELL_W / 2 + FONT / 3
+        out.append(f'<text transform="translate({x:.1f},{top - 8}) rotate(-90)">{escape(name)}</text>')
     for i, mat in enumerate(m.materials):
         y = top + CELL_H * i
         out.append(f'<text x="{label_w - 10}" y="{y + CELL_H / 2 + FONT / 3:.1f}" text-anchor="end">'
-                   f'{escape(_short(os.path.basename(mat), 48))}</text>')
+                   f'{escape(rows[i])}</text>')
         b = m.best(i)
         for j, v in enumerate(m.loss[i]):
             x = label_w + CELL_W * j
@@ -123,7 +133,7 @@ def svg(m: Matrix) -> Tuple[str, int, int]:
             x = label_w + CELL_W * b
             out.append(f'<rect x="{x + 2}" y="{y + 2}" width="{CELL_W - 4}" height="{CELL_H - 4}" '
                        'fill="none" stroke="#e8112d" stroke-width="3"/>')
-    out.append(f'<text x="10" y="{height - 14}" font-size="11">colour: log10 of the loss, '
+    out.append(f'<text x="10" y="{height - 14}" font-size="11">log10 of the loss from '
                f'{lo:.3g} (dark) to {hi:.3g} (light)</text>')
     out.append("</svg>")
     return "\n".join(out) + "\n", width, height
