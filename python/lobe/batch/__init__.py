@@ -27,7 +27,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import lobe
 
 from . import _run, _work
-from ._ledger import FIT_COLUMNS, SWEEP_COLUMNS, BatchError, Ledger, read_rows, write_atomic
+from ._ledger import FIT_COLUMNS, SWEEP_COLUMNS, BatchError, Ledger, csv_line, read_rows, write_atomic
 
 __all__ = ["fit", "sweep", "report", "merge", "Summary", "BatchError", "FIT_COLUMNS",
            "SWEEP_COLUMNS", "TARGET_SUFFIXES"]
@@ -373,8 +373,7 @@ def merge(inputs: Sequence[Union[str, os.PathLike]], out: Union[str, os.PathLike
                 raise BatchError(f"merge: {path} was made with the options {row['options']}, "
                                  f"{first} with {options}; only shards of one batch merge")
             rows.setdefault((row["target"], row["model"], row["free"]), row)
-    from ._ledger import _line
-    text = _line(FIT_COLUMNS) + "".join(_line([r[c] for c in FIT_COLUMNS]) for r in rows.values())
+    text = csv_line(FIT_COLUMNS) + "".join(csv_line([r[c] for c in FIT_COLUMNS]) for r in rows.values())
     write_atomic(out, text.encode("utf-8"))
     return len(rows)
 

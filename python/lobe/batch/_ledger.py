@@ -8,7 +8,7 @@ import csv
 import io
 import json
 import os
-from typing import Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Sequence, Tuple
 
 #: The columns of a fit batch's CSV, in order.
 FIT_COLUMNS = ("target", "model", "free", "loss", "params", "seconds", "worker", "options")
@@ -21,7 +21,7 @@ class BatchError(ValueError):
     answer. The message names the input and what is valid."""
 
 
-def _line(fields: Sequence[str]) -> str:
+def csv_line(fields: Sequence[str]) -> str:
     text = io.StringIO()
     csv.writer(text, lineterminator="\n").writerow(fields)
     return text.getvalue()
@@ -46,7 +46,7 @@ def read_rows(path: str, columns: Sequence[str], what: str) -> Tuple[List[Dict[s
     except UnicodeDecodeError:
         raise BatchError(f"{path}: not a lobe.batch {what} CSV (it is not UTF-8 text)") from None
     lines = text.splitlines(keepends=True)
-    header = _line(columns)
+    header = csv_line(columns)
     if not lines or lines[0] != header:
         first = lines[0].rstrip("\n") if lines else data[:80].decode("utf-8", "replace")
         raise BatchError(
@@ -104,7 +104,7 @@ class Ledger:
         except OSError as e:
             raise BatchError(f"{path}: cannot write it: {e.strerror}") from None
         if fresh:
-            self._write(_line(self.columns))
+            self._write(csv_line(self.columns))
             _sync_folder(folder)
 
     def _set_aside(self) -> str:
@@ -127,7 +127,7 @@ class Ledger:
         """Writes ``row`` (every column but ``options``, which the ledger adds) as one line,
         flushed and synced before it returns."""
         full = dict(row, options=self.options)
-        self._write(_line([str(full[c]) for c in self.columns]))
+        self._write(csv_line([str(full[c]) for c in self.columns]))
         self.done[self._key({k: str(v) for k, v in full.items()})] = {k: str(v) for k, v in full.items()}
 
     def close(self) -> None:
@@ -171,7 +171,3 @@ def write_atomic(path: str, data: bytes) -> None:
         raise
     _sync_folder(folder)
 
-
-def rows_of(paths: Iterable[str], columns: Sequence[str], what: str) -> Iterator[Dict[str, str]]:
-    for path in paths:
-        yield from read_rows(path, columns, what)[0]
