@@ -386,3 +386,17 @@ def test_ray_missing_says_how_to_install_it(tmp_path):
     code = ("import sys; sys.modules['ray'] = None; from lobe.batch.__main__ import main; "
             f"sys.exit(main({fit_args(out, extra=['--ray', 'auto'])[3:]!r}))")
     refused([sys.executable, "-c", code], "pip install 'lobe[ray]'")
+
+
+def test_a_sweep_refuses_a_value_out_of_range_and_another_grid_in_its_folder(tmp_path):
+    sweep = [sys.executable, "-m", "lobe.batch", "sweep", "--model", "cook_torrance", "--kind",
+             "table", "--res", "2,2,4"]
+    out = tmp_path / "tables"
+    refused(sweep + ["--vary", "roughness=0.1,2", "--out", str(out)], "roughness = 2.0", "(0, 1]")
+    assert not out.exists()
+    grid = ["--vary", "roughness=0.2,0.4", "--vary", "ior=1.5,2"]
+    assert run(sweep + grid + ["--out", str(out)]).returncode == 0
+    index = (out / "index.csv").read_bytes()
+    # The same values in another order name other points: not resumed.
+    refused(sweep + grid[2:] + grid[:2] + ["--out", str(out)], "options", "--no-resume")
+    assert (out / "index.csv").read_bytes() == index

@@ -295,8 +295,9 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
     options: Dict[str, Any] = {
         "kind": kind, "model": model, "params": {k: (list(v) if isinstance(v, tuple) else v)
                                                  for k, v in shared.items()},
-        "vary": {k: [list(x) if isinstance(x, tuple) else x for x in
-                     ([vary[k]] if isinstance(vary[k], (str, int, float)) else vary[k])] for k in vary},
+        # In the order given (the grid's order, which names the files), not sorted as a dict.
+        "vary": [[k, [list(x) if isinstance(x, tuple) else x for x in
+                      ([vary[k]] if isinstance(vary[k], (str, int, float)) else vary[k])]] for k in vary],
         "res": [int(r) for r in res], "white_furnace": bool(white_furnace),
         "backend": backend, "device": device}
     if kind == "table":
@@ -304,7 +305,16 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
     else:
         options.update(param=param, range=None if range is None else [float(v) for v in range],
                        mapping=mapping, method=method, samples=samples)
-    # The first point, here and now, checks the model and every option before the batch starts.
+    # Each swept value resolved with the shared parameters (no device needed), then the first
+    # point, here and now at a small resolution: the model and every option are checked before
+    # the batch starts.
+    for key, values in options["vary"]:
+        for v in values:
+            try:
+                lobe.parity_tolerance(model, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0],
+                                      params=dict(shared, **{key: v}))
+            except (ValueError, TypeError) as e:
+                raise BatchError(f"vary: {key} = {v!r}: {e}") from None
     check = dict(options, res=[min(r, 4) for r in options["res"]])
     if ray is None or not model.lower().endswith(".brdf"):
         try:
