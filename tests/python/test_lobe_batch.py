@@ -68,6 +68,19 @@ def numbers(rs):
     return {(r["target"], r["model"], r["free"]): (r["loss"], r["params"]) for r in rs}
 
 
+#: How long a worker's CPU time is watched to tell a fitting worker from an idle one: a fit
+#: keeps a core busy (several 10 ms clock ticks in 0.3 s even on a loaded machine), an idle
+#: Ray worker waits on a socket.
+BUSY_WINDOW_S = 0.3
+
+
+def cpu_ticks(pid):
+    """User and system CPU time of process ``pid`` in clock ticks (/proc/PID/stat)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return int(fields[11]) + int(fields[12])
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -170,8 +183,11 @@ def test_a_ray_worker_killed_mid_batch_costs_no_pair(local_rows, cluster, tmp_pa
     try:
         first = wait_rows(out, 1, proc)
         victim = int(first[0]["worker"].rsplit(":", 1)[1])
-        # The worker that finished the first pair has taken the next one: at least ten remain
-        # queued for two workers.
+        # The worker that finished the first pair has taken the next one (ten or more remain
+        # queued for two workers): killed while it is fitting, which its CPU time shows.
+        busy = cpu_ticks(victim)
+        time.sleep(BUSY_WINDOW_S)
+        assert cpu_ticks(victim) > busy, "the worker was idle, not in the middle of a fit"
         assert len(rows(out)) <= len(TARGETS) * len(MODELS) - 4
         os.kill(victim, signal.SIGKILL)
         _, err = proc.communicate(timeout=HANG_S)
