@@ -160,6 +160,11 @@ def _check_model(spec: str, free: Sequence[str], backend: str, device: Optional[
         raise BatchError(f"models: {spec} --free {','.join(free)}: {e}") from None
 
 
+def _backend(backend: str) -> None:
+    if backend not in ("gpu", "cpu"):
+        raise BatchError(f"backend: {backend!r} is not a backend; give 'gpu' or 'cpu'")
+
+
 def _positive(name: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
         raise BatchError(f"{name}: expected a positive integer, got {value!r}")
@@ -207,6 +212,7 @@ def fit(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]], mod
     model_list = _models(models)
     if loss not in ("log", "l2"):
         raise BatchError(f"loss: {loss!r} is not a loss; give 'log' or 'l2'")
+    _backend(backend)
     options = {"loss": loss, "max_bins": _positive("max_bins", max_bins),
                "starts": _positive("starts", starts), "max_iters": _positive("max_iters", max_iters),
                "backend": backend, "device": device}
@@ -217,9 +223,8 @@ def fit(targets: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]], mod
         except lobe.GpuError as e:
             raise BatchError(f"backend {backend}: {e}") from None
     else:
-        # The driver may have no device of its own: the specs are parsed where they run, and
-        # a spec that does not parse fails its pairs with the fit's own message.
-        # A .brdf shader has no f64 twin to check it with on the CPU.
+        # The driver may have no device of its own: the models are checked on the f64 reference.
+        # A .brdf shader has no f64 twin; a bad one fails its pairs with the fit's own message.
         for spec, free in model_list:
             if not spec.lower().endswith(".brdf"):
                 _check_model(spec, free, "cpu", None)
@@ -285,6 +290,7 @@ def sweep(model: str, vary: Mapping[str, Sequence[Any]], out: Union[str, os.Path
         raise BatchError(f"kind: {kind!r} is not a sweep; give 'table' or 'albedo-lut'")
     if not isinstance(model, str) or not model.strip():
         raise BatchError("model: give the model spec to sweep")
+    _backend(backend)
     points = _grid_points(vary)
     shared = dict(params or {})
     clash = sorted(set(shared) & set(vary))
