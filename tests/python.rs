@@ -1,6 +1,7 @@
-//! The Python package as a user gets it: `pip install .` into a fresh virtual environment under
-//! target/ (maturin builds the extension in release, reusing target/), then pytest over
-//! tests/python against the installed package, with this build's `lobe` binary to compare with.
+//! The Python package as a user gets it: `pip install '.[ray]'` into a fresh virtual environment
+//! under target/ (maturin builds the extension in release, reusing target/; Ray comes along for
+//! lobe.batch's cluster tests), then pytest over tests/python against the installed package, with
+//! this build's `lobe` binary to compare with.
 //! `LOBE_PYTHON` names the interpreter (default `python3`).
 
 use std::path::{Path, PathBuf};
@@ -50,14 +51,14 @@ fn the_python_package_installs_into_a_fresh_venv_and_passes_its_suite() {
 
     let started = Instant::now();
     run(
-        "pip install . pytest",
+        "pip install .[ray] pytest",
         Command::new(&venv_python)
-            .args(["-m", "pip", "install", "--quiet", ".", "pytest"])
+            .args(["-m", "pip", "install", "--quiet", ".[ray]", "pytest"])
             .current_dir(root)
             .env("CARGO_TARGET_DIR", &target),
     );
     eprintln!(
-        "python: pip install . into a fresh venv took {:.1} s",
+        "python: pip install '.[ray]' into a fresh venv took {:.1} s",
         started.elapsed().as_secs_f64()
     );
 

@@ -310,6 +310,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(light::light, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(plot::plot, m)?)?;
+    m.add_function(wrap_pyfunction!(plot::rasterise_svg, m)?)?;
     m.add("GpuError", py.get_type::<GpuError>())?;
     m.add("InvalidValuesError", py.get_type::<InvalidValuesError>())?;
     Ok(())

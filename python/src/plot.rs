@@ -93,3 +93,17 @@ pub fn plot(
     })?;
     Ok(plotted.title().to_string())
 }
+
+/// The SVG text `svg` as a PNG of `width` × `height` pixels, rasterised as lobe's own pictures
+/// are (resvg, with the embedded DejaVu Sans): for pictures drawn in Python (`lobe.batch`'s
+/// heat map).
+#[pyfunction]
+pub fn rasterise_svg<'py>(
+    py: Python<'py>,
+    svg: &str,
+    width: u32,
+    height: u32,
+) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+    let png = lobe::plot::rasterise(svg, (width, height)).map_err(|e| from_anyhow("svg", e))?;
+    Ok(pyo3::types::PyBytes::new(py, &png))
+}
