@@ -20,7 +20,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The most draws one request makes: 2²², about 4.2 million. The draws are held in memory
-/// (56 bytes each, 235 MB at the bound, as much again in the file); for more, make several
+/// (57 bytes each, 240 MB at the bound; 64 bytes each in the file); for more, make several
 /// requests with other seeds. `lobe chi2` counts 2³⁰ and more without holding them.
 pub const MAX_DRAWS: usize = 1 << 22;
 
@@ -87,8 +87,13 @@ impl Samples {
 
     /// The draws as rows of [`COLUMNS`]: n × 8 values, row-major (delta as 1 or 0).
     pub fn rows(&self) -> Vec<f64> {
-        let mut out = Vec::with_capacity(self.len() * COLUMNS.len());
-        for k in 0..self.len() {
+        self.rows_in(0..self.len())
+    }
+
+    /// Rows `range` of [`Samples::rows`].
+    pub fn rows_in(&self, range: std::ops::Range<usize>) -> Vec<f64> {
+        let mut out = Vec::with_capacity(range.len() * COLUMNS.len());
+        for k in range {
             out.extend(self.wi[k]);
             out.extend(self.weight[k]);
             out.push(self.pdf[k]);
@@ -251,8 +256,10 @@ impl SampleFiles {
         let shape = [samples.len(), COLUMNS.len()];
         w.write_all(&npy::header_f64(&shape))
             .map_err(|e| encoder_error(&self.npy, "npy", e))?;
-        for chunk in samples.rows().chunks(1 << 16) {
-            npy::write_f64(&mut w, chunk).map_err(|e| encoder_error(&self.npy, "npy", e))?;
+        // A chunk of rows at a time: the file's bytes are never all in memory beside the draws.
+        for first in (0..samples.len()).step_by(1 << 16) {
+            let rows = samples.rows_in(first..(first + (1 << 16)).min(samples.len()));
+            npy::write_f64(&mut w, &rows).map_err(|e| encoder_error(&self.npy, "npy", e))?;
         }
         w.finish()?;
         let text = serde_json::to_string_pretty(&sidecar(

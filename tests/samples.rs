@@ -141,14 +141,11 @@ fn check_doors(backend: &str, session: &Session, pdf_tolerance: f64) {
         );
         let p = params(c);
         let (rows, json) = cli_draws(backend, c, dir.path(), k);
-        // The CLI's ωo from its angles, as wo_of makes it; serde_json's reader may round the
-        // sidecar's shortest decimal form by an ulp, so that is compared only to 1e-15.
+        // The CLI's ωo from its angles, as wo_of makes it, and the sidecar's to the bit (the
+        // sidecar is read back and written again when the set commits).
         let wo = wo_of(c).to_array();
         let side: [f64; 3] = serde_json::from_value(json["wo"].clone()).expect("wo");
-        assert!(
-            (0..3).all(|a| (side[a] - wo[a]).abs() < 1e-15),
-            "{what}: the sidecar's ωo {side:?}, asked for {wo:?}"
-        );
+        assert_eq!(side, wo, "{what}: the sidecar's ωo");
         let s: Samples = session
             .sample(&p, DVec3::from_array(wo), N, SEED)
             .unwrap_or_else(|e| panic!("{what}: Session::sample: {e}"));
