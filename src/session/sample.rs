@@ -1,5 +1,6 @@
 //! A model's sampler: draws for one ωo and the density at direction pairs (`lobe sample`,
-//! Python's `Session.sample` and `Session.pdf`; docs/design.md §13).
+//! Python's `Session.sample` and `Session.pdf`; docs/design.md §13), and the sampling test's
+//! pictures (`lobe chi2 -o`).
 
 use super::Session;
 use crate::backend::Query;
@@ -70,6 +71,37 @@ impl Session {
             Ok(s)
         };
         run().lobe()
+    }
+
+    /// The pictures of a sampling test's `report` of `params` (`lobe chi2 -o`,
+    /// [`crate::plot::chi2`]): per view direction the observed histogram, the expected counts and
+    /// the residual in σ side by side, written to `path` as PNG, SVG or PDF by its extension.
+    /// Returns what was drawn.
+    ///
+    /// ```
+    /// let dir = tempfile::tempdir().unwrap();
+    /// let session = lobe::Session::cpu();
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let options = lobe::chi2::Options {
+    ///     directions: vec![[30.0, 0.0]],
+    ///     samples: 1 << 12,
+    ///     ..Default::default()
+    /// };
+    /// let report = session.chi2(&lambert, false, &options, &mut |_, _| {})?;
+    /// let path = dir.path().join("chi2.svg");
+    /// let drawn = session.write_chi2_picture(&lambert, &report, &path)?;
+    /// assert_eq!(drawn.rows.len(), 1);
+    /// assert!(std::fs::read_to_string(&path).unwrap().contains("<svg"));
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn write_chi2_picture(
+        &self,
+        params: &crate::ParamSet,
+        report: &crate::chi2::Report,
+        path: &Path,
+    ) -> Result<crate::plot::chi2::Chi2Plot> {
+        let subject = crate::plot::Subject::new(params.clone(), None);
+        crate::plot::chi2::write_chi2(path, report, &[subject.describe()]).lobe()
     }
 
     /// The density of the query's sampler at each (ωi, ωo) pair, over the solid angle of ωi:
