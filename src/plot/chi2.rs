@@ -87,7 +87,7 @@ fn residual(observed: u64, expected: f64) -> f64 {
     let o = observed as f64;
     if expected >= MIN_EXPECTED {
         (o - expected) / expected.sqrt()
-    } else if !(expected > 0.0) && observed > 0 {
+    } else if (expected.is_nan() || expected <= 0.0) && observed > 0 {
         f64::INFINITY
     } else {
         f64::NAN
