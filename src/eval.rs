@@ -2,7 +2,8 @@
 //! token, the invalid-value policy and the speed-for-accuracy switches.
 
 use crate::backend::{
-    Backend, CpuBackend, DrawRecord, Precision, Quadrants, Query, TableSink, UpperTriangle,
+    Backend, CpuBackend, DrawRange, DrawRecord, Precision, Quadrants, Query, TableSink,
+    UpperTriangle,
 };
 use crate::finite::InvalidCount;
 use crate::gpu::Gpu;
@@ -158,20 +159,16 @@ impl<'a> Evaluator<'a> {
         self.backend.take_device_time()
     }
 
-    /// Draws `first .. first + count` of the sampler of the query's first set for `wo` in the
-    /// stream (`seed`, `group`) ([`Backend::draws`], docs/design.md §13): the same directions on
-    /// either backend, stopped between chunks once the token is set.
+    /// The draws `range` of the sampler of the query's first set for `wo` ([`Backend::draws`],
+    /// docs/design.md §13): the same directions on either backend, stopped between chunks once
+    /// the token is set.
     pub fn draws<'q>(
         &self,
         query: impl Into<Query<'q>>,
         wo: DVec3,
-        seed: u32,
-        group: u32,
-        first: u64,
-        count: usize,
+        range: DrawRange,
     ) -> Result<Vec<DrawRecord>> {
-        self.backend
-            .draws(query.into(), wo, seed, group, first, count, self.cancel)
+        self.backend.draws(query.into(), wo, range, self.cancel)
     }
 
     /// f at each (ωi, ωo) pair, for one parameter set.

@@ -60,6 +60,7 @@ pub mod preview;
 mod quadrature;
 pub mod random;
 pub mod resolve;
+pub mod samples;
 pub mod scene;
 mod session;
 mod spec;

@@ -65,6 +65,10 @@ enum Command {
     /// every draw's weight f cos/pdf and pdf. Exits 0 when it passes, 1 when the sampler is
     /// rejected, 2 for bad usage.
     Chi2(cli::chi2::Chi2Args),
+    /// Draws of a model's sampler for one view direction, as PATH.npy (float64, a row per draw:
+    /// wi x, y, z, weight r, g, b, pdf, delta) with its sidecar PATH.json. The same --seed draws
+    /// the same directions on every run (within f32 rounding between --backend gpu and cpu).
+    Sample(cli::sample::SampleArgs),
     /// Energy report: every model at its presets and over a sweep of its main parameter, in its
     /// white configuration (colours at 1, specular lobes alone under the white furnace): the
     /// largest E(mu) and where, gain (E > 1) and loss (1 - E_avg).
@@ -181,6 +185,7 @@ fn main() {
         Command::Albedo(a) => cli::albedo::run(a),
         Command::Energy(a) => cli::energy::run(a),
         Command::Chi2(a) => cli::chi2::run(a),
+        Command::Sample(a) => cli::sample::run(a),
         Command::Plot(a) => cli::plot::run(a),
         Command::Fit(a) => cli::fit::run(a),
         Command::Compare(a) => cli::compare::run(a),

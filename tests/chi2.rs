@@ -8,6 +8,7 @@
 mod common;
 
 use lobe::chi2::Options;
+use lobe::glam::{DVec2, DVec3};
 use lobe::model::{Model, ParamSet};
 use lobe::{resolve_params, Session};
 
@@ -219,4 +220,143 @@ fn lobe_chi2_matches_the_library_and_refuses_bad_usage() {
         assert!(err.contains(says), "{args:?}: {err}");
         assert!(out.is_empty(), "{args:?}: {out}");
     }
+}
+
+/// Cosine draws under a density that claims 30 % more than the cosine towards φ = 0 and 30 %
+/// less towards φ = 180° (it still integrates to 1): a wrong pdf the histogram must see.
+struct DistortedCosine;
+
+impl lobe::chi2::Sampler for DistortedCosine {
+    fn sample(&self, wo: DVec3, _uc: f64, u: DVec2) -> lobe::chi2::Drawn {
+        let (r, phi) = (u.x.sqrt(), std::f64::consts::TAU * u.y);
+        let wi = DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).sqrt());
+        let pdf = self.pdf(wi, wo);
+        lobe::chi2::Drawn {
+            wi,
+            weight: self.eval_cos(wi, wo) / pdf,
+            pdf,
+            delta: false,
+        }
+    }
+
+    fn pdf(&self, wi: DVec3, _wo: DVec3) -> f64 {
+        let cos_phi = wi.x / wi.x.hypot(wi.y).max(1e-300);
+        wi.z.max(0.0) / std::f64::consts::PI * (1.0 + DISTORTION * cos_phi)
+    }
+
+    fn eval_cos(&self, wi: DVec3, _wo: DVec3) -> DVec3 {
+        DVec3::splat(0.5 * wi.z.max(0.0) / std::f64::consts::PI)
+    }
+}
+
+/// The relative distortion of [`DistortedCosine`]'s claimed density.
+const DISTORTION: f64 = 0.3;
+
+/// The pixel of a PNG at (x, y), RGB, after checking the signature and reading the size.
+fn png_pixel(bytes: &[u8], (x, y): (i32, i32)) -> ((u32, u32), [u8; 3]) {
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "a PNG signature");
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+        .read_info()
+        .expect("a PNG header");
+    let mut buf = vec![0; reader.output_buffer_size().expect("a bounded PNG")];
+    let info = reader.next_frame(&mut buf).expect("the PNG's pixels");
+    let channels = info.color_type.samples();
+    let at = (y as usize * info.width as usize + x as usize) * channels;
+    (
+        (info.width, info.height),
+        [buf[at], buf[at + 1], buf[at + 2]],
+    )
+}
+
+/// `lobe chi2 -o`'s picture: PNG, SVG and PDF files are what they say; a broken sampler's
+/// residual panel shows the cell the report names in the strongest colour of its scale, and a
+/// correct sampler's residuals stay within the scale's smallest range.
+#[test]
+fn chi2_pictures_show_the_cell_the_report_names() {
+    let dir = tempfile::tempdir().unwrap();
+    // Coarse cells, 19 px or more on the canvas, so that a cell's centre is its own colour.
+    let options = Options {
+        directions: vec![[30.0, 0.0], [60.0, 45.0]],
+        samples: 1 << 16,
+        seed: 3,
+        cells: Some(lobe::chi2::Cells::new(20, 10)),
+        ..Options::default()
+    };
+    let report = lobe::chi2::run(&DistortedCosine, &options, None, |_, _| {}).expect("a report");
+    assert!(
+        !report.passed,
+        "a 30 % distortion at 2^16 draws is rejected"
+    );
+    let path = dir.path().join("broken.png");
+    let plot = lobe::plot::chi2::write_chi2(&path, &report, &["distorted cosine".into()])
+        .expect("the picture");
+    let bytes = std::fs::read(&path).unwrap();
+    for (row, d) in plot.rows.iter().zip(&report.directions) {
+        let worst = d.worst_cell.as_ref().expect("the report names a cell");
+        assert_eq!(row.worst_cell, Some(worst.cell));
+        let at = row.residual_pixel(&d.cells, worst.cell);
+        let (size, rgb) = png_pixel(&bytes, at);
+        assert_eq!(size, plot.size, "the PNG's size");
+        // The named cell has the largest |σ|, so it takes an end of the scale.
+        assert_eq!(row.sigma_range, worst.sigma.abs(), "θo {}", d.theta_o_deg);
+        let want = lobe::plot::chi2::diverging(worst.sigma.signum());
+        let close = |a: u8, b: u8| a.abs_diff(b) <= 2;
+        assert!(
+            close(rgb[0], want.0) && close(rgb[1], want.1) && close(rgb[2], want.2),
+            "θo {}: the named cell ({:+.1} σ) at pixel {at:?} is {rgb:?}, expected {want:?}",
+            d.theta_o_deg,
+            worst.sigma
+        );
+    }
+    let svg = dir.path().join("broken.svg");
+    lobe::plot::chi2::write_chi2(&svg, &report, &[]).expect("an SVG");
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        text.starts_with("<svg") && text.contains("width=\"1500\""),
+        "{}",
+        &text[..80]
+    );
+    let pdf = dir.path().join("broken.pdf");
+    lobe::plot::chi2::write_chi2(&pdf, &report, &[]).expect("a PDF");
+    assert!(std::fs::read(&pdf).unwrap().starts_with(b"%PDF-"));
+
+    let lambert = params("lambert", &[]);
+    let fair = Session::cpu()
+        .chi2(&lambert, false, &options, &mut |_, _| {})
+        .expect("a report");
+    let drawn = Session::cpu()
+        .write_chi2_picture(&lambert, &fair, &dir.path().join("fair.png"))
+        .expect("the picture");
+    for row in &drawn.rows {
+        assert_eq!(
+            row.sigma_range,
+            lobe::plot::chi2::MIN_SIGMA_RANGE,
+            "a correct sampler's residuals stay within ±4σ here (over 400 cells a fair sampler passes 4σ somewhere with probability 0.025; seed 3 does not)"
+        );
+    }
+
+    // lobe chi2 -o: the file and the report; a wrong extension is bad usage, before any work.
+    let out = dir.path().join("cli.svg");
+    let (code, _, err) = common::lobe_run(&[
+        "chi2",
+        "--model",
+        "lambert",
+        "--samples",
+        "4096",
+        "--theta-o-deg",
+        "20",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read_to_string(&out).unwrap().starts_with("<svg"));
+    let (code, _, err) = common::lobe_run(&[
+        "chi2",
+        "--model",
+        "lambert",
+        "-o",
+        dir.path().join("x.txt").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("-o") && err.contains(".png"), "{err}");
 }

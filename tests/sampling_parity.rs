@@ -7,7 +7,7 @@
 mod common;
 
 use glam::DVec3;
-use lobe::backend::{Backend, CpuBackend, DrawRecord, Query};
+use lobe::backend::{Backend, CpuBackend, DrawRange, DrawRecord, Query};
 use lobe::gpu::Gpu;
 use lobe::model::microfacet::MicrofacetConfig;
 use lobe::model::{Model, ParamSet, Reference};
@@ -17,6 +17,16 @@ use lobe::random;
 const DRAWS: usize = 4096;
 /// The stream's seed (any; fixed so that a failure reproduces).
 const SEED: u32 = 0x5eed_0013;
+/// Draws `first .. first + count` of the stream (`seed`, `group`).
+fn range(seed: u32, group: u32, first: u64, count: usize) -> DrawRange {
+    DrawRange {
+        seed,
+        group,
+        first,
+        count,
+    }
+}
+
 /// Polar angles of ωo, degrees: normal, oblique, grazing.
 const THETAS: [f64; 3] = [0.0, 45.0, 85.0];
 /// Azimuth of ωo, degrees: off both axes, so that anisotropic lobes see both roughnesses.
@@ -420,10 +430,10 @@ fn gpu_draws_equal_cpu_draws_for_every_model() {
                 let group = k as u32;
                 let first = if k == 2 { (1u64 << 32) - 1000 } else { 0 };
                 let cpu = CpuBackend
-                    .draws(query, wo, SEED, group, first, DRAWS, None)
+                    .draws(query, wo, range(SEED, group, first, DRAWS), None)
                     .unwrap_or_else(|e| panic!("{name}: cpu draws: {e}"));
                 let gpu_draws = gpu
-                    .draws(query, wo, SEED, group, first, DRAWS, None)
+                    .draws(query, wo, range(SEED, group, first, DRAWS), None)
                     .unwrap_or_else(|e| panic!("{name}: gpu draws: {e:#}"));
                 assert_eq!(gpu_draws.len(), DRAWS, "{name}");
                 let before = failures.len();
@@ -479,9 +489,9 @@ fn gpu_draws_do_not_depend_on_the_request_split() {
         let p = set("microfacet", &["alpha_x=0.3", "alpha_y=0.1"]);
         let wo = direction(40.0, PHI);
         let q = Query::one(&p);
-        let whole = gpu.draws(q, wo, 7, 3, 100, 3000, None).unwrap();
-        let a = gpu.draws(q, wo, 7, 3, 100, 1234, None).unwrap();
-        let b = gpu.draws(q, wo, 7, 3, 1334, 1766, None).unwrap();
+        let whole = gpu.draws(q, wo, range(7, 3, 100, 3000), None).unwrap();
+        let a = gpu.draws(q, wo, range(7, 3, 100, 1234), None).unwrap();
+        let b = gpu.draws(q, wo, range(7, 3, 1334, 1766), None).unwrap();
         assert_eq!(whole, [a, b].concat());
     });
 }
@@ -521,9 +531,11 @@ fn gpu_draws_equal_cpu_draws_for_a_merl_file() {
             let wo = direction(theta, PHI);
             let q = Query::one(&p);
             let cpu = CpuBackend
-                .draws(q, wo, SEED, k as u32, 0, DRAWS, None)
+                .draws(q, wo, range(SEED, k as u32, 0, DRAWS), None)
                 .unwrap();
-            let g = gpu.draws(q, wo, SEED, k as u32, 0, DRAWS, None).unwrap();
+            let g = gpu
+                .draws(q, wo, range(SEED, k as u32, 0, DRAWS), None)
+                .unwrap();
             compare(
                 "merl gold",
                 &p,
@@ -568,7 +580,7 @@ fn a_brdf_file_is_drawn_by_the_cosine_on_the_gpu() {
         for (k, &theta) in THETAS.iter().enumerate() {
             let wo = direction(theta, PHI);
             let g = gpu
-                .draws(Query::one(&p), wo, SEED, k as u32, 0, DRAWS, None)
+                .draws(Query::one(&p), wo, range(SEED, k as u32, 0, DRAWS), None)
                 .unwrap();
             for (i, d) in g.iter().enumerate() {
                 let (uc, u) = random::draw_numbers(SEED, i as u64, k as u32);
@@ -649,12 +661,17 @@ fn draws_stop_once_cancelled() {
         let token = lobe::interrupt::CancelToken::new();
         let gpu_eval = lobe::Evaluator::gpu(gpu).with_cancel(&token);
         let cpu_eval = lobe::Evaluator::cpu().with_cancel(&token);
-        let plain = gpu.draws(Query::one(&p), wo, 1, 0, 0, 100, None).unwrap();
-        assert_eq!(gpu_eval.draws(&p, wo, 1, 0, 0, 100).unwrap(), plain);
-        assert_eq!(cpu_eval.draws(&p, wo, 1, 0, 0, 100).unwrap().len(), 100);
+        let plain = gpu
+            .draws(Query::one(&p), wo, range(1, 0, 0, 100), None)
+            .unwrap();
+        assert_eq!(gpu_eval.draws(&p, wo, range(1, 0, 0, 100)).unwrap(), plain);
+        assert_eq!(
+            cpu_eval.draws(&p, wo, range(1, 0, 0, 100)).unwrap().len(),
+            100
+        );
         token.cancel();
         for (name, e) in [("gpu", gpu_eval), ("cpu", cpu_eval)] {
-            let err = e.draws(&p, wo, 1, 0, 0, 100).expect_err("cancelled");
+            let err = e.draws(&p, wo, range(1, 0, 0, 100)).expect_err("cancelled");
             assert!(
                 err.downcast_ref::<lobe::interrupt::Interrupted>().is_some(),
                 "{name}: {err:#}"

@@ -36,6 +36,7 @@ __all__ = [
     "AlbedoLut",
     "EngineLut",
     "FitResult",
+    "Samples",
 ]
 
 try:
@@ -51,6 +52,9 @@ UNIT_LENGTH_TOLERANCE = 1e-5
 
 #: The largest table :meth:`Session.table` builds in memory (12 bytes a cell: 1.5 GiB).
 MAX_TABLE_CELLS = 1 << 27
+
+#: The most draws one :meth:`Session.sample` makes (``lobe sample -n``'s bound, 2^22).
+MAX_SAMPLE_DRAWS = 1 << 22
 
 ParamValue = Union[float, int, bool, str, Sequence[float]]
 Params = Mapping[str, ParamValue]
@@ -265,6 +269,18 @@ class FitResult:
     report: Dict[str, Any]
 
 
+class Samples(NamedTuple):
+    """Draws of a model's sampler for one wo (:meth:`Session.sample`): ``wi`` and ``weight`` of
+    shape (n, 3), ``pdf`` and ``delta`` (bool, the mirror spike of a layered model, whose pdf is
+    its probability) of shape (n,); a lost draw keeps its wi below the horizon with weight and
+    pdf 0."""
+
+    wi: np.ndarray
+    weight: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
+
+
 class Session:
     def __init__(self, backend: str = "gpu", device: Optional[str] = None) -> None:
         if device is not None and not isinstance(device, str):
@@ -367,9 +383,7 @@ class Session:
         if not (0.0 < significance < 1.0):
             raise ValueError(f"significance: {significance} is out of range; expected a probability in (0, 1)")
         samples = _positive_ints("samples", samples, 1)[0]
-        seed = int(seed)
-        if not (0 <= seed < 2**32):
-            raise ValueError(f"seed: {seed} is out of range; expected an integer from 0 to 2^32 - 1")
+        seed = _seed(seed)
         return json.loads(_lobe.chi2(self._s, _model(model), material, _sets(params), bool(white_furnace),
                                      thetas, _finite("phi_o_deg", phi_o_deg), samples, seed, significance))
 
@@ -386,6 +400,23 @@ class Session:
             name, array = None, np.ascontiguousarray(array, dtype=np.float32)
         return _lobe.light(self._s, _model(model), material, _sets(params), name, array, size)
 
+    def sample(self, model, wo, n, params=None, material=None, seed=0, white_furnace=False):
+        wo_arr = _directions("wo", wo)
+        if wo_arr.shape != (3,):
+            raise ValueError(f"wo: expected one direction of shape (3,), got {wo_arr.shape}")
+        count = _positive_ints("n", n, 1)[0]
+        if count > MAX_SAMPLE_DRAWS:
+            raise ValueError(f"n: {count} draws: expected from 1 to {MAX_SAMPLE_DRAWS} (2^22) draws per request")
+        seed = _seed(seed)
+        wi, weight, pdf, delta = _lobe.sample(self._s, _model(model), material, _sets(params), bool(white_furnace),
+                                              [float(v) for v in wo_arr], count, seed)
+        return Samples(wi, weight, pdf, delta)
+
+    def pdf(self, model, wi, wo, params=None, material=None, white_furnace=False):
+        wi_flat, wo_flat, shape = _pairs(wi, wo)
+        out = _lobe.pdf(self._s, _model(model), material, _sets(params), bool(white_furnace), wi_flat, wo_flat)
+        return out.reshape(shape)
+
     def compare(self, a, b, params_a=None, params_b=None, grid=None, res=None, mu=(0.1, 0.5, 1.0),
                 method="peak", samples=None, albedo=True, white_furnace=False):
         mus = [float(m) for m in _reals("mu", mu).reshape(-1)]
@@ -398,6 +429,15 @@ class Session:
         return json.loads(_lobe.compare(self._s, _model(a), _sets(params_a), _model(b), _sets(params_b),
                                         grid, res_list, mus, method, _samples(samples), bool(albedo),
                                         bool(white_furnace)))
+
+
+def _seed(seed: Any) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed: expected an integer from 0 to 2^32 - 1, got {seed!r}")
+    seed = int(seed)
+    if not (0 <= seed < 2**32):
+        raise ValueError(f"seed: {seed} is out of range; expected an integer from 0 to 2^32 - 1")
+    return seed
 
 
 def _samples(samples: Any) -> Optional[int]:

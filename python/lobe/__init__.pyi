@@ -12,6 +12,7 @@ import numpy.typing as npt
 __version__: str
 UNIT_LENGTH_TOLERANCE: float
 MAX_TABLE_CELLS: int
+MAX_SAMPLE_DRAWS: int
 
 ParamValue = Union[float, int, bool, str, Sequence[float]]
 Params = Mapping[str, ParamValue]
@@ -134,6 +135,22 @@ class FitResult:
     loss: float
     channel_loss: np.ndarray
     report: Dict[str, Any]
+
+class Samples(NamedTuple):
+    """Draws of a model's sampler for one view direction wo, in draw order.
+
+    ``wi``: (n, 3) directions towards the light (unit vectors). ``weight``: (n, 3)
+    f(wi, wo) cos(theta_i) / pdf per linear RGB channel. ``pdf``: (n,) density over the solid
+    angle of wi, in 1/sr. ``delta``: (n,) bool, True for the mirror spike of a layered model,
+    whose wi is the mirror direction of wo, whose ``pdf`` is the probability of choosing the
+    spike (not a density) and whose weight is the spike's albedo over that probability. A draw
+    that leaves the upper hemisphere keeps its wi (wi[2] <= 0) with weight 0 and pdf 0.
+    """
+
+    wi: np.ndarray
+    weight: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
 
 class Session:
     """An open backend (a Vulkan device, or the f64 CPU reference) and the pipelines built on it.
@@ -283,6 +300,24 @@ class Session:
         leaving the hemisphere against 1 - integral of pdf, the draw-by-draw checks and the
         verdicts (``"passed"``). Drawn and judged in f64 on the CPU; ``seed`` picks the random
         stream."""
+
+    def sample(self, model: ModelSpec, wo: npt.ArrayLike, n: int, params: Optional[Params] = None,
+               material: Optional[str] = None, seed: int = 0,
+               white_furnace: bool = False) -> Samples:
+        """``n`` draws (1 to 2^22) of the model's own sampler for the view direction ``wo`` (a
+        unit vector of shape (3,) above the horizon), on this session's backend, as
+        ``lobe sample`` draws them: draw i takes its random numbers from the stream ``seed``
+        (0 to 2^32 - 1) at index i, so the same seed gives the same draws (bit for bit on one
+        backend, within f32 rounding between "gpu" and "cpu"), those of ``lobe sample --seed``
+        and of ``lobe chi2 --seed`` at its first view direction."""
+
+    def pdf(self, model: ModelSpec, wi: Directions, wo: Directions, params: Optional[Params] = None,
+            material: Optional[str] = None, white_furnace: bool = False) -> np.ndarray:
+        """The density of the model's sampler at each (wi, wo) pair over the solid angle of wi,
+        in 1/sr: ``wi`` of shape (N, 3), ``wo`` of shape (3,) or (N, 3) (any shapes that
+        broadcast; the result has their shape without the last axis). The f64 reference's pdf
+        on every backend; 0 where a direction is at or below the horizon; delta lobes have no
+        density. At a drawn wi it is the draw's own ``pdf`` (to f32 rounding on the GPU)."""
 
     def fit(self, target: ModelSpec, model: ModelSpec, free: Union[str, Sequence[str]],
             params: Optional[Params] = None, target_params: Optional[Params] = None,

@@ -11,6 +11,7 @@ mod light;
 mod luts;
 mod model;
 mod plot;
+mod sample;
 
 use errors::{invalid, GpuError, InvalidValuesError};
 use lobe::glam::DVec3;
@@ -39,7 +40,10 @@ pub(crate) fn array<'py, T: numpy::Element>(
 }
 
 /// The (ωi, ωo) pairs of two (N, 3) arrays of the same length.
-fn pairs(wi: &PyReadonlyArray2<'_, f64>, wo: &PyReadonlyArray2<'_, f64>) -> Vec<(DVec3, DVec3)> {
+pub(crate) fn pairs(
+    wi: &PyReadonlyArray2<'_, f64>,
+    wo: &PyReadonlyArray2<'_, f64>,
+) -> Vec<(DVec3, DVec3)> {
     let (wi, wo) = (wi.as_array(), wo.as_array());
     wi.rows()
         .into_iter()
@@ -308,6 +312,8 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(chi2::chi2, m)?)?;
     m.add_function(wrap_pyfunction!(light::light, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::pdf, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_function(wrap_pyfunction!(plot::plot, m)?)?;
     m.add_function(wrap_pyfunction!(plot::rasterise_svg, m)?)?;

@@ -5,7 +5,7 @@
 use super::light::{SpherePixel, WeightedTexels};
 use super::scene::Scene;
 use super::shade::render_cells_cpu;
-use super::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
+use super::{Backend, DrawRange, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
 use crate::finite;
 use crate::interrupt::CancelToken;
 use crate::model::{Model, Reference};
@@ -57,12 +57,15 @@ impl Backend for CpuBackend {
         &self,
         query: Query,
         wo: DVec3,
-        seed: u32,
-        group: u32,
-        first: u64,
-        count: usize,
+        range: DrawRange,
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<DrawRecord>> {
+        let DrawRange {
+            seed,
+            group,
+            first,
+            count,
+        } = range;
         let refs = self.references(&Query {
             sets: &query.sets[..query.sets.len().min(1)],
             ..query

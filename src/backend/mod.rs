@@ -108,6 +108,36 @@ pub struct DrawRecord {
     pub eval_cos: [f64; 3],
 }
 
+/// Which draws of a sampler's stream a backend makes ([`Backend::draws`]): draws
+/// `first .. first + count` of the stream (`seed`, `group`), draw i from
+/// [`crate::random::draw_numbers`]`(seed, i, group)`. The sampling test gives each view
+/// direction its own group; a range of draws is a pure function of these four numbers, so
+/// any split into ranges draws the same directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DrawRange {
+    /// The stream's seed.
+    pub seed: u32,
+    /// The group of four dimensions (a view direction's index in the sampling test).
+    pub group: u32,
+    /// The index of the first draw.
+    pub first: u64,
+    /// How many draws.
+    pub count: usize,
+}
+
+impl DrawRange {
+    /// Draws `0 .. count` of the stream `seed` in group 0: what `lobe sample` draws (and the
+    /// sampling test at its first view direction).
+    pub fn new(seed: u32, count: usize) -> DrawRange {
+        DrawRange {
+            seed,
+            group: 0,
+            first: 0,
+            count,
+        }
+    }
+}
+
 /// The arithmetic a backend evaluates and sums in: what an error estimate must allow for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Precision {
@@ -220,19 +250,15 @@ pub trait Backend: Send + Sync {
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<RowSums>>;
 
-    /// Draws `first .. first + count` of the sampler of the query's first set for `wo` in the
-    /// stream (`seed`, `group`): draw i takes its numbers from
-    /// [`crate::random::draw_numbers`]`(seed, i, group)`, so both backends draw the same
-    /// directions (the GPU's within f32 rounding). Stops between chunks once `cancel` is set.
-    #[allow(clippy::too_many_arguments)]
+    /// The draws `range` of the sampler of the query's first set for `wo`: draw i takes its
+    /// numbers from [`crate::random::draw_numbers`]`(range.seed, i, range.group)`, so both
+    /// backends draw the same directions (the GPU's within f32 rounding). Stops between chunks
+    /// once `cancel` is set.
     fn draws(
         &self,
         query: Query,
         wo: DVec3,
-        seed: u32,
-        group: u32,
-        first: u64,
-        count: usize,
+        range: DrawRange,
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<DrawRecord>>;
 

@@ -47,6 +47,10 @@ pub struct Chi2Args {
     /// Output format.
     #[arg(long, value_enum, default_value_t = Chi2Format::Text)]
     format: Chi2Format,
+    /// Also draw, per view direction, the observed histogram, the expected counts and the
+    /// residual (o - e)/sqrt(e) side by side, as PNG, SVG or PDF by the extension.
+    #[arg(short = 'o', long = "output", value_name = "PATH.png|.svg|.pdf")]
+    output: Option<std::path::PathBuf>,
 }
 
 /// A count, `N` or `2^K`.
@@ -103,6 +107,12 @@ pub fn run(a: Chi2Args) -> Result<()> {
     });
     bar.finish_and_clear();
     let report = report.map_err(super::session_error)?;
+    if let Some(path) = &a.output {
+        session
+            .write_chi2_picture(&params, &report, path)
+            .map_err(super::session_error)?;
+        eprintln!("wrote {}", path.display());
+    }
     let mut out = super::stdout();
     match a.format {
         Chi2Format::Json => writeln!(
@@ -145,6 +155,10 @@ fn check(a: &Chi2Args) -> Result<(), String> {
             "--significance {}: expected a probability in (0, 1)",
             a.significance
         ));
+    }
+    if let Some(path) = &a.output {
+        lobe::plot::Format::of(path).map_err(|e| format!("-o: {e:#}"))?;
+        lobe::output::check_destination(path).map_err(|e| format!("-o: {e:#}"))?;
     }
     Ok(())
 }

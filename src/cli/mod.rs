@@ -16,6 +16,7 @@ pub mod models;
 pub mod plot;
 pub mod preview;
 pub mod run;
+pub mod sample;
 pub mod stability;
 pub mod table;
 pub mod tradeoff;

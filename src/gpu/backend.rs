@@ -5,7 +5,9 @@ use super::pipeline::Kernel;
 use super::{Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
 use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::backend::scene::Scene;
-use crate::backend::{Backend, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink};
+use crate::backend::{
+    Backend, DrawRange, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink,
+};
 use crate::interrupt::CancelToken;
 use crate::model::{Brdf, Model, ParamSet};
 use anyhow::Result;
@@ -108,12 +110,15 @@ impl Backend for Gpu {
         &self,
         query: Query,
         wo: DVec3,
-        seed: u32,
-        group: u32,
-        first: u64,
-        count: usize,
+        range: DrawRange,
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<DrawRecord>> {
+        let DrawRange {
+            seed,
+            group,
+            first,
+            count,
+        } = range;
         let Some(params) = query.sets.first() else {
             return Ok(Vec::new());
         };

@@ -66,7 +66,7 @@ use std::sync::{Mutex, MutexGuard};
 
 pub use artifacts::{exr_text, file_name, sibling, ArtifactSet, ExrLayer, NpyStream, Provenance};
 pub use exr_header::sort_attributes as sort_exr_attributes;
-pub use owner::{replace_sets, set_json, ENGINE_LUT_SET, LUT_SET, TABLE_SET};
+pub use owner::{replace_sets, set_json, ENGINE_LUT_SET, LUT_SET, SAMPLES_SET, TABLE_SET};
 pub use pending::{write_atomic, write_exr, OutputWriter, Pending};
 pub use set::FileSet;
 pub use staging::{check_folder_destination, StagingFolder};

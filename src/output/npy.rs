@@ -10,13 +10,23 @@ const MAGIC: &[u8] = b"\x93NUMPY";
 
 /// The header for a float32 array of `shape`, padded so that the data starts on 64 bytes.
 pub fn header(shape: &[usize]) -> Vec<u8> {
+    header_of("<f4", shape)
+}
+
+/// The header for a float64 array of `shape`, padded so that the data starts on 64 bytes.
+pub fn header_f64(shape: &[usize]) -> Vec<u8> {
+    header_of("<f8", shape)
+}
+
+/// The header for a C-order array of `shape` whose elements `descr` names (`<f4`, `<f8`).
+fn header_of(descr: &str, shape: &[usize]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(|n| n.to_string()).collect();
     let tuple = if dims.len() == 1 {
         format!("({},)", dims[0])
     } else {
         format!("({})", dims.join(", "))
     };
-    let mut dict = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {tuple}, }}");
+    let mut dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {tuple}, }}");
     let unpadded = MAGIC.len() + 2 + 2 + dict.len() + 1;
     dict.push_str(&" ".repeat((64 - unpadded % 64) % 64));
     dict.push('\n');
@@ -29,6 +39,17 @@ pub fn header(shape: &[usize]) -> Vec<u8> {
 
 /// Writes f32 values as little-endian bytes.
 pub fn write_f32(w: &mut impl Write, values: &[f32]) -> std::io::Result<()> {
+    if cfg!(target_endian = "little") {
+        w.write_all(bytemuck::cast_slice(values))
+    } else {
+        values
+            .iter()
+            .try_for_each(|v| w.write_all(&v.to_le_bytes()))
+    }
+}
+
+/// Writes f64 values as little-endian bytes.
+pub fn write_f64(w: &mut impl Write, values: &[f64]) -> std::io::Result<()> {
     if cfg!(target_endian = "little") {
         w.write_all(bytemuck::cast_slice(values))
     } else {

@@ -24,6 +24,8 @@ pub const TABLE_SET: &str = "table";
 pub const LUT_SET: &str = "lut";
 /// The kind of an engine LUT's set (`.npy`, maybe `_avg.npy`, `.exr`, `.h`, `.json`).
 pub const ENGINE_LUT_SET: &str = "engine_lut";
+/// The kind of a sampler's draws (`.npy`, `.json`).
+pub const SAMPLES_SET: &str = "samples";
 
 static REPLACE: AtomicBool = AtomicBool::new(false);
 

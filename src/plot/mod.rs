@@ -13,7 +13,9 @@
 //! - [`albedo_curve`]: directional albedo E(μ) curves with E = 1 drawn;
 //! - [`difference`]: two models overlaid in the plane of incidence and their relative difference
 //!   over the hemisphere (`lobe compare`, `lobe fit`);
-//! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts.
+//! - [`pareto`]: `lobe tradeoff`'s error-vs-cost panels with their Pareto fronts;
+//! - [`chi2`](mod@chi2): the sampling test's observed and expected histograms and residuals
+//!   (`lobe chi2 -o`).
 //!
 //! Text is drawn with DejaVu Sans, embedded in the binary and registered with plotters' ab_glyph
 //! backend at the first plot: no system fonts are read.
@@ -22,6 +24,7 @@
 
 pub mod albedo_curve;
 mod canvas;
+pub mod chi2;
 pub mod csv;
 pub mod difference;
 pub mod hemisphere;

@@ -9,6 +9,7 @@
 //! | lobe tables | [`Session::table`] (a [`Table`] in memory), [`Session::write_table`], [`Session::write_merl`] |
 //! | albedo | [`Session::directional_albedo`], [`Session::hemispherical_albedo`], [`Session::albedo_report`], [`Session::albedo_rows`] |
 //! | look-up tables | [`Session::albedo_lut`], [`Session::write_albedo_lut`], [`Session::engine_lut`], [`Session::write_engine_lut`] |
+//! | a sampler | [`Session::sample`], [`Session::write_samples`], [`Session::pdf`] |
 //! | reports | [`Session::energy`], [`Session::stability`], [`Session::tradeoff`], [`Session::compare`], [`Session::fit`] |
 //! | pictures | [`Session::preview`], [`Session::plot`], [`Session::plot_difference`] |
 //! | files of a scene, the demo | [`Session::run_scene`], [`Session::demo`] |
@@ -31,6 +32,7 @@ mod light;
 mod pairs;
 mod pictures;
 mod reports;
+mod sample;
 mod table;
 
 pub use reports::EnergyOptions;
