@@ -13,14 +13,13 @@
 //! the largest difference ([`crate::chi2::WorstCell`]) is outlined.
 
 use super::{
-    anchored, fmt_value, header_in, render_bytes, Drawn, Format, Overlay, Scale, Style, FONT,
+    colour_bar_with, fmt_value, header_in, render_bytes, Drawn, Format, Overlay, Scale, Style, FONT,
 };
 use crate::chi2::stats::MIN_EXPECTED;
 use crate::chi2::{DirectionResult, Report};
 use anyhow::{Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// The residual scale's smallest half-range, in σ: a correct sampler's residuals stay within
@@ -206,7 +205,7 @@ fn draw<DB: DrawingBackend>(
             &|c| count_colour(d.expected[c]),
             None,
         )?;
-        bar(&count_bar, &row.counts, "draws per cell", &|t| {
+        colour_bar_with(&count_bar, &row.counts, "draws per cell", &|t| {
             super::colour_map(t)
         })?;
         let range = row.sigma_range;
@@ -238,7 +237,7 @@ fn draw<DB: DrawingBackend>(
             hi: range,
             log: false,
         };
-        bar(&res_bar, &scale, "residual (σ)", &|t| {
+        colour_bar_with(&res_bar, &scale, "residual (σ)", &|t| {
             diverging(2.0 * t - 1.0)
         })?;
     }
@@ -313,49 +312,4 @@ fn panel_of<DB: DrawingBackend>(
     }
     let (xs, ys) = pa.get_pixel_range();
     Ok(((xs.start, ys.start), (xs.end, ys.end)))
-}
-
-/// A vertical colour bar for `scale` with `colour` over t ∈ [0, 1], ticks and a caption.
-fn bar<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    scale: &Scale,
-    caption: &str,
-    colour: &dyn Fn(f64) -> RGBColor,
-) -> Result<()> {
-    let (w, h) = area.dim_in_pixel();
-    let (x0, x1) = (10i32, 30i32);
-    let (y0, y1) = (34i32, h as i32 - 40);
-    let steps = (y1 - y0).max(1);
-    for k in 0..steps {
-        let t = 1.0 - (k as f64 + 0.5) / steps as f64;
-        area.draw(&Rectangle::new(
-            [(x0, y0 + k), (x1, y0 + k + 1)],
-            colour(t).filled(),
-        ))
-        .drawing("a colour bar")?;
-    }
-    area.draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))
-        .drawing("a colour bar")?;
-    for v in scale.ticks() {
-        let t = scale.unit(v);
-        let y = y1 - (t * (y1 - y0) as f64).round() as i32;
-        area.draw(&PathElement::new(vec![(x1, y), (x1 + 4, y)], BLACK))
-            .drawing("a colour bar")?;
-        area.draw(&Text::new(
-            fmt_value(v),
-            (x1 + 6, y),
-            anchored(12, HPos::Left, VPos::Center),
-        ))
-        .drawing("a colour bar")?;
-    }
-    let style = TextStyle::from((FONT, 13).into_font())
-        .transform(FontTransform::Rotate270)
-        .pos(Pos::new(HPos::Center, VPos::Bottom));
-    area.draw(&Text::new(
-        caption.to_string(),
-        (w as i32 - 4, (y0 + y1) / 2),
-        style,
-    ))
-    .drawing("a colour bar")?;
-    Ok(())
 }

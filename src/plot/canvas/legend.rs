@@ -83,11 +83,21 @@ pub(crate) fn legend<DB: DrawingBackend>(
     Ok(())
 }
 
-/// A vertical colour bar with tick labels and a caption, filling `area`.
+/// A vertical colour bar with tick labels and a caption, filling `area`, in the plots' colour map.
 pub(crate) fn colour_bar<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     scale: &Scale,
     caption: &str,
+) -> Result<()> {
+    colour_bar_with(area, scale, caption, &colour_map)
+}
+
+/// [`colour_bar`] in the colour `colour` gives t ∈ [0, 1] (a diverging map, say).
+pub(crate) fn colour_bar_with<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    scale: &Scale,
+    caption: &str,
+    colour: &dyn Fn(f64) -> RGBColor,
 ) -> Result<()> {
     let (w, h) = area.dim_in_pixel();
     let (x0, x1) = (10i32, 34i32);
@@ -97,7 +107,7 @@ pub(crate) fn colour_bar<DB: DrawingBackend>(
         let t = 1.0 - (k as f64 + 0.5) / steps as f64;
         area.draw(&Rectangle::new(
             [(x0, y0 + k), (x1, y0 + k + 1)],
-            colour_map(t).filled(),
+            colour(t).filled(),
         ))
         .drawing("the colour bar")?;
     }
