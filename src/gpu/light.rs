@@ -3,7 +3,7 @@
 //! uploaded once, then one pixel per evaluation in chunks.
 
 use super::buffer::Buffer;
-use super::pipeline::{ChunkPush, Dispatcher, Kernel};
+use super::pipeline::{Dispatcher, Kernel};
 use super::{Gpu, GpuError};
 use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::interrupt::CancelToken;
@@ -109,27 +109,11 @@ impl Gpu {
         texel_buf.write(bytemuck::cast_slice(&gpu_texels))?;
         let out_buf = Buffer::output(&self.dev, chunk * 12, "light output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pixel_buf, &texel_buf, &out_buf])?;
-        let total = pixels.len() as u64;
-        let mut out = Vec::with_capacity(pixels.len());
-        let mut first = 0u64;
-        while first < total {
-            if let Some(c) = cancel {
-                c.check()?;
-            }
-            let count = chunk.min(total - first);
-            dispatcher.run_one(&ChunkPush {
-                first: first as u32,
-                count: count as u32,
-                n_wo: 0,
-                n_wi: 0,
-            })?;
-            out.extend(
-                out_buf
-                    .read_f32(count as usize * 3)
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]]),
-            );
-            first += count;
+        // Ctrl-C: looked at between chunks; the chunk running finishes first.
+        let stop = || cancel.is_some_and(|c| c.check().is_err());
+        let out = dispatcher.run_rgb(&out_buf, pixels.len() as u64, chunk, &stop)?;
+        if let Some(c) = cancel {
+            c.check()?;
         }
         Ok(out)
     }

@@ -4,7 +4,7 @@
 //! f64 twin (`src/backend/shade.rs`) renders the same image.
 
 use super::buffer::Buffer;
-use super::pipeline::{ChunkPush, Dispatcher, Kernel};
+use super::pipeline::{Dispatcher, Kernel};
 use super::{Gpu, GpuError, Result};
 use crate::backend::scene::{LightKind, Scene};
 use crate::model::Model;
@@ -143,24 +143,6 @@ impl Gpu {
         object_buf.write(object_bytes)?;
         let out_buf = Buffer::output(&self.dev, chunk * 12, "preview output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &scene_buf, &object_buf, &out_buf])?;
-        let mut out = Vec::with_capacity(pixels as usize);
-        let mut first = 0u64;
-        while first < pixels {
-            let count = chunk.min(pixels - first);
-            dispatcher.run_one(&ChunkPush {
-                first: first as u32,
-                count: count as u32,
-                n_wo: 0,
-                n_wi: 0,
-            })?;
-            out.extend(
-                out_buf
-                    .read_f32(count as usize * 3)
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]]),
-            );
-            first += count;
-        }
-        Ok(out)
+        dispatcher.run_rgb(&out_buf, pixels, chunk, &|| false)
     }
 }

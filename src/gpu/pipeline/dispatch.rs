@@ -236,6 +236,34 @@ impl<'p> Dispatcher<'p> {
         self.wait()
     }
 
+    /// Runs `total` items in chunks of at most `chunk`, reading each chunk's results back from
+    /// `out` as one RGB triple (three f32) per item, in order: the loop of the kernels that make
+    /// a colour per pixel. `stop` is asked before each chunk; once it says so, the triples made so
+    /// far come back (the caller says why it stopped).
+    pub fn run_rgb(
+        &self,
+        out: &Buffer<'_>,
+        total: u64,
+        chunk: u64,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Vec<[f32; 3]>> {
+        let mut rgb = Vec::with_capacity(total as usize);
+        let mut first = 0u64;
+        while first < total && !stop() {
+            let count = chunk.min(total - first);
+            self.run_one(&ChunkPush {
+                first: first as u32,
+                count: count as u32,
+                n_wo: 0,
+                n_wi: 0,
+            })?;
+            let values = out.read_f32(count as usize * 3);
+            rgb.extend(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+            first += count;
+        }
+        Ok(rgb)
+    }
+
     /// Records and submits one chunk without waiting for it ([`Dispatcher::wait`] does): a
     /// runner with two dispatchers reads one chunk back while the other runs.
     pub fn submit(&self, chunk: &ChunkPush) -> Result<()> {
