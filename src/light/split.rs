@@ -84,42 +84,61 @@ impl Texels {
     }
 }
 
-/// The DFG table's (scale, bias) at (`mu`, `r` = √α), read bilinearly between cell centres
-/// with the edges clamped, as a GPU sampler reads an RG texture.
-pub fn dfg_at(table: &EngineTable, mu: f64, r: f64) -> (f64, f64) {
-    let (nm, nr) = (table.mus.len(), table.axis.len());
-    let coord = |x: f64, n: usize| {
-        let t = (x * n as f64 - 0.5).clamp(0.0, (n - 1) as f64);
-        let i = (t.floor() as usize).min(n - 1);
-        (i, (i + 1).min(n - 1), t - i as f64)
-    };
-    let (j0, j1, fx) = coord(mu, nm);
-    let (k0, k1, fy) = coord(r, nr);
-    let at = |k: usize, j: usize, c: usize| table.values[(k * nm + j) * 2 + c];
-    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-    let ch = |c| {
-        lerp(
-            lerp(at(k0, j0, c), at(k0, j1, c), fx),
-            lerp(at(k1, j0, c), at(k1, j1, c), fx),
-            fy,
-        )
-    };
-    (ch(0), ch(1))
+/// The two rows of the DFG table that bracket a lobe's √α, and where √α falls between them.
+pub struct DfgRows {
+    /// Rows k0 and k0 + 1 of the [`DFG_CELLS`]² engine table ([`EngineTable::values`]'s layout).
+    pub table: EngineTable,
+    /// The weight of the second row: √α's position between the two rows' centres, clamped to
+    /// [0, 1] (an engine's clamp-to-edge below the first centre and above the last).
+    pub weight: f64,
 }
 
-/// The DFG table for `lobe`: lobe's engine table of its D and G, [`DFG_CELLS`]² cells.
-pub fn dfg_table(eval: &Evaluator, lobe: &SpecularLobe) -> Result<EngineTable> {
+impl DfgRows {
+    /// The (scale, bias) at `mu`, bilinear between cell centres with the edges clamped, as a GPU
+    /// sampler reads an RG texture.
+    pub fn at(&self, mu: f64) -> (f64, f64) {
+        let t = &self.table;
+        let n = t.mus.len();
+        let x = (mu * n as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+        let j0 = (x.floor() as usize).min(n - 1);
+        let (j1, fx) = ((j0 + 1).min(n - 1), x - j0 as f64);
+        let at = |k: usize, j: usize, c: usize| t.values[(k * n + j) * 2 + c];
+        let lerp = |a: f64, b: f64, w: f64| a + (b - a) * w;
+        let ch = |c| {
+            lerp(
+                lerp(at(0, j0, c), at(0, j1, c), fx),
+                lerp(at(1, j0, c), at(1, j1, c), fx),
+                self.weight,
+            )
+        };
+        (ch(0), ch(1))
+    }
+}
+
+/// The rows of lobe's engine DFG table (`lobe albedo --engine dfg` with the lobe's D and G,
+/// [`DFG_CELLS`]² cells, r_k = (k + ½)/N, α = r²) that bracket √α of `lobe`: computed as a table
+/// of two rows over r ∈ [k0/N, (k0 + 2)/N], whose cell centres are the full table's rows k0 and
+/// k0 + 1, so that its numbers are the full table's without the other 30 rows' cost.
+pub fn dfg_rows(eval: &Evaluator, lobe: &SpecularLobe) -> Result<DfgRows> {
+    let n = DFG_CELLS;
+    let y = (lobe.alpha.sqrt() * n as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+    let k0 = (y.floor() as usize).min(n - 2);
     let mut spec = EngineSpec::new(EngineKind::Dfg, &lobe.lut_sets)?;
-    spec.lut.n_mu = DFG_CELLS;
-    spec.lut.n_p = DFG_CELLS;
-    compute_engine(eval, &spec, &mut |_, _| {})
+    spec.lut.n_mu = n;
+    spec.lut.n_p = 2;
+    spec.lut.lo = k0 as f64 / n as f64;
+    spec.lut.hi = (k0 + 2) as f64 / n as f64;
+    Ok(DfgRows {
+        table: compute_engine(eval, &spec, &mut |_, _| {})?,
+        weight: (y - k0 as f64).clamp(0.0, 1.0),
+    })
 }
 
 /// The split sum at one pixel.
 fn pixel_value(
     texels: &Texels,
     lobe: &SplitSumLobe,
-    dfg: Option<&EngineTable>,
+    dfg: Option<&DfgRows>,
     p: &SpherePixel,
 ) -> [f64; 3] {
     let n = p.n;
@@ -127,7 +146,7 @@ fn pixel_value(
     let mut value = DVec3::ZERO;
     if let (Some(s), Some(table)) = (&lobe.specular, dfg) {
         let r = (2.0 * mu * n - DVec3::Z).normalize();
-        let (scale, bias) = dfg_at(table, mu, s.alpha.sqrt());
+        let (scale, bias) = table.at(mu);
         value += s.weight * texels.prefiltered(r, s) * (s.f0 * scale + s.f90 * bias);
     }
     if lobe.diffuse != DVec3::ZERO {
@@ -151,7 +170,7 @@ pub fn split_sum(
     let lobe = lobe_of(params, white_furnace)?;
     progress(0, size as u64);
     let dfg = match &lobe.specular {
-        Some(s) => Some(dfg_table(eval, s)?),
+        Some(s) => Some(dfg_rows(eval, s)?),
         None => None,
     };
     let texels = Texels::new(map);
