@@ -480,6 +480,8 @@ fn the_command_writes_what_the_library_computes() {
             "studio",
             "--size",
             "24",
+            "--method",
+            "exact",
             "--backend",
             "cpu",
             "-o",
@@ -679,4 +681,157 @@ fn a_model_without_a_lobe_has_no_split_sum() {
         err.contains("phong") && err.contains("no microfacet lobe the split sum can prefilter"),
         "{err}"
     );
+}
+
+/// `--method both` writes the exact sum, the split sum and their difference, each an EXR with a
+/// PNG, and the JSON; the EXRs hold the library's numbers, and the JSON's error figures are
+/// those recomputed from the EXRs (f32 in the files: equal to 1e-5 relative).
+#[test]
+fn both_writes_the_three_images_and_the_error_figures_of_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let sets = ["alpha=0.3", "diffuse=0.2"];
+    let mut args = vec!["light", "--model", "microfacet"];
+    for s in &sets {
+        args.extend(["--set", s]);
+    }
+    args.extend([
+        "--env",
+        "studio",
+        "--size",
+        "24",
+        "--backend",
+        "cpu",
+        "-o",
+        "lit.exr",
+    ]);
+    let out = lobe_cli(dir.path(), &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "lit.exr",
+            "lit.json",
+            "lit.png",
+            "lit_error.exr",
+            "lit_error.png",
+            "lit_split_sum.exr",
+            "lit_split_sum.png"
+        ]
+    );
+    let read = |f: &str| lobe::light::files::read_exr(&dir.path().join(f)).unwrap().1;
+    let (exact, split, error) = (
+        read("lit.exr"),
+        read("lit_split_sum.exr"),
+        read("lit_error.exr"),
+    );
+    let p = spec("microfacet", &sets);
+    let session = lobe::Session::cpu();
+    let map = Builtin::Studio.map();
+    let lib_exact = session.light(&p, &map, 24, &mut |_, _| {}).unwrap();
+    let lib_split = session
+        .light_split_sum(&p, &map, 24, &mut |_, _| {})
+        .unwrap();
+    for k in 0..exact.len() {
+        let (e, s) = (lib_exact.pixels[k], lib_split.pixels[k]);
+        assert_eq!(exact[k], e.map(|v| v as f32), "exact, pixel {k}");
+        assert_eq!(split[k], s.map(|v| v as f32), "split sum, pixel {k}");
+        let d = [s[0] - e[0], s[1] - e[1], s[2] - e[2]];
+        assert_eq!(error[k], d.map(|v| v as f32), "error, pixel {k}");
+    }
+    // The figures from the files alone.
+    let (mut sq, mut n, mut worst, mut at) = (0.0f64, 0usize, 0.0f64, (0, 0));
+    for q in sphere_pixels(24, 0..24) {
+        let k = (q.row * 24 + q.col) as usize;
+        for c in 0..3 {
+            let (e, s) = (exact[k][c] as f64, split[k][c] as f64);
+            sq += (s - e) * (s - e);
+            n += 1;
+            if e > 0.0 && (s - e).abs() / e > worst {
+                worst = (s - e).abs() / e;
+                at = (q.row, q.col);
+            }
+        }
+    }
+    let rms = (sq / n as f64).sqrt();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("lit.json")).unwrap()).unwrap();
+    assert_eq!(json["method"], "both");
+    assert_eq!(json["files"]["split_sum"], "lit_split_sum.exr");
+    let e = &json["error"];
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * b.abs();
+    assert!(close(e["rms"].as_f64().unwrap(), rms), "{e} vs RMS {rms}");
+    assert!(
+        close(e["max_relative"].as_f64().unwrap(), worst),
+        "{e} vs {worst}"
+    );
+    assert!(
+        worst > 0.0 && rms > 0.0,
+        "the split sum is not the exact sum under the studio"
+    );
+    let px = &e["max_relative_pixel"];
+    assert_eq!(
+        (px["row"].as_u64().unwrap(), px["column"].as_u64().unwrap()),
+        (at.0 as u64, at.1 as u64)
+    );
+    let mu = sphere_pixel(24, at.0, at.1).unwrap().wo().z;
+    assert!((px["n_dot_v"].as_f64().unwrap() - mu).abs() < 1e-12);
+}
+
+/// `--method split_sum` on a model with no lobe is refused naming the flag and writes nothing;
+/// `--method both` writes the exact sum alone and says in the JSON that there is no split sum.
+#[test]
+fn a_model_without_a_lobe_gets_the_exact_sum_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "light",
+        "--model",
+        "phong",
+        "--env",
+        "constant",
+        "--size",
+        "8",
+        "--backend",
+        "cpu",
+    ];
+    let mut args = base.to_vec();
+    args.extend(["--method", "split_sum", "-o", "a.exr"]);
+    let out = lobe_cli(dir.path(), &args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--method") && err.contains("no microfacet lobe the split sum can prefilter"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    let mut args = base.to_vec();
+    args.extend(["--method", "both", "-o", "b.exr"]);
+    let out = lobe_cli(dir.path(), &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["b.exr", "b.json", "b.png"]);
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
+    assert!(json["error"]["split_sum"].is_null(), "{json}");
+    assert!(json["error"]["reason"]
+        .as_str()
+        .unwrap()
+        .contains("no microfacet lobe"));
 }

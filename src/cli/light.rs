@@ -73,7 +73,11 @@ pub fn run(a: LightArgs) -> Result<()> {
     let params = a.model.params()?;
     let map = with_flag(maps::resolve(&a.env), flag)?;
     let session = open_session(&a.backend)?;
-    let passes = if method == lobe::light::Method::Both { 2 } else { 1 };
+    let passes = if method == lobe::light::Method::Both {
+        2
+    } else {
+        1
+    };
     let progress = bar(passes * a.size as u64, "{msg} [{bar:30}] {pos}/{len} rows");
     progress.set_message(format!("light on {}", session.backend_name()));
     let summary = session

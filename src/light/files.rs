@@ -93,7 +93,11 @@ pub fn write(set: FileSet, images: &[Image], exposure: f64, settings: &Value) ->
     set.commit()
 }
 
-fn encode_exr(image: &LightImage, attributes: &[(&'static str, String)], out: &Pending) -> Result<()> {
+fn encode_exr(
+    image: &LightImage,
+    attributes: &[(&'static str, String)],
+    out: &Pending,
+) -> Result<()> {
     use exr::prelude::*;
     let size = image.size as usize;
     let channels = SpecificChannels::rgb(|Vec2(x, y)| {
@@ -130,7 +134,11 @@ fn encode_png(image: &LightImage, exposure: f64, out: &Pending) -> Result<()> {
 /// its largest magnitude, red where positive, blue where negative, sRGB-encoded.
 fn encode_signed_png(image: &LightImage, out: &Pending) -> Result<()> {
     let mean = |p: &[f64; 3]| (p[0] + p[1] + p[2]) / 3.0;
-    let largest = image.pixels.iter().map(|p| mean(p).abs()).fold(0.0, f64::max);
+    let largest = image
+        .pixels
+        .iter()
+        .map(|p| mean(p).abs())
+        .fold(0.0, f64::max);
     let scale = if largest > 0.0 { 1.0 / largest } else { 0.0 };
     let rgb: Vec<u8> = image
         .pixels

@@ -208,9 +208,14 @@ pub fn write(
     };
     let exact_image = match method {
         Method::SplitSum => None,
-        _ => Some(exact(eval, params, white_furnace, map, size, &mut |d, _| {
-            progress(d, passes * rows)
-        })?),
+        _ => Some(exact(
+            eval,
+            params,
+            white_furnace,
+            map,
+            size,
+            &mut |d, _| progress(d, passes * rows),
+        )?),
     };
     let base = if exact_image.is_some() { rows } else { 0 };
     let split_image = match method {
@@ -294,10 +299,16 @@ pub fn write(
     let radiance = "linear RGB radiance toward the camera; 0 outside the sphere";
     let mut images: Vec<files::Image> = Vec::new();
     if let Some(e) = &exact_image {
-        images.push(files::Image::radiance(e.clone(), attributes("exact", radiance)));
+        images.push(files::Image::radiance(
+            e.clone(),
+            attributes("exact", radiance),
+        ));
     }
     if let Some(s) = &split_image {
-        images.push(files::Image::radiance(s.clone(), attributes("split_sum", radiance)));
+        images.push(files::Image::radiance(
+            s.clone(),
+            attributes("split_sum", radiance),
+        ));
     }
     if let (Some(e), Some(s)) = (&exact_image, &split_image) {
         images.push(files::Image::signed(
