@@ -547,7 +547,19 @@ fn the_command_refuses_bad_requests_and_writes_nothing() {
 
 /// The split sum of `p` under `map` on `backend`'s evaluator.
 fn split_sum_on(b: &dyn Backend, p: &ParamSet, map: &EnvMap, size: u32) -> lobe::light::LightImage {
-    lobe::light::split::split_sum(&Evaluator::on(b), p, false, map, size, &mut |_, _| {}).unwrap()
+    split_sum_wf(b, p, false, map, size)
+}
+
+/// [`split_sum_on`] with every Fresnel factor 1 where `white_furnace`.
+fn split_sum_wf(
+    b: &dyn Backend,
+    p: &ParamSet,
+    white_furnace: bool,
+    map: &EnvMap,
+    size: u32,
+) -> lobe::light::LightImage {
+    lobe::light::split::split_sum(&Evaluator::on(b), p, white_furnace, map, size, &mut |_, _| {})
+        .unwrap()
 }
 
 /// The exact sum of `p` under `map` on `backend`'s evaluator.
@@ -610,6 +622,47 @@ fn the_split_sum_equals_the_exact_sum_under_a_constant_map() {
                 }
             }
             eprintln!("{name}: split sum vs exact at most {worst:e}, vs E {worst_e:e}");
+        },
+    );
+}
+
+/// Cook–Torrance (Beckmann's own D, V-cavity masking, a Lambertian part) under the white
+/// furnace and a constant map: the split sum is 0.2 (the irradiance sum, the exact sum's own
+/// for a Lambertian f) plus 0.8 (A + B) of its own DFG table (Beckmann, V-cavity), so it equals
+/// the exact sum to the table's resolution as GGX does. Measured on a 32² sphere, both backends:
+/// at most 3.0e-3 relative, at n·v = 0.999, where the edge clamp holds A + B at its value at the
+/// last column's centre n·v = 63/64 and the V-cavity E still changes; elsewhere below 1e-3.
+/// 1e-2 is that with a margin; a Beckmann pixel read from a GGX table is off by more.
+const COOK_TORRANCE_CONSTANT_RTOL: f64 = 1e-2;
+
+#[test]
+fn the_split_sum_of_cook_torrance_equals_its_exact_sum_under_a_constant_map() {
+    let p = spec("cook_torrance", &["roughness=0.4"]);
+    let map = constant_map(128, 64, 1.0);
+    on_both(
+        "the_split_sum_of_cook_torrance_equals_its_exact_sum_under_a_constant_map",
+        |b, name| {
+            let split = split_sum_wf(b, &p, true, &map, SIZE);
+            let exact = lobe::light::exact(&Evaluator::on(b), &p, true, &map, SIZE, &mut |_, _| {})
+                .unwrap();
+            let (mut worst, mut worst_mu) = (0.0f64, 0.0);
+            for q in sphere_pixels(SIZE, 0..SIZE) {
+                let (s, e) = (split.at(q.row, q.col), exact.at(q.row, q.col));
+                let rel = (s[0] - e[0]).abs() / e[0];
+                if rel > worst {
+                    (worst, worst_mu) = (rel, q.wo().z);
+                }
+                assert!(
+                    rel <= COOK_TORRANCE_CONSTANT_RTOL,
+                    "{name}: pixel ({}, {}), n.v = {:.4}: split sum {} vs exact {} (relative {rel:e})",
+                    q.row,
+                    q.col,
+                    q.wo().z,
+                    s[0],
+                    e[0]
+                );
+            }
+            eprintln!("{name}: cook_torrance split sum vs exact at most {worst:e} at n.v = {worst_mu}");
         },
     );
 }

@@ -73,7 +73,9 @@ pub fn run(a: LightArgs) -> Result<()> {
     let params = a.model.params()?;
     let map = with_flag(maps::resolve(&a.env), flag)?;
     let session = open_session(&a.backend)?;
-    let passes = if method == lobe::light::Method::Both {
+    let has_split =
+        lobe::model::split_sum::split_sum_lobe(&params, a.model.white_furnace).is_some();
+    let passes = if method == lobe::light::Method::Both && has_split {
         2
     } else {
         1
