@@ -632,7 +632,7 @@ fn the_split_sum_equals_the_exact_sum_under_a_constant_map() {
 /// the exact sum to the table's resolution as GGX does. Measured on a 32² sphere, both backends:
 /// at most 3.0e-3 relative, at n·v = 0.999, where the edge clamp holds A + B at its value at the
 /// last column's centre n·v = 63/64 and the V-cavity E still changes; elsewhere below 1e-3.
-/// 1e-2 is that with a margin; a Beckmann pixel read from a GGX table is off by more.
+/// 1e-2 is that with a margin.
 const COOK_TORRANCE_CONSTANT_RTOL: f64 = 1e-2;
 
 #[test]
