@@ -388,8 +388,8 @@ class Session:
                                      thetas, _finite("phi_o_deg", phi_o_deg), samples, seed, significance))
 
     def light(self, model, env, size=256, params=None, material=None, method="exact"):
-        if method != "exact":
-            raise ValueError(f"method: {method!r}; only \"exact\" (the sum over every texel) is available")
+        if method not in ("exact", "split_sum"):
+            raise ValueError(f"method: {method!r}; expected \"exact\" (the sum over every texel) or \"split_sum\" (Karis' split sum)")
         size = _positive_ints("size", size, 1)[0]
         if isinstance(env, (str, os.PathLike)):
             name, array = os.fspath(env), None
@@ -398,7 +398,7 @@ class Session:
             if array.ndim != 3 or array.shape[2] != 3 or not np.issubdtype(array.dtype, np.number):
                 raise ValueError(f"env: expected a map name, a path or an (H, W, 3) array of radiance, got shape {array.shape}")
             name, array = None, np.ascontiguousarray(array, dtype=np.float32)
-        return _lobe.light(self._s, _model(model), material, _sets(params), name, array, size)
+        return _lobe.light(self._s, _model(model), material, _sets(params), name, array, size, method)
 
     def sample(self, model, wo, n, params=None, material=None, seed=0, white_furnace=False):
         wo_arr = _directions("wo", wo)

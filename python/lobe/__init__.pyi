@@ -339,7 +339,10 @@ class Session:
         every texel of the map above its horizon. ``env``: "sky", "studio", "constant", the path
         of a lat-long OpenEXR or Radiance .hdr file (Mitsuba's envmap layout: +y up,
         u = atan2(x, -z) / 2pi, v = acos(y) / pi), or an (H, W, 3) array of radiance in that
-        layout (row 0 at +y; finite and >= 0). ``method``: "exact" (the only one so far). A bad
+        layout (row 0 at +y; finite and >= 0). ``method``: "exact", or "split_sum" for Karis'
+        split sum (the map prefiltered by the model's D about each pixel's mirror direction, times
+        the DFG scale and bias of lobe's engine table, plus the Lambertian part; lambert,
+        microfacet and cook_torrance only, any other model raises ValueError). A bad
         map raises ValueError naming the first bad texel or what is wrong with the file; a
         missing file, FileNotFoundError."""
 

@@ -1,4 +1,5 @@
-//! The sphere under an environment map, as `lobe light` computes it (the exact sum).
+//! The sphere under an environment map, as `lobe light` computes it (the exact sum or the split
+//! sum).
 
 use crate::errors::{from_anyhow, invalid};
 use crate::{array, job, model, PySession};
@@ -7,10 +8,11 @@ use numpy::PyReadonlyArray3;
 use pyo3::prelude::*;
 
 /// The (size, size, 3) image of `model` lit by `env` (a built-in map's name or a map file's
-/// path) or by `env_array`, an (H, W, 3) float32 lat-long map (row 0 at +y).
+/// path) or by `env_array`, an (H, W, 3) float32 lat-long map (row 0 at +y); `method` is
+/// "exact" or "split_sum".
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (session, model, material, sets, env, env_array, size))]
+#[pyo3(signature = (session, model, material, sets, env, env_array, size, method))]
 pub fn light<'py>(
     py: Python<'py>,
     session: &Bound<'_, PySession>,
@@ -20,8 +22,21 @@ pub fn light<'py>(
     env: Option<String>,
     env_array: Option<PyReadonlyArray3<'py, f32>>,
     size: u32,
+    method: &str,
 ) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
     let params = model::resolve(model, material, &sets)?;
+    let method = match lobe::light::Method::from_name(method) {
+        Ok(m @ (lobe::light::Method::Exact | lobe::light::Method::SplitSum)) => m,
+        _ => {
+            return Err(invalid(
+                "method",
+                format!("method {method:?}: expected \"exact\" or \"split_sum\""),
+            ))
+        }
+    };
+    if method == lobe::light::Method::SplitSum {
+        lobe::light::split::lobe_of(&params, false).map_err(|e| invalid("method", e))?;
+    }
     lobe::light::check_image_size(size).map_err(|e| invalid("size", e))?;
     let map = match (env, env_array) {
         (_, Some(a)) => {
@@ -44,7 +59,10 @@ pub fn light<'py>(
         (None, None) => return Err(invalid("env", "give a map name, a path or an array")),
     };
     let s = &session.get().inner;
-    let image = job::run(py, s, || s.light(&params, &map, size, &mut |_, _| {}))?;
+    let image = job::run(py, s, || match method {
+        lobe::light::Method::SplitSum => s.light_split_sum(&params, &map, size, &mut |_, _| {}),
+        _ => s.light(&params, &map, size, &mut |_, _| {}),
+    })?;
     let values: Vec<f64> = image.pixels.iter().flatten().copied().collect();
     array(py, values, vec![size as usize, size as usize, 3])
 }

@@ -1,5 +1,6 @@
 //! `lobe light`: the unit sphere seen from +z under an environment map, every texel summed for
-//! every pixel (docs/design.md §15); P.exr, P.png and P.json.
+//! every pixel, beside Karis' split sum and its error (docs/design.md §15); P.exr, P.png and
+//! P.json, and under `--method both` P_split_sum.* and P_error.* too.
 
 use super::{bar, open_session, session_error, with_flag, BackendArgs, ModelArgs};
 use anyhow::Result;
@@ -17,6 +18,12 @@ pub struct LightArgs {
     /// a file of that name).
     #[arg(long, value_name = "sky|studio|constant|PATH")]
     env: String,
+    /// exact: every texel summed for every pixel; split_sum: Karis' split sum (the map
+    /// prefiltered by the model's D, times the DFG table; lambert, microfacet and cook_torrance);
+    /// both: P.exr (exact), P_split_sum.exr and P_error.exr (split sum - exact) with a PNG each,
+    /// and the error figures in P.json (a model without a split sum gets the exact sum alone).
+    #[arg(long, default_value = "both", value_parser = ["exact", "split_sum", "both"])]
+    method: String,
     /// Pixels per side of the square image of the sphere.
     #[arg(long, default_value_t = lobe::light::DEFAULT_SIZE)]
     size: u32,
@@ -41,6 +48,7 @@ fn flag(option: &str) -> Option<String> {
         "env" => Some("--env".into()),
         "size" => Some("--size".into()),
         "exposure" => Some("--exposure".into()),
+        "method" => Some("--method".into()),
         _ => None,
     }
 }
@@ -56,17 +64,29 @@ pub fn run(a: LightArgs) -> Result<()> {
         lobe::light::check_image_size(a.size).map_err(Into::into),
         flag,
     )?;
+    let method = with_flag(
+        lobe::light::Method::from_name(&a.method).map_err(Into::into),
+        flag,
+    )?;
     // The outputs' names are checked before the map is read or any work done.
-    lobe::light::files::paths(&a.output)?;
+    lobe::light::files::paths(&a.output, method, true)?;
     let params = a.model.params()?;
     let map = with_flag(maps::resolve(&a.env), flag)?;
     let session = open_session(&a.backend)?;
-    let progress = bar(a.size as u64, "{msg} [{bar:30}] {pos}/{len} rows");
+    let has_split =
+        lobe::model::split_sum::split_sum_lobe(&params, a.model.white_furnace).is_some();
+    let passes = if method == lobe::light::Method::Both && has_split {
+        2
+    } else {
+        1
+    };
+    let progress = bar(passes * a.size as u64, "{msg} [{bar:30}] {pos}/{len} rows");
     progress.set_message(format!("light on {}", session.backend_name()));
     let summary = session
         .write_light(
             &params,
             a.model.white_furnace,
+            method,
             &map,
             &a.env,
             a.size,
@@ -77,19 +97,33 @@ pub fn run(a: LightArgs) -> Result<()> {
         .map_err(session_error);
     progress.finish_and_clear();
     let summary = with_flag(summary, flag)?;
-    let [exr, png, json] = &summary.paths;
+    let written: Vec<String> = summary
+        .paths
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
     eprintln!(
-        "lobe: lit {} pixels of a {}² sphere under {} ({}x{} texels) in {:.2} s on {}; wrote {}, {} and {}",
+        "lobe: lit {} pixels of a {}² sphere under {} ({}x{} texels, {}) in {:.2} s on {}; wrote {}",
         summary.lit_pixels,
         a.size,
         a.env,
         map.width(),
         map.height(),
+        a.method,
         summary.seconds,
         summary.backend,
-        exr.display(),
-        png.display(),
-        json.display()
+        written.join(", ")
     );
+    if let Some(e) = &summary.error {
+        eprintln!(
+            "lobe: split sum - exact: RMS {:.3e}, largest relative error {:.3e} at pixel (row {}, column {}), n.v = {:.3}",
+            e.rms, e.max_relative, e.at.0, e.at.1, e.mu
+        );
+    } else if method == lobe::light::Method::Both {
+        eprintln!(
+            "lobe: model {} has no microfacet lobe the split sum can prefilter: wrote the exact sum alone",
+            params.model().name()
+        );
+    }
     Ok(())
 }

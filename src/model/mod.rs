@@ -17,6 +17,7 @@ pub mod registry;
 pub use registry::{components, info, kernels, runtime, sampling};
 pub mod sample;
 pub mod smooth_layered;
+pub mod split_sum;
 pub mod terms;
 
 use eon::EonConfig;

@@ -1,8 +1,9 @@
-//! Environment light: the sphere lit by a lat-long map, summed exactly over its texels.
+//! Environment light: the sphere lit by a lat-long map, summed exactly over its texels, and
+//! Karis' split sum of the same scene.
 
 use super::Session;
 use crate::error::{IntoLobe, Result};
-use crate::light::{self, LightImage, LightSummary};
+use crate::light::{self, LightImage, LightSummary, Method};
 use crate::model::ParamSet;
 use std::path::Path;
 
@@ -33,14 +34,38 @@ impl Session {
         light::exact(&self.evaluator(), params, false, map, size, progress).lobe()
     }
 
-    /// [`Session::light`] written as `exr_path` with its PNG at `exposure` stops and its JSON,
-    /// all three or none, as `lobe light` does; `env` names the map in the files; every specular
-    /// Fresnel factor is 1 where `white_furnace` (`--white-furnace`).
+    /// Karis' split sum of the same scene as [`Session::light`] (docs/design.md §15.3): the map
+    /// prefiltered by the model's D about each pixel's mirror direction, times the DFG scale
+    /// and bias of lobe's engine table, plus the Lambertian part. Refuses a model with no
+    /// microfacet lobe or Lambertian part (every model but lambert, microfacet and
+    /// cook_torrance).
+    ///
+    /// ```
+    /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
+    /// let map = lobe::light::maps::procedural_map(16, 8, |_| lobe::glam::DVec3::ONE)?;
+    /// let image = lobe::Session::cpu().light_split_sum(&lambert, &map, 8, &mut |_, _| {})?;
+    /// assert!((image.at(4, 4)[0] - 0.5).abs() < 1e-2);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn light_split_sum(
+        &self,
+        params: &ParamSet,
+        map: &EnvMap,
+        size: u32,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<LightImage> {
+        light::split::split_sum(&self.evaluator(), params, false, map, size, progress).lobe()
+    }
+
+    /// `method`'s images written beside `exr_path` with a PNG of each at `exposure` stops and
+    /// the JSON, all or none, as `lobe light` does (docs/commands.md); `env` names the map in the
+    /// files; every specular Fresnel factor is 1 where `white_furnace` (`--white-furnace`).
     #[allow(clippy::too_many_arguments)]
     pub fn write_light(
         &self,
         params: &ParamSet,
         white_furnace: bool,
+        method: Method,
         map: &EnvMap,
         env: &str,
         size: u32,
@@ -52,6 +77,7 @@ impl Session {
             &self.evaluator(),
             params,
             white_furnace,
+            method,
             map,
             env,
             size,

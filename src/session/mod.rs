@@ -13,7 +13,7 @@
 //! | reports | [`Session::energy`], [`Session::stability`], [`Session::tradeoff`], [`Session::compare`], [`Session::fit`] |
 //! | pictures | [`Session::preview`], [`Session::plot`], [`Session::plot_difference`] |
 //! | files of a scene, the demo | [`Session::run_scene`], [`Session::demo`] |
-//! | environment light | [`Session::light`], [`Session::write_light`] |
+//! | environment light | [`Session::light`], [`Session::light_split_sum`], [`Session::write_light`] |
 //! | throughput | [`Session::bench_table`], [`Session::bench_table_with`], [`Session::bench_albedo`], [`Session::bench_lut`] |
 //!
 //! ```

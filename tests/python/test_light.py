@@ -120,4 +120,26 @@ def test_bad_maps_are_refused(cpu, tmp_path):
     with pytest.raises(ValueError, match="size"):
         cpu.light("lambert", "sky", size=0)
     with pytest.raises(ValueError, match="method"):
-        cpu.light("lambert", "sky", size=8, method="split_sum")
+        cpu.light("lambert", "sky", size=8, method="both")
+    with pytest.raises(ValueError, match="no microfacet lobe the split sum can prefilter"):
+        cpu.light("phong", "sky", size=8, method="split_sum")
+
+
+@pytest.mark.parametrize("backend", ["gpu", "cpu"])
+def test_split_sum_is_the_exr_lobe_light_writes(lobe_bin, tmp_path, gpu, cpu, backend):
+    """method="split_sum" gives the numbers `lobe light --method split_sum` writes."""
+    out = tmp_path / "split.exr"
+    done = subprocess.run(
+        [lobe_bin, "light", "--model", "microfacet", "--set", "alpha=0.3", "--set", "diffuse=0.2",
+         "--env", "studio", "--size", "24", "--method", "split_sum", "--backend", backend,
+         "-o", str(out)],
+        capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    written = read_lobe_exr(out)
+    s = gpu if backend == "gpu" else cpu
+    image = s.light("microfacet", "studio", size=24, params={"alpha": 0.3, "diffuse": 0.2},
+                    method="split_sum")
+    assert image.shape == (24, 24, 3)
+    assert image.astype(np.float32).tobytes() == written.astype(np.float32).tobytes()
+    exact = s.light("microfacet", "studio", size=24, params={"alpha": 0.3, "diffuse": 0.2})
+    assert not np.array_equal(image, exact)
