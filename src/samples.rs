@@ -1,5 +1,6 @@
 //! A model's sampler as a user calls it: n draws for one ωo ([`draw`]), the density at many
-//! direction pairs ([`pdf`]), and the draws as files ([`write`]: `PATH.npy` with `PATH.json`),
+//! direction pairs ([`pdf`]), and the draws as files
+//! ([`crate::Session::write_samples`]: `PATH.npy` with `PATH.json`),
 //! what `lobe sample`, [`crate::Session::sample`] and Python's `Session.sample` give
 //! (docs/design.md §13).
 //!
@@ -217,7 +218,8 @@ pub fn pdf(params: &ParamSet, white_furnace: bool, pairs: &[(DVec3, DVec3)]) -> 
     Ok(pairs.par_iter().map(|(wi, wo)| r.pdf(*wi, *wo)).collect())
 }
 
-/// Where [`write`] puts the draws of `-o PATH.npy`: the array and, beside it, `PATH.json`.
+/// Where [`crate::Session::write_samples`] puts the draws of `-o PATH.npy`: the array and,
+/// beside it, `PATH.json`.
 /// Refuses a path that does not end in `.npy` (option `"path"`).
 pub fn paths(npy_path: &Path) -> Result<(PathBuf, PathBuf), BadInput> {
     if npy_path.extension().and_then(|e| e.to_str()) != Some("npy") {

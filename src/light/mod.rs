@@ -144,7 +144,7 @@ pub fn exact(
     Ok(LightImage { size, pixels })
 }
 
-/// What [`write`] made: where, on what, in how long.
+/// What [`write()`] made: where, on what, in how long.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightSummary {
     /// The files of the set ([`files::paths`]), the JSON last.
