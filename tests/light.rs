@@ -558,8 +558,15 @@ fn split_sum_wf(
     map: &EnvMap,
     size: u32,
 ) -> lobe::light::LightImage {
-    lobe::light::split::split_sum(&Evaluator::on(b), p, white_furnace, map, size, &mut |_, _| {})
-        .unwrap()
+    lobe::light::split::split_sum(
+        &Evaluator::on(b),
+        p,
+        white_furnace,
+        map,
+        size,
+        &mut |_, _| {},
+    )
+    .unwrap()
 }
 
 /// The exact sum of `p` under `map` on `backend`'s evaluator.
@@ -662,7 +669,9 @@ fn the_split_sum_of_cook_torrance_equals_its_exact_sum_under_a_constant_map() {
                     e[0]
                 );
             }
-            eprintln!("{name}: cook_torrance split sum vs exact at most {worst:e} at n.v = {worst_mu}");
+            eprintln!(
+                "{name}: cook_torrance split sum vs exact at most {worst:e} at n.v = {worst_mu}"
+            );
         },
     );
 }
