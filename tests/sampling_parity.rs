@@ -513,8 +513,9 @@ fn every_built_in_model_has_a_draws_kernel() {
     }
 }
 
-/// A measured BRDF (a MERL file, here Cook–Torrance's gold written on the CPU) is drawn by the
-/// cosine on both sides, with the same checks as a built-in model.
+/// A measured BRDF (a MERL file, here Cook–Torrance's gold written on the CPU) is drawn by its
+/// tabulated sampler on both sides (the same f32 tables, so the same cells), with the same checks
+/// as a built-in model, under both lookups (the same draws, other weights).
 #[test]
 fn gpu_draws_equal_cpu_draws_for_a_merl_file() {
     common::on_gpu("sampling parity, MERL", false, |gpu: &Gpu| {
@@ -525,11 +526,15 @@ fn gpu_draws_equal_cpu_draws_for_a_merl_file() {
             .write_merl(&gold, &path, &mut |_, _| {})
             .expect("a MERL file");
         let model = lobe::merl::model::load(&path).expect("the MERL file").model;
-        let p = ParamSet::defaults(model);
+        let nearest = ParamSet::defaults(model);
+        let trilinear = nearest.clone().with_choice("lookup", "trilinear").unwrap();
         let (mut failures, mut largest) = (Vec::new(), Largest::default());
-        for (k, &theta) in THETAS.iter().enumerate() {
+        for (p, (k, &theta)) in [&nearest, &trilinear]
+            .into_iter()
+            .flat_map(|p| THETAS.iter().enumerate().map(move |t| (p, t)))
+        {
             let wo = direction(theta, PHI);
-            let q = Query::one(&p);
+            let q = Query::one(p);
             let cpu = CpuBackend
                 .draws(q, wo, range(SEED, k as u32, 0, DRAWS), None)
                 .unwrap();
@@ -538,7 +543,7 @@ fn gpu_draws_equal_cpu_draws_for_a_merl_file() {
                 .unwrap();
             compare(
                 "merl gold",
-                &p,
+                p,
                 false,
                 theta,
                 k as u32,

@@ -105,13 +105,91 @@ vec3 merl(MerlParams p, vec3 wi, vec3 wo) {
     return p.lookup == MERL_TRILINEAR ? merl_trilinear(u) : merl_nearest(u);
 }
 
-// A measured BRDF is drawn by the cosine, as every model defined at run time is
-// (Reference::sample in src/model/mod.rs).
-Sample sample_merl(MerlParams p, vec3 wo, float uc, vec2 u) {
-    vec3 wi = sample_cosine(u);
-    return sample_from_draw(wi, pdf_cosine(wi), merl(p, wi, wo));
+// The importance sampler (twin of MerlSampler in src/model/merl.rs, docs/design.md section 13):
+// per slice of cos(theta_o), a piecewise-constant density over the half vector's
+// (theta_h, phi_h - phi_o) cells, tabulated on the host after the bins; wi is the reflection of wo
+// about the half vector drawn, mixed with the cosine. The tables, in floats from
+// MERL_SAMPLER_OFFSET: 1 - cos(theta) at the 91 row edges, each slice's share of table draws, each
+// slice's row CDF (91), each slice's and row's column CDF (65).
+const int MERL_SLICES = 32;
+const int MERL_ROWS = 90;
+const int MERL_COLUMNS = 64;
+const uint MERL_SAMPLER_OFFSET = 3u * MERL_BINS;
+const uint MERL_OMC = MERL_SAMPLER_OFFSET;
+const uint MERL_SHARE = MERL_OMC + uint(MERL_ROWS + 1);
+const uint MERL_MARGINAL = MERL_SHARE + uint(MERL_SLICES);
+const uint MERL_CONDITIONAL = MERL_MARGINAL + uint(MERL_SLICES * (MERL_ROWS + 1));
+const float MERL_COLUMN_STEP = 2.0 * PI / float(MERL_COLUMNS);
+
+// The largest k < n with cdf[k] <= u among the n + 1 values from merl_table[at] (0 up to 1), and
+// where u lies within [cdf[k], cdf[k + 1]) as a fraction in [0, 1].
+int merl_search(uint at, int n, float u, out float t) {
+    int lo = 0, hi = n;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (merl_table[at + uint(mid)] <= u) lo = mid; else hi = mid;
+    }
+    float a = merl_table[at + uint(lo)], b = merl_table[at + uint(lo + 1)];
+    t = b > a ? clamp((u - a) / (b - a), 0.0, 1.0) : 0.0;
+    return lo;
+}
+
+int merl_slice(vec3 wo) {
+    return min(int(float(MERL_SLICES) * (1.0 - wo.z)), MERL_SLICES - 1);
+}
+
+// cos and sin of wo's azimuth, (1, 0) along the normal.
+vec2 merl_azimuth(vec3 wo) {
+    float r = length(wo.xy);
+    return r > 0.0 ? wo.xy / r : vec2(1.0, 0.0);
+}
+
+uint merl_marginal(int j) {
+    return MERL_MARGINAL + uint(j * (MERL_ROWS + 1));
+}
+
+uint merl_conditional(int j, int k) {
+    return MERL_CONDITIONAL + uint((j * MERL_ROWS + k) * (MERL_COLUMNS + 1));
 }
 
 float pdf_merl(MerlParams p, vec3 wi, vec3 wo) {
-    return pdf_cosine(wi);
+    int j = merl_slice(wo);
+    float share = merl_table[MERL_SHARE + uint(j)];
+    float cosine = (1.0 - share) * pdf_cosine(wi);
+    if (share == 0.0) return cosine;
+    vec3 h = normalize(wi + wo);
+    vec2 a = merl_azimuth(wo);
+    float x = a.x * h.x + a.y * h.y, y = a.x * h.y - a.y * h.x;
+    // 1 - cos(theta_h) = sin^2 / (1 + cos), without the cancellation of 1 - h.z.
+    float m = (x * x + y * y) / (1.0 + h.z);
+    float unused;
+    int k = merl_search(MERL_OMC, MERL_ROWS, min(m, 1.0), unused);
+    float phi = merl_angle(abs(y), x);
+    if (y < 0.0) phi = 2.0 * PI - phi;
+    int c = clamp(int(phi / MERL_COLUMN_STEP), 0, MERL_COLUMNS - 1);
+    uint rows = merl_marginal(j), cols = merl_conditional(j, k);
+    float prob = (merl_table[rows + uint(k + 1)] - merl_table[rows + uint(k)])
+        * (merl_table[cols + uint(c + 1)] - merl_table[cols + uint(c)]);
+    float solid_angle = (merl_table[MERL_OMC + uint(k + 1)] - merl_table[MERL_OMC + uint(k)]) * MERL_COLUMN_STEP;
+    return share * prob / (solid_angle * 4.0 * dot(wo, h)) + cosine;
+}
+
+Sample sample_merl(MerlParams p, vec3 wo, float uc, vec2 u) {
+    int j = merl_slice(wo);
+    vec3 wi;
+    if (uc < merl_table[MERL_SHARE + uint(j)]) {
+        float tr, tc;
+        int k = merl_search(merl_marginal(j), MERL_ROWS, u.x, tr);
+        int c = merl_search(merl_conditional(j, k), MERL_COLUMNS, u.y, tc);
+        float a = merl_table[MERL_OMC + uint(k)], b = merl_table[MERL_OMC + uint(k + 1)];
+        float m = a + tr * (b - a);
+        float cos_h = 1.0 - m, sin_h = sqrt(max(m * (2.0 - m), 0.0));
+        float phi = (float(c) + tc) * MERL_COLUMN_STEP;
+        float x = sin_h * cos(phi), y = sin_h * sin(phi);
+        vec2 az = merl_azimuth(wo);
+        wi = reflect_about(wo, vec3(az.x * x - az.y * y, az.y * x + az.x * y, cos_h));
+    } else {
+        wi = sample_cosine(u);
+    }
+    return sample_from_draw(wi, pdf_merl(p, wi, wo), merl(p, wi, wo));
 }

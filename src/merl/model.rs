@@ -2,16 +2,20 @@
 //! `glsl/brdf/merl.glsl`, its table as the kernels' data buffer, and the f64 twin
 //! ([`super::lookup::merl`]) as its reference, so that every command and both backends take it.
 //!
+//! The data buffer holds the bins and, after them, the tables of the model's importance sampler
+//! ([`MerlSampler`], docs/design.md §13), which both backends draw with.
+//!
 //! The GPU table is f32 (stored × scale rounded once): kernels compute in f32 and write f32, so
 //! an f64 table would change no nearest-bin result (an f32 of the f64 value either way) and
 //! would need `shaderFloat64`, which many GPUs lack. The f64 reference keeps the file's values.
 
-use super::lookup::{merl, Lookup, LOOKUPS};
+use super::lookup::{merl, Lookup, MerlSampler, LOOKUPS};
 use super::{read, MerlTable, BINS};
 use crate::model::kernels;
-use crate::model::runtime::RuntimeModel;
+use crate::model::runtime::{RuntimeModel, RuntimeSampler};
+use crate::model::sample::Sample;
 use crate::model::{Model, ParamSpec};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -47,6 +51,25 @@ pub fn model_name(path: &Path) -> String {
     crate::model::runtime::name_from_stem(path, "merl")
 }
 
+/// The table's sampler as the model's: the same cells whatever the `lookup` parameter (the
+/// weight takes f from the lookup chosen).
+impl RuntimeSampler for MerlSampler {
+    fn sample(
+        &self,
+        _values: &[f64],
+        wo: DVec3,
+        uc: f64,
+        u: DVec2,
+        f: &dyn Fn(DVec3) -> DVec3,
+    ) -> Sample {
+        MerlSampler::sample(self, wo, uc, u, f)
+    }
+
+    fn pdf(&self, _values: &[f64], wi: DVec3, wo: DVec3) -> f64 {
+        MerlSampler::pdf(self, wi, wo)
+    }
+}
+
 /// Registers `table` as the model `name` (see the module's notes).
 pub fn register(name: &str, description: &str, table: MerlTable) -> anyhow::Result<Model> {
     let mut m = RuntimeModel::new(name, description, vec![LOOKUP_PARAM], true)?;
@@ -55,10 +78,13 @@ pub fn register(name: &str, description: &str, table: MerlTable) -> anyhow::Resu
             .ok_or_else(|| anyhow::anyhow!("the {kernel} kernel of the MERL lookup is missing"))?;
         m = m.with_kernel(kernel, spirv);
     }
+    let sampler = MerlSampler::new(&table);
     let gpu: Vec<u8> = table
         .values
         .iter()
-        .flat_map(|&v| (v as f32).to_le_bytes())
+        .map(|&v| v as f32)
+        .chain(sampler.gpu_floats())
+        .flat_map(f32::to_le_bytes)
         .collect();
     let table = Arc::new(table);
     let reference =
@@ -67,6 +93,7 @@ pub fn register(name: &str, description: &str, table: MerlTable) -> anyhow::Resu
         .with_reciprocity()
         .with_tabulated()
         .with_reference(Arc::new(reference))
+        .with_sampler(Arc::new(sampler))
         .register()?)
 }
 

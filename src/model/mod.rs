@@ -598,7 +598,7 @@ impl Reference {
     /// component of a mixture, `u` draws within it. The weight is f cos θi / pdf with f as
     /// [`Reference::eval`] gives it (the white furnace included); a draw below the horizon, and
     /// any draw for ωo below it, has weight 0 and pdf 0. A model defined at run time is drawn
-    /// by the cosine sampler; without an f64 reference it has no f, and its weight is NaN as
+    /// by its own sampler where it has one, by the cosine otherwise; without an f64 reference it has no f, and its weight is NaN as
     /// its `eval` is (jobs refuse such models before they sample).
     pub fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Sample {
         if wo.z <= 0.0 {
@@ -618,7 +618,7 @@ impl Reference {
             }
             Brdf::Microfacet(p) => microfacet::sample_microfacet(p, wo, uc, u, wf),
             Brdf::Eon(p) => eon::sample_eon(p, wo, uc, u),
-            Brdf::Runtime(p) => sample::sample_by_cosine(u, |wi| p.eval(wi, wo)),
+            Brdf::Runtime(p) => p.sample(wo, uc, u),
         }
     }
 
@@ -640,7 +640,7 @@ impl Reference {
             Brdf::AshikhminShirley(p) => ashikhmin_shirley::pdf_ashikhmin_shirley(p, wi, wo, wf),
             Brdf::Microfacet(p) => microfacet::pdf_microfacet(p, wi, wo, wf),
             Brdf::Eon(p) => eon::pdf_eon(p, wi, wo),
-            Brdf::Runtime(_) => sample::pdf_cosine(wi),
+            Brdf::Runtime(p) => p.pdf(wi, wo),
         }
     }
 

@@ -11,8 +11,9 @@ use super::info::{no_exponent, no_v_cavity, LutAxis, ModelInfo};
 use super::sampling::no_lobes;
 use crate::axis::Mapping;
 use crate::model::params::{ParamError, ParamKind, ParamSpec, Value};
+use crate::model::sample::{self, Sample};
 use crate::model::{Model, ParamSet};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -20,6 +21,24 @@ use std::time::Duration;
 /// An f64 reference: f(ωi, ωo) from the parameter values in table order (an rgb key gives three
 /// numbers, a scalar one).
 pub type ReferenceFn = Arc<dyn Fn(&[f64], DVec3, DVec3) -> DVec3 + Send + Sync>;
+
+/// A run-time model's own sampler in f64 (a measured table's, say), the twin of its kernels'
+/// `MODEL_SAMPLE` and `MODEL_PDF`; the parameter values come in table order as for
+/// [`ReferenceFn`]. A model without one is drawn by the cosine (docs/design.md §13).
+pub trait RuntimeSampler: Send + Sync {
+    /// A draw for ωo (above the horizon) with f from `f`, as `Reference::sample` returns it.
+    fn sample(
+        &self,
+        values: &[f64],
+        wo: DVec3,
+        uc: f64,
+        u: DVec2,
+        f: &dyn Fn(DVec3) -> DVec3,
+    ) -> Sample;
+    /// The density over the solid angle of ωi of [`RuntimeSampler::sample`]'s draws (both
+    /// directions above the horizon).
+    fn pdf(&self, values: &[f64], wi: DVec3, wo: DVec3) -> f64;
+}
 
 /// Most parameter numbers a run-time model may have (an rgb key counts three): a fixed array
 /// keeps a parameter set `Copy` and no larger than the largest built-in model's.
@@ -44,6 +63,7 @@ pub struct RuntimeModel {
     isotropic: bool,
     kernels: BTreeMap<String, &'static [u8]>,
     reference: Option<ReferenceFn>,
+    sampler: Option<Arc<dyn RuntimeSampler>>,
     no_reference_note: &'static str,
     chunk_timeout: Option<Duration>,
     defaults: Vec<(&'static str, Value)>,
@@ -212,6 +232,7 @@ impl RuntimeModel {
             isotropic,
             kernels: BTreeMap::new(),
             reference: None,
+            sampler: None,
             no_reference_note: "it was defined at run time without one",
             chunk_timeout: None,
             defaults: Vec::new(),
@@ -294,6 +315,13 @@ impl RuntimeModel {
     /// returns is then stopped with [`crate::gpu::GpuError::ModelTimeout`] after `timeout`.
     pub fn with_chunk_timeout(mut self, timeout: Duration) -> RuntimeModel {
         self.chunk_timeout = Some(timeout);
+        self
+    }
+
+    /// Adds the model's own f64 sampler (its kernels define `MODEL_SAMPLE` and `MODEL_PDF` to
+    /// match); without one the model is drawn by the cosine.
+    pub fn with_sampler(mut self, sampler: Arc<dyn RuntimeSampler>) -> RuntimeModel {
+        self.sampler = Some(sampler);
         self
     }
 
@@ -426,6 +454,24 @@ impl RuntimeBrdf {
         match &self.model.reference {
             Some(f) => f(&self.values[..self.len], wi, wo),
             None => DVec3::NAN,
+        }
+    }
+
+    /// A draw for ωo (above the horizon) by the model's sampler, the cosine if it has none;
+    /// the weight takes f from [`RuntimeBrdf::eval`].
+    pub fn sample(&self, wo: DVec3, uc: f64, u: DVec2) -> Sample {
+        let f = |wi| self.eval(wi, wo);
+        match &self.model.sampler {
+            Some(s) => s.sample(&self.values[..self.len], wo, uc, u, &f),
+            None => sample::sample_by_cosine(u, f),
+        }
+    }
+
+    /// The density of [`RuntimeBrdf::sample`]'s draws (both directions above the horizon).
+    pub fn pdf(&self, wi: DVec3, wo: DVec3) -> f64 {
+        match &self.model.sampler {
+            Some(s) => s.pdf(&self.values[..self.len], wi, wo),
+            None => sample::pdf_cosine(wi),
         }
     }
 
