@@ -28,6 +28,12 @@ const uint COUNT_PDF_BELOW = 7u;
 const uint COUNT_WEIGHT_ERROR = 8u;
 const uint COUNT_PDF_ERROR = 9u;
 const uint COUNT_HEADER = 16u;
+// The cells' counts are kept HISTOGRAM_COPIES times, workgroup w adding to copy w mod
+// HISTOGRAM_COPIES, and the host adds the copies: the threads of a CPU driver (or a GPU's
+// workgroups on a peaked lobe) then rarely add to the same cell at once, whose cache line
+// would otherwise pass between cores at every draw. Twin of CHI2_HISTOGRAM_COPIES in
+// src/gpu/draws.rs.
+const uint HISTOGRAM_COPIES = 16u;
 
 // Twin of chi2::UNIT_TOLERANCE_F32: a drawn wi may differ from unit length by this much.
 const float UNIT_TOLERANCE_F32 = 1e-5;
@@ -78,6 +84,7 @@ void main() {
     uint n_cos = chunk.pad;
     MODEL_PARAMS p = params[0];
     vec3 wo = request.wo;
+    uint histogram = COUNT_HEADER + (gl_WorkGroupID.x % HISTOGRAM_COPIES) * n_phi * n_cos;
     // This invocation's tallies and largest errors, added to the counts once at its end.
     uint lost = 0u, delta = 0u, invalid = 0u, non_unit = 0u, zero_pdf = 0u;
     uint non_finite_weight = 0u, weight_outside = 0u, pdf_below = 0u;
@@ -113,7 +120,7 @@ void main() {
             if (s.weight != vec3(0.0)) weight_outside += 1u;
             continue;
         }
-        atomicAdd(counts[COUNT_HEADER + uint(cell)], 1u);
+        atomicAdd(counts[histogram + uint(cell)], 1u);
         pdf_error = max(pdf_error, relative(s.pdf, pdf_at(p, s.wi, wo)));
         vec3 want = brdf(p, s.wi, wo) * max(s.wi.z, 0.0) / s.pdf;
         for (int c = 0; c < 3; ++c) weight_error = max(weight_error, relative(s.weight[c], want[c]));

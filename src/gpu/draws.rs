@@ -105,6 +105,12 @@ pub const COUNT_WEIGHT_ERROR: usize = 8;
 pub const COUNT_PDF_ERROR: usize = 9;
 /// The cells' counts start at this word.
 pub const COUNT_HEADER: usize = 16;
+/// The counting kernel keeps the cells' counts this many times over, workgroup w adding to copy
+/// w mod CHI2_HISTOGRAM_COPIES (twin of `HISTOGRAM_COPIES` in `glsl/kernels/chi2.comp`), so that
+/// concurrent workgroups seldom add to one cell at once; the host adds the copies. On lavapipe's
+/// two threads this took GGX α = 0.3's 10⁸ draws from 2.8–2.9 s to 2.4–2.8 s (one copy: the
+/// cells' cache lines pass between the cores at nearly every draw).
+pub const CHI2_HISTOGRAM_COPIES: usize = 16;
 
 /// Draws per dispatch of the counting kernel at most: 2²⁴ keeps each chunk's counts far below
 /// 2³² and a chunk well under a second on a CPU driver, so that the cancellation token is
@@ -116,7 +122,8 @@ impl Gpu {
     /// counted in `n_phi` × `n_cos` cells of (φ, cosθ) on the device, with the draw checks
     /// (glsl/kernels/chi2.comp). Each chunk's counts are added into `counts` (the tallies at the
     /// `COUNT_*` offsets, the largest errors' f32 bits kept as the larger, then a count per cell
-    /// from [`COUNT_HEADER`]; `COUNT_HEADER + n_phi · n_cos` words). Stops between chunks once
+    /// from [`COUNT_HEADER`], the kernel's [`CHI2_HISTOGRAM_COPIES`] summed;
+    /// `COUNT_HEADER + n_phi · n_cos` words). Stops between chunks once
     /// `cancel` is set.
     #[allow(clippy::too_many_arguments)] // the draws' request and the cells, as the kernel takes them
     pub fn chi2_counts(
@@ -153,7 +160,7 @@ impl Gpu {
             "draw request",
         )?;
         request_buf.write(bytemuck::bytes_of(&request))?;
-        let words = COUNT_HEADER + cells;
+        let words = COUNT_HEADER + CHI2_HISTOGRAM_COPIES * cells;
         let counts_buf = Buffer::output(&self.dev, (words * 4) as u64, "counts")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &request_buf, &counts_buf])?;
         let mut done = 0u64;
@@ -170,11 +177,17 @@ impl Gpu {
             };
             dispatcher.run_one(&push)?;
             let got = counts_buf.read_u32(words);
-            for (k, (total, &c)) in counts.iter_mut().zip(got).enumerate() {
+            let (tallies, copies) = got.split_at(COUNT_HEADER);
+            for (k, (total, &c)) in counts.iter_mut().zip(tallies).enumerate() {
                 if k == COUNT_WEIGHT_ERROR || k == COUNT_PDF_ERROR {
                     // Non-negative floats' bits order as the numbers do.
                     *total = (*total).max(u64::from(c));
                 } else {
+                    *total += u64::from(c);
+                }
+            }
+            for copy in copies.chunks_exact(cells) {
+                for (total, &c) in counts[COUNT_HEADER..].iter_mut().zip(copy) {
                     *total += u64::from(c);
                 }
             }
