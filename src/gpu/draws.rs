@@ -122,7 +122,7 @@ impl Gpu {
     /// counted in `n_phi` × `n_cos` cells of (φ, cosθ) on the device, with the draw checks
     /// (glsl/kernels/chi2.comp). Each chunk's counts are added into `counts` (the tallies at the
     /// `COUNT_*` offsets, the largest errors' f32 bits kept as the larger, then a count per cell
-    /// from [`COUNT_HEADER`], the kernel's [`CHI2_HISTOGRAM_COPIES`] summed;
+    /// from `COUNT_HEADER`, the kernel's `CHI2_HISTOGRAM_COPIES` summed;
     /// `COUNT_HEADER + n_phi · n_cos` words). Stops between chunks once
     /// `cancel` is set.
     #[allow(clippy::too_many_arguments)] // the draws' request and the cells, as the kernel takes them
