@@ -284,3 +284,38 @@ fn lobe_chi2_on_the_device_matches_the_library() {
         assert_eq!(observed, d.observed, "direction {k}");
     }
 }
+
+/// The progress callback hears the device's batches up to every draw, and a session whose token
+/// is set stops at the next batch with the cancellation error.
+#[test]
+fn device_counting_reports_progress_and_stops_once_cancelled() {
+    let Some(session) = common::gpu_session("chi2 progress and cancel on the device") else {
+        return;
+    };
+    let p = params("lambert", &[]);
+    // Two batches per direction, the second a partial one.
+    let o = options(&[0.0, 45.0], (1 << 24) + 12345, 1);
+    let total = 2 * o.samples;
+    let mut heard = Vec::new();
+    let r = session
+        .chi2(&p, false, &o, &mut |done, all| heard.push((done, all)))
+        .expect("the test runs");
+    assert!(r.passed, "{:?}", r.directions[0].failures);
+    assert_eq!(heard.len(), 4, "{heard:?}");
+    assert!(heard.windows(2).all(|w| w[0].0 < w[1].0), "{heard:?}");
+    assert_eq!(heard.last(), Some(&(total, total)));
+
+    let token = lobe::CancelToken::new();
+    let stoppable = session.with_cancel(token.clone());
+    let mut calls = 0;
+    let stopped = stoppable.chi2(&p, false, &o, &mut |_, _| {
+        calls += 1;
+        token.cancel();
+    });
+    assert!(
+        matches!(stopped, Err(lobe::Error::Cancelled(_))),
+        "{:?}",
+        stopped.map(|r| r.passed)
+    );
+    assert_eq!(calls, 1, "one batch heard before the stop");
+}
