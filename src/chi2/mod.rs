@@ -79,7 +79,9 @@ pub const UNIT_TOLERANCE: f64 = 1e-9;
 /// pow(cos, n) multiplies the base's relative error by n (Phong's exponent 8192: ~5e-4) and a
 /// GGX lobe of α = 0.01 is ~400 times steeper in θh than in its value. 1e-2 leaves room for
 /// those and still catches a missing factor or Jacobian (a factor 4 ωo·h, cosθi, a
-/// component's share: errors of order 1).
+/// component's share: errors of order 1). Measured on lavapipe over every built-in model and
+/// its parameters' edges: weight 2.3e-7, pdf 0 (the samplers return their pdf function's value
+/// at the drawn ωi); a GPU's looser sin, cos, exp and pow are what the margin is for.
 pub const DRAW_TOLERANCE_F32: f64 = 1e-2;
 /// [`UNIT_TOLERANCE`] for f32 directions: a normalised f32 vector is within a few ulp
 /// (6e-8 each) of unit length, and a reflection 2 (ωo·h) h − ωo of unit f32 vectors within
