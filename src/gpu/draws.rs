@@ -148,6 +148,14 @@ impl Gpu {
         if count > u32::MAX as u64 {
             anyhow::bail!("{count} draws in one request; at most 2^32 - 1");
         }
+        let words = COUNT_HEADER + CHI2_HISTOGRAM_COPIES * cells;
+        let range = self.dev.limits.max_storage_buffer_range as u64;
+        if (words as u64) * 4 > range {
+            anyhow::bail!(
+                "{n_phi} × {n_cos} cells need {} bytes of counts on the device ({CHI2_HISTOGRAM_COPIES} copies), over its storage buffer range of {range}; use fewer cells or the CPU backend",
+                words * 4
+            );
+        }
         let pipe = self.pipeline(Kernel::Chi2, model, white_furnace, false)?;
         let per_group = (super::pipeline::LOCAL_SIZE * pipe.evals_per_invocation) as u64;
         let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64 * per_group;
@@ -160,7 +168,6 @@ impl Gpu {
             "draw request",
         )?;
         request_buf.write(bytemuck::bytes_of(&request))?;
-        let words = COUNT_HEADER + CHI2_HISTOGRAM_COPIES * cells;
         let counts_buf = Buffer::output(&self.dev, (words * 4) as u64, "counts")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &request_buf, &counts_buf])?;
         let mut done = 0u64;
