@@ -62,7 +62,9 @@ enum Command {
     /// The sampling test of a model's sampler: its draws against the integral of its pdf over
     /// equal-solid-angle cells (chi-square with pooling, Sidak's correction over the view
     /// directions), the share of draws leaving the hemisphere against 1 - integral of pdf, and
-    /// every draw's weight f cos/pdf and pdf. Exits 0 when it passes, 1 when the sampler is
+    /// every draw's weight f cos/pdf and pdf. The draws are made and counted on the device with
+    /// --backend gpu (the default; checked in f32) or in f64 with --backend cpu; the expected
+    /// counts are integrated in f64 either way. Exits 0 when it passes, 1 when the sampler is
     /// rejected, 2 for bad usage.
     Chi2(cli::chi2::Chi2Args),
     /// Draws of a model's sampler for one view direction, as PATH.npy (float64, a row per draw:

@@ -174,6 +174,8 @@ fn the_same_seed_gives_the_same_report() {
 fn lobe_chi2_matches_the_library_and_refuses_bad_usage() {
     let j = common::lobe_json(&[
         "chi2",
+        "--backend",
+        "cpu",
         "--model",
         "phong{shininess=50}",
         "--theta-o-deg",
@@ -202,7 +204,15 @@ fn lobe_chi2_matches_the_library_and_refuses_bad_usage() {
             .expect("observed counts");
         assert_eq!(observed, d.observed, "direction {k}");
     }
-    let (code, out, err) = common::lobe_run(&["chi2", "--model", "lambert", "--samples", "4096"]);
+    let (code, out, err) = common::lobe_run(&[
+        "chi2",
+        "--backend",
+        "cpu",
+        "--model",
+        "lambert",
+        "--samples",
+        "4096",
+    ]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("the sampler passes"), "{out}");
     for (args, says) in [
@@ -213,7 +223,7 @@ fn lobe_chi2_matches_the_library_and_refuses_bad_usage() {
         (vec!["--samples", "2^41"], "--samples"),
         (vec!["--samples", "3^5"], "--samples"),
     ] {
-        let mut all = vec!["chi2", "--model", "lambert"];
+        let mut all = vec!["chi2", "--backend", "cpu", "--model", "lambert"];
         all.extend(&args);
         let (code, out, err) = common::lobe_run(&all);
         assert_eq!(code, 2, "{args:?}: {err}");
@@ -339,6 +349,8 @@ fn chi2_pictures_show_the_cell_the_report_names() {
     let out = dir.path().join("cli.svg");
     let (code, _, err) = common::lobe_run(&[
         "chi2",
+        "--backend",
+        "cpu",
         "--model",
         "lambert",
         "--samples",
@@ -352,6 +364,8 @@ fn chi2_pictures_show_the_cell_the_report_names() {
     assert!(std::fs::read_to_string(&out).unwrap().starts_with("<svg"));
     let (code, _, err) = common::lobe_run(&[
         "chi2",
+        "--backend",
+        "cpu",
         "--model",
         "lambert",
         "-o",

@@ -373,9 +373,25 @@ class Session:
                          report=report)
 
 
-    def chi2(self, model, params=None, material=None, theta_o_deg=(0.0, 30.0, 60.0, 85.0),
-             phi_o_deg=0.0, samples=1 << 20, seed=0, significance=0.01, white_furnace=False):
-        thetas = [float(t) for t in _reals("theta_o_deg", theta_o_deg).reshape(-1)]
+    def chi2(self, model, wo=None, params=None, material=None, samples=1 << 24, seed=0,
+             theta_o_deg=None, phi_o_deg=0.0, significance=0.01, white_furnace=False):
+        if wo is not None and theta_o_deg is not None:
+            raise ValueError("wo and theta_o_deg: give the view directions one way, not both")
+        if wo is not None:
+            wo_arr = _directions("wo", wo).astype(np.float64).reshape(-1, 3)
+            if wo_arr.shape[0] == 0:
+                raise ValueError("wo: expected at least one view direction")
+            below = wo_arr[:, 2] <= 0.0
+            if below.any():
+                k = int(np.argmax(below))
+                raise ValueError(f"wo: the direction at index {k} is {wo_arr[k].tolist()}; view directions must lie above the horizon (z > 0)")
+            thetas = [float(np.degrees(np.arccos(min(z, 1.0)))) for z in wo_arr[:, 2]]
+            phis = [float(np.degrees(np.arctan2(y, x))) for x, y in wo_arr[:, :2]]
+        else:
+            if theta_o_deg is None:
+                theta_o_deg = (0.0, 30.0, 60.0, 85.0)
+            thetas = [float(t) for t in _reals("theta_o_deg", theta_o_deg).reshape(-1)]
+            phis = [_finite("phi_o_deg", phi_o_deg)] * len(thetas)
         for k, t in enumerate(thetas):
             if not (0.0 <= t < 90.0):
                 raise ValueError(f"theta_o_deg: {t} at index {k} is out of range; view angles must be in [0, 90) degrees")
@@ -385,7 +401,7 @@ class Session:
         samples = _positive_ints("samples", samples, 1)[0]
         seed = _seed(seed)
         return json.loads(_lobe.chi2(self._s, _model(model), material, _sets(params), bool(white_furnace),
-                                     thetas, _finite("phi_o_deg", phi_o_deg), samples, seed, significance))
+                                     thetas, phis, samples, seed, significance))
 
     def light(self, model, env, size=256, params=None, material=None, method="exact"):
         if method not in ("exact", "split_sum"):

@@ -289,17 +289,23 @@ class Session:
         average). ``res``: (Nmu, Np); rows are the roughness axis (``p``: alpha or r; ``axis``:
         the perceptual value), columns are mu_j = (j + 0.5)/Nmu."""
 
-    def chi2(self, model: ModelSpec, params: Optional[Params] = None,
-             material: Optional[str] = None,
-             theta_o_deg: Sequence[float] = (0.0, 30.0, 60.0, 85.0), phi_o_deg: float = 0.0,
-             samples: int = 1 << 20, seed: int = 0, significance: float = 0.01,
-             white_furnace: bool = False) -> Dict[str, Any]:
+    def chi2(self, model: ModelSpec, wo: Optional[npt.ArrayLike] = None,
+             params: Optional[Params] = None, material: Optional[str] = None,
+             samples: int = 1 << 24, seed: int = 0,
+             theta_o_deg: Optional[Sequence[float]] = None, phi_o_deg: float = 0.0,
+             significance: float = 0.01, white_furnace: bool = False) -> Dict[str, Any]:
         """The sampling test of the model's own sampler, as ``lobe chi2 --format json``
-        reports it: per view direction theta_o (degrees, at azimuth ``phi_o_deg``) the observed
-        and expected histograms, the chi-square statistic, dof and p-value, the share of draws
-        leaving the hemisphere against 1 - integral of pdf, the draw-by-draw checks and the
-        verdicts (``"passed"``). Drawn and judged in f64 on the CPU; ``seed`` picks the random
-        stream."""
+        reports it: per view direction the observed and expected histograms, the chi-square
+        statistic, dof and p-value, the share of draws leaving the hemisphere against
+        1 - integral of pdf, the draw-by-draw checks and the verdicts (``"passed"``).
+
+        The view directions are ``wo``, one unit vector of shape (3,) or several (k, 3) above
+        the horizon, or else ``theta_o_deg`` (degrees, at azimuth ``phi_o_deg``; by default 0,
+        30, 60 and 85). ``samples`` draws per direction (default 2^24), from the random stream
+        ``seed``. Drawn and counted on this session's backend (``"backend"`` in the report
+        names it): on "gpu" by the counting kernel with every draw checked in f32 there, on
+        "cpu" through the f64 reference; the expected counts are the f64 reference pdf's
+        integrals over the cells either way."""
 
     def sample(self, model: ModelSpec, wo: npt.ArrayLike, n: int, params: Optional[Params] = None,
                material: Optional[str] = None, seed: int = 0,

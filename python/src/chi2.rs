@@ -1,4 +1,4 @@
-//! The sampling test of a model's sampler, as `lobe chi2` runs it.
+//! The sampling test of a model's sampler, as `lobe chi2` runs it, on the session's backend.
 
 use crate::{job, model, PySession};
 use pyo3::prelude::*;
@@ -15,14 +15,18 @@ pub fn chi2(
     sets: Vec<String>,
     white_furnace: bool,
     theta_o_deg: Vec<f64>,
-    phi_o_deg: f64,
+    phi_o_deg: Vec<f64>,
     samples: u64,
     seed: u32,
     significance: f64,
 ) -> PyResult<String> {
     let params = model::resolve(model, material, &sets)?;
     let options = lobe::chi2::Options {
-        directions: theta_o_deg.iter().map(|&t| [t, phi_o_deg]).collect(),
+        directions: theta_o_deg
+            .iter()
+            .zip(&phi_o_deg)
+            .map(|(&t, &p)| [t, p])
+            .collect(),
         samples,
         seed,
         significance,

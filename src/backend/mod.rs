@@ -138,6 +138,46 @@ impl DrawRange {
     }
 }
 
+/// A sampler's draws counted on a device for the sampling test ([`Backend::draw_counts`]): the
+/// cells' counts and the draw checks' tallies, as `crate::chi2` counts them on the CPU.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DrawCounts {
+    /// Draws per cell, cell i_cos · n_phi + i_phi.
+    pub cells: Vec<u64>,
+    /// Draws below the horizon or with pdf 0 (not delta, not invalid).
+    pub lost: u64,
+    /// Draws from a delta lobe.
+    pub delta: u64,
+    /// Draws whose ωi or pdf is NaN or infinite, or whose pdf is negative.
+    pub invalid: u64,
+    /// Draws off unit length by more than the backend's tolerance.
+    pub non_unit: u64,
+    /// Draws above the horizon with pdf 0.
+    pub zero_pdf: u64,
+    /// Draws with a NaN or infinite weight.
+    pub non_finite_weight: u64,
+    /// Draws outside the cells whose weight is not 0.
+    pub nonzero_weight_outside: u64,
+    /// Draws below the horizon reported with a pdf other than 0.
+    pub nonzero_pdf_below: u64,
+    /// The largest relative difference of a counted draw's weight from f cos θi / pdf.
+    pub max_weight_error: f64,
+    /// The largest relative difference of a counted draw's pdf from the pdf at its ωi.
+    pub max_pdf_error: f64,
+}
+
+/// The draws a backend counts ([`Backend::draw_counts`]): the range of the stream and the
+/// cells.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DrawCounting {
+    /// Which draws.
+    pub range: DrawRange,
+    /// Steps in φ over [0, 2π).
+    pub n_phi: usize,
+    /// Steps in cosθ over [0, 1].
+    pub n_cos: usize,
+}
+
 /// The arithmetic a backend evaluates and sums in: what an error estimate must allow for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Precision {
@@ -261,6 +301,21 @@ pub trait Backend: Send + Sync {
         range: DrawRange,
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<DrawRecord>>;
+
+    /// The draws `range` of the sampler of the query's first set for `wo`, counted where they
+    /// are drawn in `n_phi` × `n_cos` cells of equal solid angle over (φ, cosθ) (the sampling
+    /// test's cells, `crate::chi2::Cells`) with the draw checks, for a backend that draws on a
+    /// device; None where the backend counts no draws itself (the f64 reference: the test draws
+    /// through its sampler directly). Stops between chunks once `cancel` is set.
+    fn draw_counts(
+        &self,
+        _query: Query,
+        _wo: DVec3,
+        _range: DrawCounting,
+        _cancel: Option<&CancelToken>,
+    ) -> Option<Result<DrawCounts>> {
+        None
+    }
 
     /// The radiance toward the camera of each of `pixels` of the sphere lit by `texels`, for the
     /// query's first set: per pixel Σ f(ωi, ωo) cos θi L ΔΩ over the texels above its horizon

@@ -41,6 +41,7 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("albedo", include_str!("../../glsl/kernels/albedo.comp")),
     ("preview", include_str!("../../glsl/kernels/preview.comp")),
     ("sample", include_str!("../../glsl/kernels/sample.comp")),
+    ("chi2", include_str!("../../glsl/kernels/chi2.comp")),
     ("light", include_str!("../../glsl/kernels/light.comp")),
 ];
 
@@ -52,6 +53,10 @@ const INCLUDES: &[(&str, &str)] = &[
         include_str!("../../glsl/kernels/eval.glsl"),
     ),
     ("random.glsl", include_str!("../../glsl/random.glsl")),
+    (
+        "kernels/draw.glsl",
+        include_str!("../../glsl/kernels/draw.glsl"),
+    ),
     (
         "brdf/terms.glsl",
         include_str!("../../glsl/brdf/terms.glsl"),

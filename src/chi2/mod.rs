@@ -11,6 +11,12 @@
 //! `eval_cos` and `pdf`. The tests over all ωo together reject a correct sampler with
 //! probability `significance` (Šidák's correction).
 //!
+//! The draws are counted either on the CPU through the [`Sampler`] (every draw checked in f64)
+//! or on a backend's device ([`Counting::Backend`]: the counting kernel draws the same numbers
+//! in f32, counts each draw in its cell with atomics and reduces the draw checks there, so no
+//! draw leaves the device); the expected counts are the f64 integrals of the sampler's f64 pdf
+//! either way.
+//!
 //! The test knows no model: anything that implements [`Sampler`] can be judged.
 
 pub mod cells;
@@ -21,7 +27,8 @@ pub use cells::{Cells, Integrals};
 pub use model::test_model;
 pub use stats::{chi2_p_value, gamma_p, gamma_q, sidak, statistic, Statistic};
 
-use crate::error::{Error, Result};
+use crate::backend::{Backend, DrawCounting, DrawCounts, DrawRange, Precision, Query};
+use crate::error::{Error, IntoLobe, Result};
 use crate::interrupt::CancelToken;
 use crate::random;
 use glam::{DVec2, DVec3};
@@ -65,6 +72,31 @@ pub const DRAW_TOLERANCE: f64 = 1e-6;
 /// A drawn ωi may differ from unit length by this much: a normalised vector in f64 is within a
 /// few ulps of it.
 pub const UNIT_TOLERANCE: f64 = 1e-9;
+/// [`DRAW_TOLERANCE`] for draws made and checked in f32 on a device: the weight and
+/// f cos θi / pdf, and the draw's pdf and pdf(ωi), are the same f32 formulas reached along two
+/// paths (the sampled half vector against one made again from ωi + ωo, a product against a
+/// quotient), each a few ulp (6e-8) off, amplified where the lobe is steep in the direction:
+/// pow(cos, n) multiplies the base's relative error by n (Phong's exponent 8192: ~5e-4) and a
+/// GGX lobe of α = 0.01 is ~400 times steeper in θh than in its value. 1e-2 leaves room for
+/// those and still catches a missing factor or Jacobian (a factor 4 ωo·h, cosθi, a
+/// component's share: errors of order 1). Measured on lavapipe over every built-in model and
+/// its parameters' edges: weight 2.3e-7, pdf 0 (the samplers return their pdf function's value
+/// at the drawn ωi); a GPU's looser sin, cos, exp and pow are what the margin is for.
+pub const DRAW_TOLERANCE_F32: f64 = 1e-2;
+/// [`UNIT_TOLERANCE`] for f32 directions: a normalised f32 vector is within a few ulp
+/// (6e-8 each) of unit length, and a reflection 2 (ωo·h) h − ωo of unit f32 vectors within
+/// ~1e-6; 1e-5 still catches a direction never normalised. The counting kernel's
+/// `UNIT_TOLERANCE_F32` is its twin.
+pub const UNIT_TOLERANCE_F32: f64 = 1e-5;
+/// Draws per call of a backend's counting ([`Counting::Backend`]): the cancellation token and
+/// the progress callback are heard between calls.
+const DEVICE_BATCH: u64 = 1 << 24;
+/// A cell whose count exceeds its expectation e by more than REFINE_SIGMA (sqrt(e) + 1) is
+/// integrated again from finer rectangles ([`Cells::refine`]). Refining changes no correct
+/// integral beyond its tolerance, so the test's verdict on a correct sampler stays what it was;
+/// 4σ keeps the work to the few cells where the rule may have missed mass (of 5000 cells of a
+/// correct sampler, about one in six runs has one beyond 4σ by chance).
+pub const REFINE_SIGMA: f64 = 4.0;
 /// Draws per chunk (one rayon task).
 const CHUNK: u64 = 1 << 16;
 /// Chunks between checks of the cancellation token and calls of the progress callback.
@@ -118,9 +150,14 @@ pub struct WorstCell {
 /// The draw-by-draw checks of one direction.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct DrawChecks {
+    /// The relative weight and pdf error allowed: [`DRAW_TOLERANCE`] for draws checked in f64,
+    /// [`DRAW_TOLERANCE_F32`] for draws checked on a device in f32.
+    pub tolerance: f64,
+    /// The difference from unit length allowed: [`UNIT_TOLERANCE`] or [`UNIT_TOLERANCE_F32`].
+    pub unit_tolerance: f64,
     /// Draws whose ωi or pdf is NaN or infinite, or whose pdf is negative.
     pub invalid: u64,
-    /// Draws whose ωi is off unit length by more than [`UNIT_TOLERANCE`] (counted in their
+    /// Draws whose ωi is off unit length by more than `unit_tolerance` (counted in their
     /// normalised direction's cell).
     pub non_unit: u64,
     /// Draws above the horizon with pdf 0 (counted as leaving the hemisphere).
@@ -134,7 +171,8 @@ pub struct DrawChecks {
     /// The largest relative difference |w − eval_cos/pdf| / max(|w|, |eval_cos/pdf|) over
     /// channels and draws counted in cells, and the draw (its index i) where it occurred.
     pub max_weight_error: f64,
-    /// The draw with the largest weight error.
+    /// The draw with the largest weight error (None for draws counted on a device, which
+    /// reduces the errors without their indices).
     pub worst_weight_draw: Option<u64>,
     /// The largest relative difference between a draw's pdf and pdf(ωi, ωo).
     pub max_pdf_error: f64,
@@ -143,16 +181,16 @@ pub struct DrawChecks {
 }
 
 impl DrawChecks {
-    /// Whether every draw is finite, of unit length, with weight and pdf within
-    /// [`DRAW_TOLERANCE`] of eval_cos / pdf and pdf(ωi), and weight 0 when it leaves.
+    /// Whether every draw is finite, of unit length, with weight and pdf within `tolerance`
+    /// of eval_cos / pdf and pdf(ωi), and weight 0 when it leaves.
     pub fn consistent(&self) -> bool {
         self.invalid == 0
             && self.non_unit == 0
             && self.non_finite_weight == 0
             && self.nonzero_weight_outside == 0
             && self.nonzero_pdf_below == 0
-            && self.max_weight_error <= DRAW_TOLERANCE
-            && self.max_pdf_error <= DRAW_TOLERANCE
+            && self.max_weight_error <= self.tolerance
+            && self.max_pdf_error <= self.tolerance
     }
 }
 
@@ -184,6 +222,9 @@ pub struct DirectionResult {
     pub pdf_evaluations: u64,
     /// Cells whose integral stopped at the rectangle budget short of its tolerance.
     pub unconverged_cells: usize,
+    /// Cells integrated again from finer rectangles because they held far more draws than
+    /// expected (more than [`REFINE_SIGMA`] σ).
+    pub refined_cells: usize,
     /// Draws below the horizon (cosθi ≤ 0) or with pdf 0.
     pub leaked: u64,
     /// Draws from delta lobes.
@@ -226,6 +267,9 @@ pub struct DirectionResult {
 pub struct Report {
     /// What was asked.
     pub options: Options,
+    /// Where the draws were made and counted: "cpu (f64 reference)" or the device's backend
+    /// name ([`Backend::name`]).
+    pub backend: String,
     /// Tests made: two per direction (the histogram and the outside share).
     pub tests: usize,
     /// Šidák's significance per test.
@@ -251,7 +295,6 @@ impl Report {
         let mut j = self.to_json();
         j["model"] = serde_json::json!(params.model().name());
         j["parameters"] = params.to_json();
-        j["backend"] = serde_json::json!("cpu (f64 reference)");
         j
     }
 }
@@ -295,12 +338,40 @@ struct Tally {
 }
 
 impl Tally {
+    /// No draws yet, to be checked in f64.
     fn new(cells: usize) -> Tally {
         Tally {
             hist: vec![0; cells],
             leaked: 0,
             delta: 0,
-            checks: DrawChecks::default(),
+            checks: DrawChecks {
+                tolerance: DRAW_TOLERANCE,
+                unit_tolerance: UNIT_TOLERANCE,
+                ..DrawChecks::default()
+            },
+        }
+    }
+
+    /// A backend's counts of draws made and checked in f32 on its device.
+    fn from_device(d: DrawCounts) -> Tally {
+        Tally {
+            hist: d.cells,
+            leaked: d.lost,
+            delta: d.delta,
+            checks: DrawChecks {
+                tolerance: DRAW_TOLERANCE_F32,
+                unit_tolerance: UNIT_TOLERANCE_F32,
+                invalid: d.invalid,
+                non_unit: d.non_unit,
+                zero_pdf: d.zero_pdf,
+                non_finite_weight: d.non_finite_weight,
+                nonzero_weight_outside: d.nonzero_weight_outside,
+                nonzero_pdf_below: d.nonzero_pdf_below,
+                max_weight_error: d.max_weight_error,
+                worst_weight_draw: None,
+                max_pdf_error: d.max_pdf_error,
+                worst_pdf_draw: None,
+            },
         }
     }
 
@@ -315,6 +386,8 @@ impl Tally {
     }
 
     fn merge(mut self, other: Tally) -> Tally {
+        self.checks.tolerance = self.checks.tolerance.max(other.checks.tolerance);
+        self.checks.unit_tolerance = self.checks.unit_tolerance.max(other.checks.unit_tolerance);
         for (a, b) in self.hist.iter_mut().zip(&other.hist) {
             *a += b;
         }
@@ -394,10 +467,54 @@ impl Tally {
     }
 }
 
-/// Runs the test for `sampler`. `progress(done, total)` is called on the calling thread between
-/// batches of draws (total = samples × directions); `cancel` is checked at the same points.
+/// Where the test's draws are made and counted.
+#[derive(Clone, Copy)]
+pub enum Counting<'a> {
+    /// On the CPU's threads through the [`Sampler`], every draw checked in f64.
+    Sampler,
+    /// On a backend's device ([`Backend::draw_counts`]): the sampler of the query's first set,
+    /// drawn and checked in f32 where it runs, with the same numbers as the [`Sampler`]'s
+    /// draws (the same model), counted in the same cells. The backend must count on a device.
+    Backend(&'a dyn Backend, Query<'a>),
+}
+
+impl Counting<'_> {
+    /// Where the draws are made, as a report names it.
+    fn name(&self) -> String {
+        match self {
+            Counting::Sampler => "cpu (f64 reference)".into(),
+            Counting::Backend(b, _) => b.name(),
+        }
+    }
+
+    /// The counting of `backend`: on its device where it counts there (an f32 backend), else
+    /// through the sampler.
+    pub fn on<'a>(backend: &'a dyn Backend, query: Query<'a>) -> Counting<'a> {
+        if backend.precision() == Precision::F64 {
+            Counting::Sampler
+        } else {
+            Counting::Backend(backend, query)
+        }
+    }
+}
+
+/// Runs the test for `sampler`, drawn and counted on the CPU. `progress(done, total)` is called
+/// on the calling thread between batches of draws (total = samples × directions); `cancel` is
+/// checked at the same points.
 pub fn run<S: Sampler>(
     sampler: &S,
+    options: &Options,
+    cancel: Option<&CancelToken>,
+    progress: impl FnMut(u64, u64),
+) -> Result<Report> {
+    run_counted(sampler, Counting::Sampler, options, cancel, progress)
+}
+
+/// [`run`] with the draws counted where `counting` says; the expected counts are the f64
+/// integrals of `sampler`'s pdf either way.
+pub fn run_counted<S: Sampler>(
+    sampler: &S,
+    counting: Counting<'_>,
     options: &Options,
     cancel: Option<&CancelToken>,
     mut progress: impl FnMut(u64, u64),
@@ -449,6 +566,22 @@ pub fn run<S: Sampler>(
         let chunks = options.samples.div_ceil(CHUNK);
         let mut tally = Tally::new(cells.len());
         let mut next = 0u64;
+        if let Counting::Backend(backend, query) = counting {
+            tally = count_on_device(
+                backend,
+                query,
+                wo,
+                options,
+                group,
+                cells,
+                cancel,
+                &mut |n| {
+                    done += n;
+                    progress(done, total)
+                },
+            )?;
+            next = chunks;
+        }
         while next < chunks {
             if let Some(c) = cancel {
                 c.check()?;
@@ -479,7 +612,20 @@ pub fn run<S: Sampler>(
             c.check()?;
         }
         let t1 = Instant::now();
-        let ints = cells.integrate(&|wi: DVec3| sampler.pdf(wi, wo), options.samples);
+        let pdf = |wi: DVec3| sampler.pdf(wi, wo);
+        let mut ints = cells.integrate(&pdf, options.samples);
+        // Cells holding far more draws than expected are integrated again, finer: a lobe can
+        // pass between one rectangle's nodes unseen.
+        let n = options.samples as f64;
+        let suspects: Vec<usize> = (0..cells.len())
+            .filter(|&c| {
+                let e = (n * ints.probability[c]).max(0.0);
+                tally.hist[c] as f64 > e + REFINE_SIGMA * (e.sqrt() + 1.0)
+            })
+            .collect();
+        if !suspects.is_empty() {
+            cells.refine(&pdf, options.samples, &mut ints, &suspects);
+        }
         let integration_seconds = t1.elapsed().as_secs_f64();
         results.push(judge(
             &cells,
@@ -494,12 +640,71 @@ pub fn run<S: Sampler>(
     }
     Ok(Report {
         options: options.clone(),
+        backend: counting.name(),
         tests,
         corrected_significance: corrected,
         passed: results.iter().all(|r| r.passed),
         directions: results,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// One direction's draws counted on `backend`'s device, `DEVICE_BATCH` at a time; `advance`
+/// hears each batch's draws.
+#[allow(clippy::too_many_arguments)] // one call site: the direction's part of run_counted
+fn count_on_device(
+    backend: &dyn Backend,
+    query: Query<'_>,
+    wo: DVec3,
+    options: &Options,
+    group: u32,
+    cells: Cells,
+    cancel: Option<&CancelToken>,
+    advance: &mut dyn FnMut(u64),
+) -> Result<Tally> {
+    let mut tally: Option<Tally> = None;
+    let mut first = 0u64;
+    while first < options.samples {
+        if let Some(c) = cancel {
+            c.check()?;
+        }
+        let n = DEVICE_BATCH.min(options.samples - first);
+        let counting = DrawCounting {
+            range: DrawRange {
+                seed: options.seed,
+                group,
+                first,
+                count: n as usize,
+            },
+            n_phi: cells.n_phi,
+            n_cos: cells.n_cos,
+        };
+        let counts = backend
+            .draw_counts(query, wo, counting, cancel)
+            .ok_or_else(|| {
+                Error::Invalid(format!(
+                    "the backend {} counts no draws on a device; run the sampling test on the CPU",
+                    backend.name()
+                ))
+            })?
+            .lobe()?;
+        if counts.cells.len() != cells.len() {
+            return Err(Error::Invalid(format!(
+                "the backend {} counted {} cells of {}",
+                backend.name(),
+                counts.cells.len(),
+                cells.len()
+            )));
+        }
+        let part = Tally::from_device(counts);
+        tally = Some(match tally {
+            Some(t) => t.merge(part),
+            None => part,
+        });
+        first += n;
+        advance(n);
+    }
+    Ok(tally.unwrap_or_else(|| Tally::new(cells.len())))
 }
 
 /// Two-sided p-value of `outside` draws of `samples` leaving the hemisphere where a share
@@ -633,7 +838,7 @@ fn judge(
     let c = &tally.checks;
     if !c.consistent() {
         failures.push(format!(
-            "draws: {} invalid, {} not of unit length, {} with non-finite weight, {} leaving with a weight, {} below the horizon with a pdf; largest weight error {:.3e} (draw {:?}), pdf error {:.3e} (draw {:?}), allowed {DRAW_TOLERANCE:e}",
+            "draws: {} invalid, {} not of unit length, {} with non-finite weight, {} leaving with a weight, {} below the horizon with a pdf; largest weight error {:.3e} (draw {:?}), pdf error {:.3e} (draw {:?}), allowed {:e}",
             c.invalid,
             c.non_unit,
             c.non_finite_weight,
@@ -642,7 +847,8 @@ fn judge(
             c.max_weight_error,
             c.worst_weight_draw,
             c.max_pdf_error,
-            c.worst_pdf_draw
+            c.worst_pdf_draw,
+            c.tolerance
         ));
     }
     let passed = histogram_passed && outside_passed && c.consistent();
@@ -657,6 +863,7 @@ fn judge(
         expected_accuracy: ints.accuracy,
         pdf_evaluations: ints.evaluations,
         unconverged_cells: ints.unconverged_cells,
+        refined_cells: ints.refined_cells,
         leaked: tally.leaked,
         delta: tally.delta,
         leak_share: tally.leaked as f64 / n,

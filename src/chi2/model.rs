@@ -1,7 +1,8 @@
 //! The sampling test of a model's own sampler: the f64 reference's `sample` and `pdf`
 //! (docs/design.md §13) judged by [`run`](super::run).
 
-use super::{Drawn, Options, Report, Sampler};
+use super::{Counting, Drawn, Options, Report, Sampler};
+use crate::backend::{Backend, Query};
 use crate::error::Result;
 use crate::interrupt::CancelToken;
 use crate::model::{ParamSet, Reference};
@@ -28,16 +29,26 @@ impl Sampler for Reference {
 }
 
 /// The sampling test of `params`' sampler (with every Fresnel factor at 1 under
-/// `white_furnace`), drawn and judged in f64 on the CPU. A model without an f64 reference (a
-/// `.brdf` shader) is refused with a sentence.
+/// `white_furnace`): drawn and counted on `backend` where it draws on a device
+/// ([`Counting::on`]), else drawn and checked in f64 on the CPU; the expected counts are the
+/// integrals of the f64 reference's pdf either way. A model without an f64 reference (a `.brdf`
+/// shader) is refused with a sentence.
 pub fn test_model(
     params: &ParamSet,
     white_furnace: bool,
     options: &Options,
+    backend: &dyn Backend,
     cancel: Option<&CancelToken>,
     progress: impl FnMut(u64, u64),
 ) -> Result<Report> {
     params.model().require_reference("the sampling test")?;
     let reference = Reference::new(params, white_furnace);
-    super::run(&reference, options, cancel, progress)
+    let query = Query::one(params).with_white_furnace(white_furnace);
+    super::run_counted(
+        &reference,
+        Counting::on(backend, query),
+        options,
+        cancel,
+        progress,
+    )
 }

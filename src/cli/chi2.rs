@@ -1,6 +1,6 @@
 //! `lobe chi2`: the sampling test of a model's sampler (docs/design.md §13, §14).
 
-use super::ModelArgs;
+use super::{BackendArgs, ModelArgs};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use lobe::chi2::{DirectionResult, Options, Report};
@@ -23,6 +23,11 @@ pub enum Chi2Format {
 pub struct Chi2Args {
     #[command(flatten)]
     model: ModelArgs,
+    // Where the draws are made and counted: on the GPU by the counting kernel (checked in
+    // f32), or on the CPU reference (checked in f64); the expected counts are integrated in
+    // f64 on the CPU either way.
+    #[command(flatten)]
+    backend: BackendArgs,
     /// View directions θo in degrees, comma-separated, each in [0, 90).
     #[arg(
         long = "theta-o-deg",
@@ -89,11 +94,7 @@ pub fn run(a: Chi2Args) -> Result<()> {
         significance: a.significance,
         cells: None,
     };
-    // Drawn and judged in f64 on the CPU: no device to open.
-    let session = super::open_session(&super::BackendArgs {
-        backend: super::BackendArg::Cpu,
-        device: None,
-    })?;
+    let session = super::open_session(&a.backend)?;
     let bar = indicatif::ProgressBar::new(options.samples * options.directions.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {percent}% draws, {eta} left")
@@ -167,8 +168,8 @@ fn write_text(out: &mut dyn Write, params: &lobe::ParamSet, r: &Report) -> std::
     writeln!(out, "{} {}", params.model().name(), params.to_text())?;
     writeln!(
         out,
-        "{} draws per direction, seed {}, drawn on cpu (f64 reference); {} tests at significance {} each (Sidak, {} overall)",
-        r.options.samples, r.options.seed, r.tests, fmt_p(r.corrected_significance), r.options.significance
+        "{} draws per direction, seed {}, drawn on {}; {} tests at significance {} each (Sidak, {} overall)",
+        r.options.samples, r.options.seed, r.backend, r.tests, fmt_p(r.corrected_significance), r.options.significance
     )?;
     writeln!(
         out,

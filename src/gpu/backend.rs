@@ -1,12 +1,14 @@
 //! The Vulkan kernels as a [`Backend`]: directions and parameter blocks in their std430 forms,
 //! f32 results widened to f64.
 
+use super::draws as counts;
 use super::pipeline::Kernel;
 use super::{Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
 use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::backend::scene::Scene;
 use crate::backend::{
-    Backend, DrawRange, DrawRecord, NodeRule, Precision, Query, RowSums, TableSink,
+    Backend, DrawCounting, DrawCounts, DrawRange, DrawRecord, NodeRule, Precision, Query, RowSums,
+    TableSink,
 };
 use crate::interrupt::CancelToken;
 use crate::model::{Brdf, Model, ParamSet};
@@ -156,6 +158,16 @@ impl Backend for Gpu {
             .collect())
     }
 
+    fn draw_counts(
+        &self,
+        query: Query,
+        wo: DVec3,
+        counting: DrawCounting,
+        cancel: Option<&CancelToken>,
+    ) -> Option<Result<DrawCounts>> {
+        Some(self.count_draws(query, wo, counting, cancel))
+    }
+
     fn table(
         &self,
         query: Query,
@@ -251,5 +263,74 @@ impl Backend for Gpu {
 
     fn built_kernels(&self) -> Vec<(String, Duration)> {
         self.built_pipelines()
+    }
+}
+
+impl Gpu {
+    /// [`Backend::draw_counts`] on the device: the counting kernel's chunks added up.
+    fn count_draws(
+        &self,
+        query: Query,
+        wo: DVec3,
+        counting: DrawCounting,
+        cancel: Option<&CancelToken>,
+    ) -> Result<DrawCounts> {
+        let DrawCounting {
+            range,
+            n_phi,
+            n_cos,
+        } = counting;
+        let cells = n_phi * n_cos;
+        let Some(params) = query.sets.first() else {
+            return Ok(DrawCounts {
+                cells: vec![0; cells],
+                ..DrawCounts::default()
+            });
+        };
+        let model = params.model();
+        if model.spirv(Kernel::Chi2.name()).is_none() {
+            anyhow::bail!(
+                "model {} has no counting kernel (a model defined at run time is given its \
+                 kernels one by one); its sampling test runs on the CPU backend",
+                model.name()
+            );
+        }
+        let (Ok(np), Ok(nc)) = (u32::try_from(n_phi), u32::try_from(n_cos)) else {
+            anyhow::bail!("{n_phi} × {n_cos} cells: too many for the counting kernel");
+        };
+        let request = GpuDrawRequest {
+            wo: [wo.x as f32, wo.y as f32, wo.z as f32],
+            seed: range.seed,
+            group: range.group,
+            first_lo: range.first as u32,
+            first_hi: (range.first >> 32) as u32,
+            pad: 0,
+        };
+        let block = Brdf::new(params).gpu_block();
+        let mut words = vec![0u64; counts::COUNT_HEADER + cells];
+        self.chi2_counts(
+            model,
+            &block,
+            request,
+            range.count as u64,
+            [np, nc],
+            query.white_furnace,
+            cancel,
+            &mut words,
+        )?;
+        let error = |k: usize| f64::from(f32::from_bits(words[k] as u32));
+        Ok(DrawCounts {
+            lost: words[counts::COUNT_LOST],
+            delta: words[counts::COUNT_DELTA],
+            invalid: words[counts::COUNT_INVALID],
+            non_unit: words[counts::COUNT_NON_UNIT],
+            zero_pdf: words[counts::COUNT_ZERO_PDF],
+            non_finite_weight: words[counts::COUNT_NON_FINITE_WEIGHT],
+            nonzero_weight_outside: words[counts::COUNT_WEIGHT_OUTSIDE],
+            nonzero_pdf_below: words[counts::COUNT_PDF_BELOW],
+            max_weight_error: error(counts::COUNT_WEIGHT_ERROR),
+            max_pdf_error: error(counts::COUNT_PDF_ERROR),
+            cells: words.split_off(counts::COUNT_HEADER),
+        })
     }
 }

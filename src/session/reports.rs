@@ -83,9 +83,11 @@ impl Session {
     /// The sampling test of `params`' sampler ([`crate::chi2`], `lobe chi2`): at each ωo of
     /// `options`, its draws against the integral of its pdf over equal-solid-angle cells, the
     /// share of draws that leave the hemisphere against 1 − ∫pdf, and every draw's weight and
-    /// pdf against f cos/pdf and pdf(ωi). Drawn and judged in f64 on the CPU, whatever this
-    /// session's backend; stopped by its cancellation token. `progress` hears (draws done,
-    /// draws in all).
+    /// pdf against f cos/pdf and pdf(ωi). Drawn and counted on this session's backend: on the
+    /// GPU by the counting kernel (draws checked in f32), on the CPU reference in f64; the
+    /// expected counts are the f64 reference's either way ([`crate::chi2::Report::backend`]
+    /// says which drew). Stopped by the session's cancellation token. `progress` hears (draws
+    /// done, draws in all).
     ///
     /// ```
     /// let session = lobe::Session::cpu();
@@ -106,10 +108,12 @@ impl Session {
         options: &crate::chi2::Options,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<crate::chi2::Report> {
+        let evaluator = self.evaluator();
         crate::chi2::test_model(
             params,
             white_furnace,
             options,
+            evaluator.backend(),
             Some(self.cancel_token()),
             progress,
         )

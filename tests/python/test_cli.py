@@ -202,7 +202,7 @@ def test_the_package_version_is_lobes():
 
 
 def test_chi2_gives_the_report_lobe_chi2_prints(lobe_bin, cpu):
-    args = ["chi2", "--model", "microfacet", "--set", "alpha_x=0.1", "--set", "alpha_y=0.4",
+    args = ["chi2", "--backend", "cpu", "--model", "microfacet", "--set", "alpha_x=0.1", "--set", "alpha_y=0.4",
             "--theta-o-deg", "0,45", "--phi-o-deg", "30", "--samples", "2^14", "--seed", "9",
             "--format", "json"]
     cli = json.loads(run(lobe_bin, *args))
@@ -218,3 +218,22 @@ def test_chi2_gives_the_report_lobe_chi2_prints(lobe_bin, cpu):
         cpu.chi2("lambert", theta_o_deg=[95])
     with pytest.raises(ValueError, match="significance"):
         cpu.chi2("lambert", significance=1.5)
+
+
+def test_chi2_takes_view_vectors_and_draws_on_the_sessions_backend(session):
+    # One unit vector (3,) or several (k, 3); the report names where the draws were counted.
+    t = 0.7
+    wo = np.array([[0.0, 0.0, 1.0], [math.sin(t), 0.0, math.cos(t)]])
+    both = session.chi2("microfacet", wo, params={"alpha": 0.3}, samples=1 << 16, seed=3)
+    assert both["passed"] is True
+    assert both["backend"].startswith(session.backend)
+    assert [d["theta_o_deg"] for d in both["directions"]] == pytest.approx([0.0, math.degrees(t)])
+    one = session.chi2("microfacet", wo[1], params={"alpha": 0.3}, samples=1 << 16, seed=3)
+    assert len(one["directions"]) == 1
+    assert one["directions"][0]["theta_o_deg"] == pytest.approx(math.degrees(t))
+    with pytest.raises(ValueError, match="wo"):
+        session.chi2("lambert", [0.0, 0.0, -1.0])
+    with pytest.raises(ValueError, match="wo"):
+        session.chi2("lambert", [0.0, 0.0, 2.0])
+    with pytest.raises(ValueError, match="theta_o_deg"):
+        session.chi2("lambert", [0.0, 0.0, 1.0], theta_o_deg=[10])

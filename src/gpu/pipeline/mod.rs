@@ -34,6 +34,10 @@ pub enum Kernel {
     /// Draws of the model's sampler for one ωo (bindings 0 params, 1 the request, 3 out); see
     /// glsl/kernels/sample.comp and [`crate::gpu::Gpu::sample_draws`].
     Sample,
+    /// The sampling test's counting: draws of the model's sampler for one ωo counted in cells,
+    /// with the draw checks' tallies (bindings 0 params, 1 the request, 2 the counts, cleared
+    /// before each chunk); see glsl/kernels/chi2.comp and [`crate::gpu::Gpu::chi2_counts`].
+    Chi2,
     /// `lobe light`'s exact sum: one lit sphere pixel per evaluation, summed over every texel of
     /// an environment map (bindings 0 params, 1 pixels, 2 texels, 3 out); see
     /// glsl/kernels/light.comp and src/gpu/light.rs.
@@ -49,6 +53,7 @@ impl Kernel {
             Kernel::Preview => "preview",
             Kernel::Albedo => "albedo",
             Kernel::Sample => "sample",
+            Kernel::Chi2 => "chi2",
             Kernel::Light => "light",
         }
     }
@@ -61,6 +66,7 @@ impl Kernel {
             // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
             Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T), (6, S)],
             Kernel::Pairs | Kernel::Sample => &[(0, S), (1, S), (3, S)],
+            Kernel::Chi2 => &[(0, S), (1, S), (2, S)],
             Kernel::Preview | Kernel::Light => &[(0, S), (1, S), (2, S), (3, S)],
             // 4: the nodes again, as a texel buffer (TEXEL_NODES).
             Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
@@ -71,6 +77,7 @@ impl Kernel {
     pub(crate) fn cleared(self) -> &'static [u32] {
         match self {
             Kernel::Table => &[6],
+            Kernel::Chi2 => &[2],
             Kernel::Pairs | Kernel::Preview | Kernel::Albedo | Kernel::Sample | Kernel::Light => {
                 &[]
             }
@@ -202,6 +209,17 @@ pub fn evals_per_invocation(cpu_driver: bool) -> u32 {
     }
 }
 
+/// Draws one invocation of the counting kernel (glsl/kernels/chi2.comp) makes: its tallies
+/// and largest errors go to the counts once per invocation, so on a CPU driver 16 draws share
+/// those atomics and the invocation's overhead; on a GPU one per invocation keeps every lane busy.
+pub fn chi2_draws_per_invocation(cpu_driver: bool) -> u32 {
+    if cpu_driver {
+        16
+    } else {
+        1
+    }
+}
+
 /// Push constants: see `Chunk` in `glsl/kernels/eval.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -210,9 +228,11 @@ pub struct ChunkPush {
     pub first: u32,
     /// Number of elements in this chunk.
     pub count: u32,
-    /// Length of the wo list (the table kernel only; 0 elsewhere).
+    /// Length of the wo list (the table kernel; the counting kernel: the cells' steps in φ; 0
+    /// elsewhere).
     pub n_wo: u32,
-    /// Length of the wi list (the table kernel only; 0 elsewhere).
+    /// Length of the wi list (the table kernel; the counting kernel: the cells' steps in cosθ;
+    /// 0 elsewhere).
     pub n_wi: u32,
 }
 
@@ -271,6 +291,8 @@ impl Pipeline {
                     "a table pipeline's walk names its evaluations"
                 );
                 walk.evals
+            } else if kernel == Kernel::Chi2 {
+                chi2_draws_per_invocation(dev.cpu_kernels())
             } else if kernel == Kernel::Light {
                 // One pixel per invocation: its loop over every texel of the map is work
                 // enough to carry the invocation's overhead.
