@@ -319,3 +319,21 @@ fn device_counting_reports_progress_and_stops_once_cancelled() {
     );
     assert_eq!(calls, 1, "one batch heard before the stop");
 }
+
+/// A MERL file's tabulated sampler drawn and counted on the device (its kernels read the
+/// sampler's tables after the bins): Cook–Torrance's gold written as a MERL file.
+#[test]
+fn a_merl_files_sampler_passes_on_the_device() {
+    let Some(session) = common::gpu_session("chi2 of a MERL file on the device") else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let path = dir.path().join("chi2_gpu_gold.binary");
+    let gold = lobe::resolve_params("cook_torrance", Some("gold"), &[]).expect("gold");
+    Session::cpu()
+        .write_merl(&gold, &path, &mut |_, _| {})
+        .expect("a MERL file");
+    let model = lobe::merl::model::load(&path).expect("the MERL file").model;
+    let cases = [("merl gold".to_string(), ParamSet::defaults(model))];
+    assert_all_pass_on_device(&session, &cases, &THETAS, 1 << 20);
+}

@@ -21,7 +21,9 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 /// The kernels a model gets, each compiled with `glsl/brdf/merl.glsl` by build.rs.
-const KERNELS: [&str; 6] = ["pairs", "table", "albedo", "preview", "sample", "light"];
+const KERNELS: [&str; 7] = [
+    "pairs", "table", "albedo", "preview", "sample", "light", "chi2",
+];
 
 /// The model's one parameter: how a pair's value comes out of the bins.
 pub const LOOKUP_PARAM: ParamSpec = ParamSpec::choice(
