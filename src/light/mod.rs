@@ -7,6 +7,7 @@
 
 pub mod files;
 pub mod maps;
+pub mod report;
 pub mod split;
 
 use crate::backend::light::{sphere_pixels, EnvMap};
