@@ -46,6 +46,15 @@ pub struct LightArgs {
     /// Roughness values the report sweeps (2 to 64), cell-centred over the parameter's range.
     #[arg(long, value_name = "N", default_value_t = lobe::light::report::DEFAULT_STEPS, requires = "report")]
     report_steps: usize,
+    /// Write the map prefiltered by the model's D as an engine's mip chain into this folder
+    /// instead of images: level k of L at perceptual roughness k/(L-1), half the size of the
+    /// level above, as latlong_L{k}.exr and six cube faces cube_L{k}_{px,nx,py,ny,pz,nz}.exr
+    /// (OpenGL/KTX order), and prefilter.json naming the layout (microfacet, cook_torrance).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["method", "report"])]
+    prefilter_out: Option<PathBuf>,
+    /// Levels of the prefiltered chain (2 to 16; default: down to a level 8 texels high).
+    #[arg(long, value_name = "N", requires = "prefilter_out")]
+    prefilter_levels: Option<u32>,
     #[command(flatten)]
     backend: BackendArgs,
 }
@@ -59,6 +68,8 @@ fn flag(option: &str) -> Option<String> {
         "method" => Some("--method".into()),
         "report-steps" => Some("--report-steps".into()),
         "report" => Some("--report".into()),
+        "prefilter-out" => Some("--prefilter-out".into()),
+        "prefilter-levels" => Some("--prefilter-levels".into()),
         _ => None,
     }
 }
@@ -76,6 +87,9 @@ pub fn run(a: LightArgs) -> Result<()> {
     )?;
     if a.report {
         return run_report(a);
+    }
+    if a.prefilter_out.is_some() {
+        return run_prefilter(a);
     }
     let method = with_flag(
         lobe::light::Method::from_name(&a.method).map_err(Into::into),
@@ -205,5 +219,46 @@ fn run_report(a: LightArgs) -> Result<()> {
             r.mean_relative
         );
     }
+    Ok(())
+}
+
+/// `lobe light --prefilter-out DIR`: the prefiltered mip chain.
+fn run_prefilter(a: LightArgs) -> Result<()> {
+    let dir = a.prefilter_out.clone().unwrap_or_default();
+    if let Some(n) = a.prefilter_levels {
+        with_flag(
+            lobe::light::prefilter::check_levels(n).map_err(Into::into),
+            flag,
+        )?;
+    }
+    let params = a.model.params()?;
+    with_flag(
+        lobe::light::prefilter::chain_lobe(&params).map_err(Into::into),
+        flag,
+    )?;
+    let map = with_flag(maps::resolve(&a.env), flag)?;
+    let levels = a
+        .prefilter_levels
+        .unwrap_or_else(|| lobe::light::prefilter::default_levels(map.width(), map.height()));
+    let session = open_session(&a.backend)?;
+    let progress = bar(levels as u64, "{msg} [{bar:30}] {pos}/{len} levels");
+    progress.set_message("prefiltering".to_string());
+    let summary = session
+        .write_prefilter(&params, &map, &a.env, levels, &dir, &mut |done, _| {
+            progress.set_position(done)
+        })
+        .map_err(session_error);
+    progress.finish_and_clear();
+    let summary = with_flag(summary, flag)?;
+    eprintln!(
+        "lobe: prefiltered {} ({}x{} texels) into {} levels in {:.2} s; wrote {} files into {}",
+        a.env,
+        map.width(),
+        map.height(),
+        levels,
+        summary.seconds,
+        summary.paths.len(),
+        dir.display()
+    );
     Ok(())
 }

@@ -7,6 +7,7 @@
 
 pub mod files;
 pub mod maps;
+pub mod prefilter;
 pub mod report;
 pub mod split;
 

@@ -3,6 +3,7 @@
 
 use super::Session;
 use crate::error::{IntoLobe, Result};
+use crate::light::prefilter::ChainSummary;
 use crate::light::report::{Report, ReportSummary};
 use crate::light::{self, LightImage, LightSummary, Method};
 use crate::model::ParamSet;
@@ -151,5 +152,23 @@ impl Session {
             progress,
         )
         .lobe()
+    }
+
+    /// The map prefiltered by the model's D as an engine's mip chain (`lobe light
+    /// --prefilter-out DIR`, docs/design.md §15.5): `levels` levels, level k at perceptual
+    /// roughness k/(levels − 1), each a lat-long EXR and six cube faces (OpenGL order), and
+    /// `prefilter.json`, written into `dir` all or none; `progress` gets (levels done, levels).
+    pub fn write_prefilter(
+        &self,
+        params: &ParamSet,
+        map: &EnvMap,
+        env: &str,
+        levels: u32,
+        dir: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ChainSummary> {
+        let eval = self.evaluator();
+        let cancelled = || eval.check_cancelled().map_err(anyhow::Error::from);
+        light::prefilter::write_chain(params, map, env, levels, dir, &cancelled, progress).lobe()
     }
 }
