@@ -1357,3 +1357,30 @@ fn the_prefilter_command_writes_the_chain_all_or_none() {
     assert!(!out.status.success());
     assert_eq!(std::fs::read_dir(&blocked).unwrap().count(), 1);
 }
+
+/// `--write-env` writes a built-in map as a lat-long EXR that `--env` reads back to the same
+/// texels (float32 both ways), and refuses a name that is not `.exr`.
+#[test]
+fn write_env_writes_the_map_that_env_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = lobe_cli(
+        dir.path(),
+        &["light", "--env", "sky", "--write-env", "sky.exr"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let back = read_map(&dir.path().join("sky.exr")).unwrap();
+    let sky = Builtin::Sky.map();
+    assert_eq!((back.width(), back.height()), (sky.width(), sky.height()));
+    assert_eq!(back.texels(), sky.texels());
+    let out = lobe_cli(
+        dir.path(),
+        &["light", "--env", "sky", "--write-env", "sky.hdr"],
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("must end in .exr"));
+    assert!(!dir.path().join("sky.hdr").exists());
+}

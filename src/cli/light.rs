@@ -55,6 +55,10 @@ pub struct LightArgs {
     /// Levels of the prefiltered chain (2 to 16; default: down to a level 8 texels high).
     #[arg(long, value_name = "N", requires = "prefilter_out")]
     prefilter_levels: Option<u32>,
+    /// Write the map --env names (a built-in one or a file) as a lat-long OpenEXR file and
+    /// nothing else: what Mitsuba's envmap or another tool reads to light the same scene.
+    #[arg(long, value_name = "PATH.exr", conflicts_with_all = ["method", "report", "prefilter_out"])]
+    write_env: Option<PathBuf>,
     #[command(flatten)]
     backend: BackendArgs,
 }
@@ -85,6 +89,18 @@ pub fn run(a: LightArgs) -> Result<()> {
         lobe::light::check_image_size(a.size).map_err(Into::into),
         flag,
     )?;
+    if let Some(path) = &a.write_env {
+        let map = with_flag(maps::resolve(&a.env), flag)?;
+        maps::write_map(&map, &a.env, path)?;
+        eprintln!(
+            "lobe: wrote {} ({}x{} texels) to {}",
+            a.env,
+            map.width(),
+            map.height(),
+            path.display()
+        );
+        return Ok(());
+    }
     if a.report {
         return run_report(a);
     }

@@ -317,7 +317,7 @@ pub fn write_chain(
 }
 
 /// A `w` × `h` float32 RGB EXR with `lobe.*` text attributes.
-fn encode_rgb(
+pub(crate) fn encode_rgb(
     w: u32,
     h: u32,
     rgb: &[[f64; 3]],
