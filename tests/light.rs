@@ -1384,3 +1384,44 @@ fn write_env_writes_the_map_that_env_reads_back() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("must end in .exr"));
     assert!(!dir.path().join("sky.hdr").exists());
 }
+
+/// The rows the sums skip whole lie wholly below the pixel's horizon: every texel of a skipped
+/// row has cos θi < 0, computed in f64 as the CPU reference does and in f32 from the rounded
+/// frame and direction as the kernel does, so skipping them leaves the sums unchanged; and the
+/// skip happens (near the top and bottom of the sphere almost half the rows go).
+#[test]
+fn rows_skipped_below_the_horizon_hold_no_texel_above_it() {
+    let (w, h) = (256u32, 128u32);
+    let mut skipped_rows = 0usize;
+    let mut most = 0usize;
+    for q in sphere_pixels(SIZE, 0..SIZE) {
+        let mut skipped = 0;
+        for i in 0..h {
+            let d0 = lobe::backend::light::texel_direction(w, h, i, 0);
+            if !lobe::backend::light::row_below_horizon(d0, q.n) {
+                continue;
+            }
+            skipped += 1;
+            let n32 = q.n.as_vec3();
+            for j in 0..w {
+                let d = lobe::backend::light::texel_direction(w, h, i, j);
+                assert!(
+                    q.local(d).z < 0.0,
+                    "pixel ({}, {}) row {i} texel {j}",
+                    q.row,
+                    q.col
+                );
+                assert!(
+                    d.as_vec3().dot(n32) < 0.0,
+                    "f32: pixel ({}, {}) row {i} texel {j}",
+                    q.row,
+                    q.col
+                );
+            }
+        }
+        skipped_rows += skipped;
+        most = most.max(skipped);
+    }
+    eprintln!("skipped {skipped_rows} rows in all, at most {most} of {h} at a pixel");
+    assert!(most > h as usize / 3, "at most {most} rows skipped");
+}
