@@ -411,6 +411,13 @@ fn picture(report: &Report, title: &str, lines: &[String], format: Format) -> Re
     })
 }
 
+/// A line of the plot: its legend, colour and the figure it draws of each row.
+type Series = (
+    &'static str,
+    RGBColor,
+    Box<dyn Fn(&ReportRow) -> Option<f64>>,
+);
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     _ink: &mut Overlay,
@@ -421,7 +428,7 @@ fn draw<DB: DrawingBackend>(
     use crate::plot::Drawn as _;
     let body = header_in(Style::Screen, root, title, lines)?;
     let rows = &report.rows;
-    let series: [(&str, RGBColor, Box<dyn Fn(&ReportRow) -> Option<f64>>); 5] = [
+    let series: [Series; 5] = [
         (
             "largest relative error",
             RGBColor(0, 0, 0),
@@ -470,7 +477,7 @@ fn draw<DB: DrawingBackend>(
         .draw()
         .drawing("the report's axes")?;
     // The values whose lobe is narrower than the map resolves, shaded.
-    if let Some(last) = rows.iter().filter(|r| !r.lobe_resolved).last() {
+    if let Some(last) = rows.iter().rev().find(|r| !r.lobe_resolved) {
         chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(x_lo, 0.0), (last.value, y_hi)],
