@@ -29,11 +29,25 @@ layout(std430, set = 0, binding = 1) readonly buffer Pixels {
 };
 layout(std430, set = 0, binding = 2) readonly buffer Texels { Texel texels[]; };
 
+// A map row whose texels all lie below the pixel's horizon is skipped whole: over a row of
+// polar angle theta the largest n . d is cos(theta) n.y + sin(theta) |n.xz| (the first texel's
+// direction gives cos and sin), and a row whose bound is below -HORIZON_MARGIN has every texel's
+// computed cos(theta_i) below 0 (f32 rounding of these dot products is about 1e-7), so the
+// texels skipped are exactly those the loop would skip one by one: the sum is unchanged.
+// Twin of HORIZON_MARGIN in src/backend/light.rs.
+const float HORIZON_MARGIN = 1e-5;
+
 vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
     vec3 wo = vec3(px.t.w, px.b.w, px.n.w);
     vec3 total = vec3(0.0);
+    float n_xz = length(px.n.xz);
     uint k = 0u;
     for (uint row = 0u; row < map.y; ++row) {
+        vec3 d0 = texels[k].direction.xyz;
+        if (d0.y * px.n.y + length(d0.xz) * n_xz < -HORIZON_MARGIN) {
+            k += map.x;
+            continue;
+        }
         vec3 sum = vec3(0.0);
         for (uint col = 0u; col < map.x; ++col, ++k) {
             vec3 d = texels[k].direction.xyz;

@@ -416,6 +416,22 @@ class Session:
             name, array = None, np.ascontiguousarray(array, dtype=np.float32)
         return _lobe.light(self._s, _model(model), material, _sets(params), name, array, size, method)
 
+    def light_report(self, model, env, size=64, steps=9, params=None, material=None, white_furnace=False):
+        """The split sum's error against the exact sum over `steps` values of the model's
+        roughness, as `lobe light --report` computes it: a dict with "parameter" (the swept key)
+        and "rows", one dict per value with the report CSV's columns (docs/commands.md)."""
+        size = _positive_ints("size", size, 1)[0]
+        steps = _positive_ints("steps", steps, 1)[0]
+        if isinstance(env, (str, os.PathLike)):
+            name, array = os.fspath(env), None
+        else:
+            array = np.asarray(env)
+            if array.ndim != 3 or array.shape[2] != 3 or not np.issubdtype(array.dtype, np.number):
+                raise ValueError(f"env: expected a map name, a path or an (H, W, 3) array of radiance, got shape {array.shape}")
+            name, array = None, np.ascontiguousarray(array, dtype=np.float32)
+        return json.loads(_lobe.light_report(self._s, _model(model), material, _sets(params), bool(white_furnace),
+                                             name, array, size, steps))
+
     def sample(self, model, wo, n, params=None, material=None, seed=0, white_furnace=False):
         wo_arr = _directions("wo", wo)
         if wo_arr.shape != (3,):

@@ -312,6 +312,7 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(chi2::chi2, m)?)?;
     m.add_function(wrap_pyfunction!(light::light, m)?)?;
+    m.add_function(wrap_pyfunction!(light::light_report, m)?)?;
     m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
     m.add_function(wrap_pyfunction!(sample::pdf, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare, m)?)?;

@@ -38,7 +38,23 @@ pub fn light<'py>(
         lobe::light::split::lobe_of(&params, false).map_err(|e| invalid("method", e))?;
     }
     lobe::light::check_image_size(size).map_err(|e| invalid("size", e))?;
-    let map = match (env, env_array) {
+    let map = env_map(env, env_array)?;
+    let s = &session.get().inner;
+    let image = job::run(py, s, || match method {
+        lobe::light::Method::SplitSum => s.light_split_sum(&params, &map, size, &mut |_, _| {}),
+        _ => s.light(&params, &map, size, &mut |_, _| {}),
+    })?;
+    let values: Vec<f64> = image.pixels.iter().flatten().copied().collect();
+    array(py, values, vec![size as usize, size as usize, 3])
+}
+
+/// The map a call names: `env_array` (an (H, W, 3) float32 lat-long map, row 0 at +y) or `env`
+/// (a built-in map's name or a file's path).
+fn env_map(
+    env: Option<String>,
+    env_array: Option<PyReadonlyArray3<'_, f32>>,
+) -> PyResult<lobe::backend::light::EnvMap> {
+    Ok(match (env, env_array) {
         (_, Some(a)) => {
             let a = a.as_array();
             let (h, w) = (a.shape()[0], a.shape()[1]);
@@ -57,12 +73,55 @@ pub fn light<'py>(
             maps::resolve(&name).map_err(|e| from_anyhow("env", e))?
         }
         (None, None) => return Err(invalid("env", "give a map name, a path or an array")),
-    };
+    })
+}
+
+/// The split sum's error over `steps` values of the model's roughness (`lobe light --report`)
+/// as JSON text: the swept parameter and one object per value with the CSV's columns.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (session, model, material, sets, white_furnace, env, env_array, size, steps))]
+pub fn light_report<'py>(
+    py: Python<'py>,
+    session: &Bound<'_, PySession>,
+    model: &str,
+    material: Option<&str>,
+    sets: Vec<String>,
+    white_furnace: bool,
+    env: Option<String>,
+    env_array: Option<PyReadonlyArray3<'py, f32>>,
+    size: u32,
+    steps: usize,
+) -> PyResult<String> {
+    let params = model::resolve(model, material, &sets)?;
+    lobe::light::check_image_size(size).map_err(|e| invalid("size", e))?;
+    lobe::light::report::check_steps(steps).map_err(|e| invalid("steps", e))?;
+    lobe::light::report::RoughnessAxis::of(&params, white_furnace)
+        .map_err(|e| invalid("model", e))?;
+    let map = env_map(env, env_array)?;
     let s = &session.get().inner;
-    let image = job::run(py, s, || match method {
-        lobe::light::Method::SplitSum => s.light_split_sum(&params, &map, size, &mut |_, _| {}),
-        _ => s.light(&params, &map, size, &mut |_, _| {}),
+    let report = job::run(py, s, || {
+        s.light_report(&params, white_furnace, &map, size, steps, &mut |_, _| {})
     })?;
-    let values: Vec<f64> = image.pixels.iter().flatten().copied().collect();
-    array(py, values, vec![size as usize, size as usize, 3])
+    let rows: Vec<serde_json::Value> = report
+        .rows
+        .iter()
+        .map(|r| {
+            serde_json::json!({
+                "value": r.value,
+                "alpha": r.alpha,
+                "rms": r.figures.rms,
+                "max_relative": r.figures.max_relative,
+                "max_relative_row": r.figures.at.0,
+                "max_relative_column": r.figures.at.1,
+                "max_relative_n_dot_v": r.figures.mu,
+                "mean_relative": r.mean_relative,
+                "mean_relative_grazing": r.band_mean_relative[0],
+                "mean_relative_middle": r.band_mean_relative[1],
+                "mean_relative_normal": r.band_mean_relative[2],
+                "lobe_resolved": r.lobe_resolved,
+            })
+        })
+        .collect();
+    Ok(serde_json::json!({ "parameter": report.axis.key, "rows": rows }).to_string())
 }

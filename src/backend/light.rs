@@ -116,14 +116,33 @@ pub struct WeightedTexels {
     pub terms: Vec<(DVec3, DVec3)>,
 }
 
+/// A map row whose largest n·d, cos θ n_y + sin θ |n_xz| over its polar angle θ, is below
+/// −`HORIZON_MARGIN` lies wholly below the pixel's horizon: every texel's computed cos θi is
+/// negative (the rounding of these dot products is about 1e-16 in f64, 1e-7 in f32), so the row
+/// is skipped whole and the sum is unchanged (`glsl/kernels/light.comp` has the same constant).
+pub const HORIZON_MARGIN: f64 = 1e-5;
+
+/// Whether the row whose first texel's direction is `d0` lies wholly below the horizon of normal
+/// `n` ([`HORIZON_MARGIN`]).
+pub fn row_below_horizon(d0: DVec3, n: DVec3) -> bool {
+    let n_xz = (n.x * n.x + n.z * n.z).sqrt();
+    let d_xz = (d0.x * d0.x + d0.z * d0.z).sqrt();
+    d0.y * n.y + d_xz * n_xz < -HORIZON_MARGIN
+}
+
 impl WeightedTexels {
     /// L_o at `pixel` from these texels with `f` as f(ωi, ωo) in the local frame (the CPU
     /// reference's sum; `glsl/kernels/light.comp` is its twin): per map row, Σ f cos θi L ΔΩ
-    /// over the texels above the pixel's horizon (cos θi > 0), then the rows' sums in order.
+    /// over the texels above the pixel's horizon (cos θi > 0), then the rows' sums in order; a
+    /// row wholly below the horizon ([`row_below_horizon`]) is skipped without looking at its
+    /// texels.
     pub fn light_pixel(&self, pixel: &SpherePixel, f: impl Fn(DVec3, DVec3) -> DVec3) -> DVec3 {
         let wo = pixel.wo();
         let mut total = DVec3::ZERO;
         for row in self.terms.chunks(self.width.max(1) as usize) {
+            if row_below_horizon(row[0].0, pixel.n) {
+                continue;
+            }
             let mut sum = DVec3::ZERO;
             for &(d, weight) in row {
                 let wi = pixel.local(d);

@@ -467,3 +467,33 @@ mod tests {
         }
     }
 }
+
+/// Writes `map` as a lat-long OpenEXR file (float32 R, G, B, row 0 at +y, Mitsuba's `envmap`
+/// layout), whole or not at all: the file `--env` reads back to the same texels, and that
+/// Mitsuba's `envmap` lights the same way. `env` names the map in the header.
+pub fn write_map(map: &EnvMap, env: &str, path: &Path) -> Result<()> {
+    if path.extension().and_then(|e| e.to_str()) != Some("exr") {
+        bail!(
+            "--write-env {}: the map is written as OpenEXR, the name must end in .exr",
+            path.display()
+        );
+    }
+    let out = crate::output::Pending::new(path)?;
+    let rgb: Vec<[f64; 3]> = map.texels().iter().map(|t| t.map(|c| c as f64)).collect();
+    super::prefilter::encode_rgb(
+        map.width(),
+        map.height(),
+        &rgb,
+        &[
+            ("lobe.kind", "env".to_string()),
+            ("lobe.env", env.to_string()),
+            (
+                "lobe.layout",
+                "lat-long, Mitsuba's envmap: +y up, u = atan2(x, -z) / 2pi, v = acos(y) / pi"
+                    .to_string(),
+            ),
+        ],
+        &out,
+    )?;
+    out.commit()
+}

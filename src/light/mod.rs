@@ -7,6 +7,8 @@
 
 pub mod files;
 pub mod maps;
+pub mod prefilter;
+pub mod report;
 pub mod split;
 
 use crate::backend::light::{sphere_pixels, EnvMap};

@@ -38,12 +38,12 @@ pub fn lobe_of(params: &ParamSet, white_furnace: bool) -> Result<SplitSumLobe, B
 }
 
 /// The map's texels as the prefilter takes them: direction, L ΔΩ and ΔΩ, row by row.
-struct Texels {
+pub(crate) struct Texels {
     terms: Vec<(DVec3, DVec3, f64)>,
 }
 
 impl Texels {
-    fn new(map: &EnvMap) -> Texels {
+    pub(crate) fn new(map: &EnvMap) -> Texels {
         let (w, h) = (map.width(), map.height());
         let weighted = map.weighted_texels();
         let terms = weighted
@@ -57,7 +57,7 @@ impl Texels {
 
     /// Karis' prefiltered radiance about `r` with n = v = r: Σ L D(r·h) (r·l)⁺ ΔΩ over
     /// Σ D(r·h) (r·l)⁺ ΔΩ, h the half vector of l and r.
-    fn prefiltered(&self, r: DVec3, lobe: &SpecularLobe) -> DVec3 {
+    pub(crate) fn prefiltered(&self, r: DVec3, lobe: &SpecularLobe) -> DVec3 {
         let (mut num, mut den) = (DVec3::ZERO, 0.0);
         for &(l, l_omega, omega) in &self.terms {
             let c = r.dot(l);

@@ -3,6 +3,8 @@
 
 use super::Session;
 use crate::error::{IntoLobe, Result};
+use crate::light::prefilter::ChainSummary;
+use crate::light::report::{Report, ReportSummary};
 use crate::light::{self, LightImage, LightSummary, Method};
 use crate::model::ParamSet;
 use std::path::Path;
@@ -86,5 +88,87 @@ impl Session {
             progress,
         )
         .lobe()
+    }
+
+    /// The split sum's error against the exact sum over `steps` values of the model's roughness
+    /// (`lobe light --report`, docs/design.md §15.4): per value the RMS, the largest relative
+    /// error and its pixel, and the mean relative error by band of n·v, on `size`² spheres under
+    /// `map`; `progress` gets (rows done, rows) over the whole sweep. Refuses a model with no
+    /// microfacet lobe, naming the models that have one.
+    ///
+    /// ```
+    /// let ggx = lobe::ParamSet::for_model("microfacet")?;
+    /// let map = lobe::light::maps::procedural_map(16, 8, |_| lobe::glam::DVec3::ONE)?;
+    /// let report = lobe::Session::cpu().light_report(&ggx, false, &map, 8, 3, &mut |_, _| {})?;
+    /// assert_eq!(report.rows.len(), 3);
+    /// assert_eq!(report.axis.key, "alpha");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    #[allow(clippy::too_many_arguments)]
+    pub fn light_report(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        map: &EnvMap,
+        size: u32,
+        steps: usize,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<Report> {
+        light::report::report(
+            &self.evaluator(),
+            params,
+            white_furnace,
+            map,
+            size,
+            steps,
+            progress,
+        )
+        .lobe()
+    }
+
+    /// [`Session::light_report`] written beside `exr_path` as `P_report.csv`, `P_report.png`,
+    /// `P_report.svg` and `P.json`, all or none, as `lobe light --report` does.
+    #[allow(clippy::too_many_arguments)]
+    pub fn write_light_report(
+        &self,
+        params: &ParamSet,
+        white_furnace: bool,
+        map: &EnvMap,
+        env: &str,
+        size: u32,
+        steps: usize,
+        exr_path: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ReportSummary> {
+        light::report::write_report(
+            &self.evaluator(),
+            params,
+            white_furnace,
+            map,
+            env,
+            size,
+            steps,
+            exr_path,
+            progress,
+        )
+        .lobe()
+    }
+
+    /// The map prefiltered by the model's D as an engine's mip chain (`lobe light
+    /// --prefilter-out DIR`, docs/design.md §15.5): `levels` levels, level k at perceptual
+    /// roughness k/(levels − 1), each a lat-long EXR and six cube faces (OpenGL order), and
+    /// `prefilter.json`, written into `dir` all or none; `progress` gets (levels done, levels).
+    pub fn write_prefilter(
+        &self,
+        params: &ParamSet,
+        map: &EnvMap,
+        env: &str,
+        levels: u32,
+        dir: &Path,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<ChainSummary> {
+        let eval = self.evaluator();
+        let cancelled = || eval.check_cancelled().map_err(anyhow::Error::from);
+        light::prefilter::write_chain(params, map, env, levels, dir, &cancelled, progress).lobe()
     }
 }

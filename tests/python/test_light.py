@@ -143,3 +143,34 @@ def test_split_sum_is_the_exr_lobe_light_writes(lobe_bin, tmp_path, gpu, cpu, ba
     assert image.astype(np.float32).tobytes() == written.astype(np.float32).tobytes()
     exact = s.light("microfacet", "studio", size=24, params={"alpha": 0.3, "diffuse": 0.2})
     assert not np.array_equal(image, exact)
+
+
+def test_light_report_is_the_csv_lobe_light_report_writes(lobe_bin, tmp_path, cpu):
+    """Session.light_report gives the rows `lobe light --report` writes to its CSV."""
+    out = tmp_path / "r.exr"
+    done = subprocess.run(
+        [lobe_bin, "light", "--report", "--report-steps", "3", "--model", "microfacet",
+         "--env", "studio", "--size", "12", "--backend", "cpu", "-o", str(out)],
+        capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    lines = (tmp_path / "r_report.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    report = cpu.light_report("microfacet", "studio", size=12, steps=3)
+    assert report["parameter"] == "alpha"
+    assert len(report["rows"]) == len(lines) - 1 == 3
+    for line, row in zip(lines[1:], report["rows"]):
+        fields = dict(zip(header, line.split(",")))
+        for key in ("value", "alpha", "rms", "max_relative", "mean_relative", "mean_relative_normal"):
+            assert float(fields[key]) == row[key], key
+        # A band with no pixel (12 pixels across has none with n.v < 0.3) is empty in the CSV
+        # and None here.
+        for key in ("mean_relative_grazing", "mean_relative_middle"):
+            assert (None if fields[key] == "" else float(fields[key])) == row[key], key
+        assert int(fields["lobe_resolved"]) == int(row["lobe_resolved"])
+
+
+def test_light_report_refuses_a_model_without_a_roughness(cpu):
+    with pytest.raises(ValueError, match="microfacet \\(alpha\\)"):
+        cpu.light_report("lambert", "sky", size=8)
+    with pytest.raises(ValueError, match="2 to 64"):
+        cpu.light_report("microfacet", "sky", size=8, steps=1)
