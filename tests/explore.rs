@@ -578,9 +578,72 @@ fn samples_view_equals_lobe_sample_and_session_pdf() {
         ),
     ] {
         let r = server.post("/api/samples", &body);
-        assert_eq!(r.status, 400, "{body}: {}", r.text());
+        assert_eq!(r.status, 422, "{body}: {}", r.text());
         assert!(r.text().contains(names), "{body}: {}", r.text());
     }
+}
+
+/// The page's samples view draws the first model's draws and pdf; moving θo asks again, and what
+/// it drew is what the route answers for the request it sent.
+#[test]
+fn samples_view_in_chromium_shows_draws_and_pdf() {
+    let server = Server::start(&["phong{shininess=20}"]);
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    let shown = "!!(window.lobeExplore && window.lobeExplore.samples && document.querySelectorAll('#samples canvas').length >= 2)";
+    b.wait_for(shown, PAGE_TIMEOUT);
+    assert!(
+        b.errors().is_empty(),
+        "console errors on load: {:?}",
+        b.errors()
+    );
+    b.eval("(() => { const s = document.getElementById('theta-o'); s.value = 60; s.dispatchEvent(new Event('input')); })()");
+    b.wait_for(
+        "window.lobeExplore.samplesRequest.theta_o_deg === 60",
+        PAGE_TIMEOUT,
+    );
+    let asked = b.eval("window.lobeExplore.samplesRequest");
+    let drawn = b.eval("window.lobeExplore.samples");
+    let r = server.post("/api/samples", &asked);
+    assert_eq!(r.status, 200, "{}", r.text());
+    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    // Both went through JSON (the route's, then the page's): each read within a unit in the last
+    // place.
+    let flat = |v: &Value| -> Vec<Option<f64>> {
+        fn walk(v: &Value, out: &mut Vec<Option<f64>>) {
+            match v {
+                Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
+                x => out.push(x.as_f64()),
+            }
+        }
+        let mut out = Vec::new();
+        walk(v, &mut out);
+        out
+    };
+    for key in ["wi", "pdf_grid"] {
+        let (got, want) = (flat(&drawn[key]), flat(&want[key]));
+        assert_eq!(got.len(), want.len(), "{key}");
+        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+            match (g, w) {
+                (Some(g), Some(w)) => assert!(
+                    (g - w).abs() <= JSON_READ_ABS * w.abs().max(1.0),
+                    "{key}[{k}]: page {g}, route {w}"
+                ),
+                _ => assert_eq!(g, w, "{key}[{k}]"),
+            }
+        }
+    }
+    let n = asked["draws"].as_u64().unwrap();
+    let lost = drawn["lost"].as_u64().unwrap();
+    assert_eq!(
+        b.eval("window.lobeExplore.samplesShown").as_u64().unwrap(),
+        n - lost
+    );
+    let caption = b.eval("document.querySelector('#samples').textContent");
+    assert!(
+        caption.as_str().unwrap().contains(&format!("{n} draws")),
+        "{caption}"
+    );
 }
 
 #[test]
