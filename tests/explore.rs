@@ -646,6 +646,69 @@ fn samples_view_in_chromium_shows_draws_and_pdf() {
     );
 }
 
+/// The lit view's route: GGX (microfacet) under the built-in sky, exact and split sum, equal to
+/// `Session::light` and `Session::light_split_sum` on the same device at every pixel; a model
+/// without a split sum says so; bad settings are refused with a sentence.
+#[test]
+fn light_route_equals_session_light() {
+    let server = Server::start(&["microfacet"]);
+    let size = 16u32;
+    let r = server.post(
+        "/api/light",
+        &json!({"model": "microfacet", "sets": ["distribution=ggx"], "env": "sky", "size": size}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    let params = lobe::resolve_spec(
+        "microfacet{distribution=ggx}",
+        None,
+        &[],
+        &Default::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    let session = lobe::Session::open(Default::default()).unwrap();
+    let map = lobe::light::maps::Builtin::Sky.map();
+    let exact = session.light(&params, &map, size, &mut |_, _| {}).unwrap();
+    let split = session
+        .light_split_sum(&params, &map, size, &mut |_, _| {})
+        .unwrap();
+    for (key, want) in [("exact", &exact), ("split", &split)] {
+        let got = v[key].as_array().unwrap();
+        assert_eq!(got.len(), 3 * want.pixels.len(), "{key}");
+        for (k, w) in want.pixels.iter().flatten().enumerate() {
+            let g = got[k].as_f64().unwrap();
+            // The reply's f32 rounding (2^-24 relative) on the same device's sums.
+            assert!(
+                (g - w).abs() <= SAME_RULE_REL * w.abs() + 1e-30,
+                "{key}[{k}]: route {g}, Session {w}"
+            );
+        }
+    }
+    let r = server.post(
+        "/api/light",
+        &json!({"model": "phong", "env": "sky", "size": 8}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    assert!(v["split"].is_null() && v["split_note"].is_string(), "{v}");
+    for (body, names) in [
+        (json!({"model": "phong", "env": "sky", "size": 0}), "size 0"),
+        (
+            json!({"model": "phong", "env": "sky", "size": 1000}),
+            "size 1000",
+        ),
+        (
+            json!({"model": "phong", "env": "moon", "size": 8}),
+            "env 'moon'",
+        ),
+    ] {
+        let r = server.post("/api/light", &body);
+        assert_eq!(r.status, 422, "{body}: {}", r.text());
+        assert!(r.text().contains(names), "{body}: {}", r.text());
+    }
+}
+
 #[test]
 fn exits_on_sigterm_leaving_nothing() {
     let mut server = Server::start(&["lambert"]);

@@ -42,6 +42,7 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
         .route("/api/samples", post(samples))
+        .route("/api/light", post(light))
         .route("/api/table", post(download::table))
         .route("/api/plot", post(download::polar_svg))
         // The routes above read a small JSON body; the guard bounds it (a declared length before
@@ -420,6 +421,70 @@ async fn samples_values(state: Arc<State>, body: Bytes) -> Result<Response, Refu
         "pdf_grid": grid,
         "backend": draws.backend,
         "params": params.to_json(),
+    });
+    Ok(json_response(&body))
+}
+
+/// What the lit view asks for: a model as [`ViewRequest`] names it, a built-in map by name and
+/// the image's pixels per side.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightRequest {
+    model: String,
+    #[serde(default)]
+    material: Option<String>,
+    #[serde(default)]
+    sets: Vec<String>,
+    env: String,
+    size: u32,
+}
+
+async fn light(state: Shared, body: Bytes) -> Response {
+    answer(light_values(state.0, body).await)
+}
+
+/// `POST /api/light`: [`Session::light`](crate::Session::light) and
+/// [`Session::light_split_sum`](crate::Session::light_split_sum) of the sphere under a built-in
+/// map, as JSON (linear radiance, rows from the top, RGB flattened); `split` is null with the
+/// reason in `split_note` for a model that has no split sum.
+async fn light_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
+    let req: LightRequest =
+        serde_json::from_slice(&body).map_err(|e| bad(format!("request body: {e}")))?;
+    if !(1..=MAX_LIGHT_SIZE).contains(&req.size) {
+        return Err(bad(format!(
+            "size {}: expected the lit sphere's pixels per side from 1 to {MAX_LIGHT_SIZE}",
+            req.size
+        )));
+    }
+    let Some(builtin) = crate::light::maps::Builtin::from_name(&req.env) else {
+        return Err(bad(format!(
+            "env '{}': expected a built-in map: sky, studio or constant",
+            req.env
+        )));
+    };
+    let params = resolve(&req.model, req.material.as_deref(), &req.sets)?;
+    let size = req.size;
+    let p = params.clone();
+    let (exact, split) = evaluate(&state, params.model(), move |session| {
+        let map = builtin.map();
+        let exact = session.light(&p, &map, size, &mut |_, _| {})?;
+        let split = match session.light_split_sum(&p, &map, size, &mut |_, _| {}) {
+            Ok(s) => Ok(s),
+            Err(e @ crate::Error::Cancelled(_)) => return Err(e),
+            Err(e) => Err(e.to_string()),
+        };
+        Ok((exact, split))
+    })
+    .await?;
+    let flat = |i: &crate::light::LightImage| -> Vec<f32> {
+        i.pixels.iter().flatten().map(|&v| v as f32).collect()
+    };
+    let body = json!({
+        "size": size,
+        "env": builtin.name(),
+        "exact": flat(&exact),
+        "split": split.as_ref().ok().map(flat),
+        "split_note": split.as_ref().err(),
     });
     Ok(json_response(&body))
 }
