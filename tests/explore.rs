@@ -436,6 +436,279 @@ fn slice_sphere_and_3d_lobe_equal_lobe_eval() {
     }
 }
 
+/// A JSON number read back: serde_json parses a shortest round-trip decimal to within one unit
+/// in the last place of the f64 written, so a unit vector's components agree to this.
+const JSON_READ_ABS: f64 = 1e-15;
+
+/// The rows of a `lobe sample` .npy (version 1 header, little-endian f64, n × 8).
+fn npy_rows(path: &std::path::Path) -> Vec<[f64; 8]> {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    bytes[10 + header..]
+        .chunks_exact(64)
+        .map(|row| {
+            let mut r = [0.0; 8];
+            for (k, v) in row.chunks_exact(8).enumerate() {
+                r[k] = f64::from_le_bytes(v.try_into().unwrap());
+            }
+            r
+        })
+        .collect()
+}
+
+/// The samples view's draws are `lobe sample`'s for the same model, ωo and seed, and its pdf
+/// grid is `Session::pdf` at the hemisphere view's cell centres; bad settings are refused with
+/// a sentence naming them.
+#[test]
+fn samples_view_equals_lobe_sample_and_session_pdf() {
+    let server = Server::start(&["phong{shininess=50}"]);
+    let (n, seed, res) = (256, 5u32, 16);
+    let r = server.post(
+        "/api/samples",
+        &json!({"model": "phong", "sets": ["shininess=50"], "theta_o_deg": 30,
+                "phi_o_deg": 20, "draws": n, "seed": seed, "res": res}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("s.npy");
+    let out = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .args([
+            "sample",
+            "--model",
+            "phong{shininess=50}",
+            "--theta-o-deg",
+            "30",
+        ])
+        .args([
+            "--phi-o-deg",
+            "20",
+            "-n",
+            &n.to_string(),
+            "--seed",
+            &seed.to_string(),
+        ])
+        .arg("-o")
+        .arg(&npy)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = npy_rows(&npy);
+    assert_eq!(rows.len(), n);
+    let wi = v["wi"].as_array().unwrap();
+    assert_eq!(wi.len(), n);
+    for (k, row) in rows.iter().enumerate() {
+        for c in 0..3 {
+            let got = wi[k][c].as_f64().unwrap();
+            assert!(
+                (got - row[c]).abs() <= JSON_READ_ABS,
+                "draw {k} component {c}: page {got}, lobe sample {}",
+                row[c]
+            );
+        }
+        let got = v["pdf"][k].as_f64().unwrap();
+        assert!(
+            (got - row[6]).abs() <= JSON_READ_ABS * row[6].max(1.0),
+            "pdf {k}: {got} vs {}",
+            row[6]
+        );
+    }
+    assert_eq!(v["delta_count"], 0, "Phong has no mirror spike");
+    // The grid: cell centres of the equal-area disc, pdf(ωi = cell, ωo) from the library.
+    let t = 30f64.to_radians();
+    let p = 20f64.to_radians();
+    let wo = lobe::glam::DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    let grid = v["pdf_grid"].as_array().unwrap();
+    assert_eq!(grid.len(), res * res);
+    let phong = lobe::resolve_spec(
+        "phong{shininess=50}",
+        None,
+        &[],
+        &Default::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    let session = lobe::Session::cpu();
+    let mut inside = 0;
+    for k in 0..res * res {
+        let (x, y) = lobe::plot::hemisphere::cell_point(res, k / res, k % res);
+        match lobe::plot::hemisphere::cell_direction(
+            lobe::plot::hemisphere::Projection::EqualArea,
+            x,
+            y,
+        ) {
+            Some(d) => {
+                inside += 1;
+                let want = session.pdf(&phong, &[(d, wo)]).unwrap()[0];
+                let got = grid[k].as_f64().unwrap();
+                assert!(
+                    (got - want).abs() <= JSON_READ_ABS * want.max(1.0),
+                    "cell {k}: {got} vs {want}"
+                );
+            }
+            None => assert!(grid[k].is_null(), "cell {k} outside the disc: {}", grid[k]),
+        }
+    }
+    assert!(inside > res * res / 2, "{inside} cells inside the disc");
+    for (body, names) in [
+        (
+            json!({"model": "phong", "theta_o_deg": 30, "draws": 0, "res": 8}),
+            "draws 0",
+        ),
+        (
+            json!({"model": "phong", "theta_o_deg": 30, "draws": 1_000_000, "res": 8}),
+            "draws 1000000",
+        ),
+        (
+            json!({"model": "phong", "theta_o_deg": 90, "draws": 8, "res": 8}),
+            "theta_o_deg 90",
+        ),
+        (
+            json!({"model": "phong", "theta_o_deg": 30, "draws": 8, "res": 0}),
+            "res 0",
+        ),
+        (
+            json!({"model": "phong", "theta_o_deg": 30, "draws": 8, "res": 8, "n": 3}),
+            "unknown field",
+        ),
+    ] {
+        let r = server.post("/api/samples", &body);
+        assert_eq!(r.status, 422, "{body}: {}", r.text());
+        assert!(r.text().contains(names), "{body}: {}", r.text());
+    }
+}
+
+/// The page's samples view draws the first model's draws and pdf; moving θo asks again, and what
+/// it drew is what the route answers for the request it sent.
+#[test]
+fn samples_view_in_chromium_shows_draws_and_pdf() {
+    let server = Server::start(&["phong{shininess=20}"]);
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    let shown = "!!(window.lobeExplore && window.lobeExplore.samples && document.querySelectorAll('#samples canvas').length >= 2)";
+    b.wait_for(shown, PAGE_TIMEOUT);
+    assert!(
+        b.errors().is_empty(),
+        "console errors on load: {:?}",
+        b.errors()
+    );
+    b.eval("(() => { const s = document.getElementById('theta-o'); s.value = 60; s.dispatchEvent(new Event('input')); })()");
+    b.wait_for(
+        "window.lobeExplore.samplesRequest.theta_o_deg === 60",
+        PAGE_TIMEOUT,
+    );
+    let asked = b.eval("window.lobeExplore.samplesRequest");
+    let drawn = b.eval("window.lobeExplore.samples");
+    let r = server.post("/api/samples", &asked);
+    assert_eq!(r.status, 200, "{}", r.text());
+    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    // Both went through JSON (the route's, then the page's): each read within a unit in the last
+    // place.
+    let flat = |v: &Value| -> Vec<Option<f64>> {
+        fn walk(v: &Value, out: &mut Vec<Option<f64>>) {
+            match v {
+                Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
+                x => out.push(x.as_f64()),
+            }
+        }
+        let mut out = Vec::new();
+        walk(v, &mut out);
+        out
+    };
+    for key in ["wi", "pdf_grid"] {
+        let (got, want) = (flat(&drawn[key]), flat(&want[key]));
+        assert_eq!(got.len(), want.len(), "{key}");
+        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+            match (g, w) {
+                (Some(g), Some(w)) => assert!(
+                    (g - w).abs() <= JSON_READ_ABS * w.abs().max(1.0),
+                    "{key}[{k}]: page {g}, route {w}"
+                ),
+                _ => assert_eq!(g, w, "{key}[{k}]"),
+            }
+        }
+    }
+    let n = asked["draws"].as_u64().unwrap();
+    let lost = drawn["lost"].as_u64().unwrap();
+    assert_eq!(
+        b.eval("window.lobeExplore.samplesShown").as_u64().unwrap(),
+        n - lost
+    );
+    let caption = b.eval("document.querySelector('#samples').textContent");
+    assert!(
+        caption.as_str().unwrap().contains(&format!("{n} draws")),
+        "{caption}"
+    );
+}
+
+/// The lit view's route: GGX (microfacet) under the built-in sky, exact and split sum, equal to
+/// `Session::light` and `Session::light_split_sum` on the same device at every pixel; a model
+/// without a split sum says so; bad settings are refused with a sentence.
+#[test]
+fn light_route_equals_session_light() {
+    let server = Server::start(&["microfacet"]);
+    let size = 16u32;
+    let r = server.post(
+        "/api/light",
+        &json!({"model": "microfacet", "sets": ["distribution=ggx"], "env": "sky", "size": size}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    let params = lobe::resolve_spec(
+        "microfacet{distribution=ggx}",
+        None,
+        &[],
+        &Default::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    let session = lobe::Session::open(Default::default()).unwrap();
+    let map = lobe::light::maps::Builtin::Sky.map();
+    let exact = session.light(&params, &map, size, &mut |_, _| {}).unwrap();
+    let split = session
+        .light_split_sum(&params, &map, size, &mut |_, _| {})
+        .unwrap();
+    for (key, want) in [("exact", &exact), ("split", &split)] {
+        let got = v[key].as_array().unwrap();
+        assert_eq!(got.len(), 3 * want.pixels.len(), "{key}");
+        for (k, w) in want.pixels.iter().flatten().enumerate() {
+            let g = got[k].as_f64().unwrap();
+            // The reply's f32 rounding (2^-24 relative) on the same device's sums.
+            assert!(
+                (g - w).abs() <= SAME_RULE_REL * w.abs() + 1e-30,
+                "{key}[{k}]: route {g}, Session {w}"
+            );
+        }
+    }
+    let r = server.post(
+        "/api/light",
+        &json!({"model": "phong", "env": "sky", "size": 8}),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    assert!(v["split"].is_null() && v["split_note"].is_string(), "{v}");
+    for (body, names) in [
+        (json!({"model": "phong", "env": "sky", "size": 0}), "size 0"),
+        (
+            json!({"model": "phong", "env": "sky", "size": 1000}),
+            "size 1000",
+        ),
+        (
+            json!({"model": "phong", "env": "moon", "size": 8}),
+            "env 'moon'",
+        ),
+    ] {
+        let r = server.post("/api/light", &body);
+        assert_eq!(r.status, 422, "{body}: {}", r.text());
+        assert!(r.text().contains(names), "{body}: {}", r.text());
+    }
+}
+
 #[test]
 fn exits_on_sigterm_leaving_nothing() {
     let mut server = Server::start(&["lambert"]);

@@ -14,6 +14,7 @@ use super::upload::{self, renamed};
 use super::{State, ASSETS, INDEX_HTML};
 use crate::backend::Query;
 use crate::model::{Model, ParamSet};
+use crate::plot::hemisphere::{cell_direction, cell_point, Projection};
 use crate::plot::polar::{light_direction, view_direction};
 use axum::body::Bytes;
 use axum::extract::{DefaultBodyLimit, Request};
@@ -40,6 +41,8 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .route("/api/torus", post(torus))
         .route("/api/lobe", post(lobe))
         .route("/api/albedo", post(albedo))
+        .route("/api/samples", post(samples))
+        .route("/api/light", post(light))
         .route("/api/table", post(download::table))
         .route("/api/plot", post(download::polar_svg))
         // The routes above read a small JSON body; the guard bounds it (a declared length before
@@ -316,6 +319,172 @@ async fn albedo_values(state: Arc<State>, body: Bytes) -> Result<Response, Refus
         "hemispherical": v(hemi.albedo),
         "hemispherical_error": v(hemi.error),
         "method": "peak",
+    });
+    Ok(json_response(&body))
+}
+
+/// What the samples view asks for: a model as [`ViewRequest`] names it, the view direction
+/// (θo, φo), how many draws from which stream, and the pdf's cells across.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SamplesRequest {
+    model: String,
+    #[serde(default)]
+    material: Option<String>,
+    #[serde(default)]
+    sets: Vec<String>,
+    #[serde(default)]
+    white_furnace: bool,
+    theta_o_deg: f64,
+    #[serde(default)]
+    phi_o_deg: f64,
+    draws: usize,
+    #[serde(default)]
+    seed: u32,
+    /// Cells across the pdf's equal-area disc.
+    res: usize,
+}
+
+/// The view direction of `lobe sample --theta-o-deg T --phi-o-deg P`, refused outside
+/// θo ∈ [0°, 90°) or for a φo that is not finite.
+fn view_of(theta_o_deg: f64, phi_o_deg: f64) -> Result<DVec3, Refusal> {
+    if !(theta_o_deg.is_finite() && (0.0..90.0).contains(&theta_o_deg)) {
+        return Err(bad(format!(
+            "theta_o_deg {theta_o_deg}: expected a view angle in [0, 90) degrees"
+        )));
+    }
+    if !phi_o_deg.is_finite() {
+        return Err(bad(format!(
+            "phi_o_deg {phi_o_deg}: expected a finite azimuth in degrees"
+        )));
+    }
+    let (t, p) = (theta_o_deg.to_radians(), phi_o_deg.to_radians());
+    Ok(DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos()))
+}
+
+async fn samples(state: Shared, body: Bytes) -> Response {
+    answer(samples_values(state.0, body).await)
+}
+
+/// `POST /api/samples`: [`Session::sample`](crate::Session::sample)'s draws for the request's
+/// ωo and seed (those of `lobe sample` with the same flags), and
+/// [`Session::pdf`](crate::Session::pdf) at the centre of each cell of the hemisphere view's
+/// equal-area disc (rows from the top, null outside the disc), as JSON.
+async fn samples_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
+    let req: SamplesRequest =
+        serde_json::from_slice(&body).map_err(|e| bad(format!("request body: {e}")))?;
+    if !(1..=MAX_VIEW_DRAWS).contains(&req.draws) {
+        return Err(bad(format!(
+            "draws {}: expected from 1 to {MAX_VIEW_DRAWS} draws",
+            req.draws
+        )));
+    }
+    if !(1..=MAX_IMAGE_RES).contains(&req.res) {
+        return Err(bad(format!(
+            "res {}: expected the pdf's cells across from 1 to {MAX_IMAGE_RES}",
+            req.res
+        )));
+    }
+    let wo = view_of(req.theta_o_deg, req.phi_o_deg)?;
+    let params = resolve(&req.model, req.material.as_deref(), &req.sets)?;
+    let res = req.res;
+    let cells: Vec<Option<DVec3>> = (0..res * res)
+        .map(|k| {
+            let (x, y) = cell_point(res, k / res, k % res);
+            cell_direction(Projection::EqualArea, x, y)
+        })
+        .collect();
+    let pairs: Vec<(DVec3, DVec3)> = cells.iter().flatten().map(|&wi| (wi, wo)).collect();
+    let p = params.clone();
+    let (draws, pdf) = evaluate(&state, params.model(), move |session| {
+        let query = Query::one(&p).with_white_furnace(req.white_furnace);
+        let draws = session.sample(query, wo, req.draws, req.seed)?;
+        let pdf = session.pdf(query, &pairs)?;
+        Ok((draws, pdf))
+    })
+    .await?;
+    let mut pdf = pdf.into_iter();
+    let grid: Vec<Option<f64>> = cells.iter().map(|c| c.and_then(|_| pdf.next())).collect();
+    let lost = (0..draws.len())
+        .filter(|&k| !draws.delta[k] && draws.pdf[k] == 0.0)
+        .count();
+    let delta = draws.delta.iter().filter(|&&d| d).count();
+    let body = json!({
+        "wo": draws.wo,
+        "seed": draws.seed,
+        "wi": draws.wi,
+        "pdf": draws.pdf,
+        "delta": draws.delta,
+        "lost": lost,
+        "delta_count": delta,
+        "res": res,
+        "pdf_grid": grid,
+        "backend": draws.backend,
+        "params": params.to_json(),
+    });
+    Ok(json_response(&body))
+}
+
+/// What the lit view asks for: a model as [`ViewRequest`] names it, a built-in map by name and
+/// the image's pixels per side.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightRequest {
+    model: String,
+    #[serde(default)]
+    material: Option<String>,
+    #[serde(default)]
+    sets: Vec<String>,
+    env: String,
+    size: u32,
+}
+
+async fn light(state: Shared, body: Bytes) -> Response {
+    answer(light_values(state.0, body).await)
+}
+
+/// `POST /api/light`: [`Session::light`](crate::Session::light) and
+/// [`Session::light_split_sum`](crate::Session::light_split_sum) of the sphere under a built-in
+/// map, as JSON (linear radiance, rows from the top, RGB flattened); `split` is null with the
+/// reason in `split_note` for a model that has no split sum.
+async fn light_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusal> {
+    let req: LightRequest =
+        serde_json::from_slice(&body).map_err(|e| bad(format!("request body: {e}")))?;
+    if !(1..=MAX_LIGHT_SIZE).contains(&req.size) {
+        return Err(bad(format!(
+            "size {}: expected the lit sphere's pixels per side from 1 to {MAX_LIGHT_SIZE}",
+            req.size
+        )));
+    }
+    let Some(builtin) = crate::light::maps::Builtin::from_name(&req.env) else {
+        return Err(bad(format!(
+            "env '{}': expected a built-in map: sky, studio or constant",
+            req.env
+        )));
+    };
+    let params = resolve(&req.model, req.material.as_deref(), &req.sets)?;
+    let size = req.size;
+    let p = params.clone();
+    let (exact, split) = evaluate(&state, params.model(), move |session| {
+        let map = builtin.map();
+        let exact = session.light(&p, &map, size, &mut |_, _| {})?;
+        let split = match session.light_split_sum(&p, &map, size, &mut |_, _| {}) {
+            Ok(s) => Ok(s),
+            Err(e @ crate::Error::Cancelled(_)) => return Err(e),
+            Err(e) => Err(e.to_string()),
+        };
+        Ok((exact, split))
+    })
+    .await?;
+    let flat = |i: &crate::light::LightImage| -> Vec<f32> {
+        i.pixels.iter().flatten().map(|&v| v as f32).collect()
+    };
+    let body = json!({
+        "size": size,
+        "env": builtin.name(),
+        "exact": flat(&exact),
+        "split": split.as_ref().ok().map(flat),
+        "split_note": split.as_ref().err(),
     });
     Ok(json_response(&body))
 }

@@ -31,3 +31,11 @@ pub const MAX_ALBEDO_POINTS: usize = 64;
 
 /// Assignments (`key=value`) in one request: more than any model has parameters.
 pub const MAX_ASSIGNMENTS: usize = 64;
+
+/// Draws of one samples view: 16384 points are more than a 256-pixel disc shows apart, and a
+/// few hundred kilobytes of JSON.
+pub const MAX_VIEW_DRAWS: usize = 16384;
+
+/// Pixels per side of the lit view's sphere under an environment map: the exact sum visits every
+/// texel for every pixel, so its time grows with the square of this.
+pub const MAX_LIGHT_SIZE: u32 = 192;

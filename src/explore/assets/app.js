@@ -8,6 +8,8 @@ const TOKEN = new URLSearchParams(location.search).get('token') || '';
 const POLAR_SAMPLES = 721;      // view angles per curve: one every 0.25°
 const IMAGE_RES = 64;           // cells across the hemisphere, slice, lit object and 3D lobe mesh
 const ALBEDO_POINTS = 24;       // E(μ) view directions
+const SAMPLE_DRAWS = 2048;      // draws of the samples view
+const SAMPLE_SEED = 0;          // its random stream (lobe sample --seed)
 const ALBEDO_DELAY_MS = 250;    // quiet time after the last change before the albedo is asked for
 const BUSY_DELAY_MS = 150;      // how long a view may wait before the page says it is busy
 const DECADES = 4;              // log scales span this many decades below the peak
@@ -23,8 +25,8 @@ const probe = window.lobeExplore = {
 let catalog = null;
 // m: the models; ti: θi; cos, log, wf: the polar plot's f·cosθi, log scale and white furnace;
 // wire: the 3D lobe as a wireframe; pd: the slice's φd; td: the θd of its θh cut (a row's
-// centre); obj: the lit object; ev, tm: the lit views' exposure (stops) and tone map.
-const DEFAULT_STATE = { m: [], ti: 30, cos: false, log: true, wf: false, wire: false, pd: 90, td: 45.703125, obj: 'sphere', ev: 0, tm: 'clamp' };
+// centre); to, po: the samples view's θo and φo; obj: the lit object; ev, tm: the lit views' exposure (stops) and tone map.
+const DEFAULT_STATE = { m: [], ti: 30, cos: false, log: true, wf: false, wire: false, pd: 90, td: 45.703125, obj: 'sphere', ev: 0, tm: 'clamp', to: 30, po: 0 };
 let state = { ...DEFAULT_STATE };
 
 // The lit objects and the route that renders each.
@@ -91,6 +93,7 @@ function applyState(s) {
   const fine = {
     ti: (v) => Number.isFinite(v) && v >= 0 && v < 90, pd: (v) => Number.isFinite(v) && v >= 0 && v <= 360,
     td: (v) => Number.isFinite(v) && v >= 0 && v <= 90, ev: (v) => Number.isFinite(v) && Math.abs(v) <= 10,
+    to: (v) => Number.isFinite(v) && v >= 0 && v < 90, po: (v) => Number.isFinite(v) && v >= 0 && v <= 360,
     obj: (v) => Object.hasOwn(LIT_OBJECTS, v), tm: (v) => Object.hasOwn(TONE_MAPS, v),
   };
   const next = { ...DEFAULT_STATE };
@@ -305,6 +308,7 @@ function changed(rebuild) {
   if (rebuild) buildControls();
   imagesChanged();
   scheduleAlbedo();
+  scheduleSamples();
 }
 
 // A change the albedo does not see (the slice's φd, the lit object) asks for the views only.
@@ -386,6 +390,33 @@ async function refreshAlbedo() {
     probe.albedoRequest = asked;
     drawAlbedo(answers);
     drawSkies(answers);
+  } catch (e) {
+    if (e.name !== 'AbortError') showError(e.message);
+  }
+}
+
+let samplesTimer = null;
+let samplesAbort = null;
+
+function scheduleSamples() {
+  clearTimeout(samplesTimer);
+  samplesTimer = setTimeout(refreshSamples, ALBEDO_DELAY_MS);
+}
+
+// The first model's draws and pdf for (θo, φo); a newer state drops the request under way.
+async function refreshSamples() {
+  if (samplesAbort) samplesAbort.abort();
+  const abort = samplesAbort = new AbortController();
+  if (!state.m.length) return;
+  try {
+    const { model, material, sets, white_furnace } = request(state.m[0], 0);
+    const asked = { model, material, sets, white_furnace, theta_o_deg: state.to, phi_o_deg: state.po,
+      draws: SAMPLE_DRAWS, seed: SAMPLE_SEED, res: IMAGE_RES };
+    const answer = await (await call('/api/samples', asked, abort.signal)).json();
+    if (abort.signal.aborted) return;
+    probe.samples = answer;
+    probe.samplesRequest = asked;
+    drawSamples(answer);
   } catch (e) {
     if (e.name !== 'AbortError') showError(e.message);
   }
@@ -535,6 +566,8 @@ async function start() {
   $('white-furnace').addEventListener('change', () => { state.wf = $('white-furnace').checked; changed(false); });
   $('phi-d').addEventListener('input', () => { state.pd = Number($('phi-d').value); $('phi-d-value').textContent = `${state.pd}°`; imagesChanged(); });
   $('theta-d').addEventListener('input', () => { state.td = sliceTheta(Number($('theta-d').value)); $('theta-d-value').textContent = `${fmt(state.td)}°`; redrawImages(); });
+  $('theta-o').addEventListener('input', () => { state.to = Number($('theta-o').value); $('theta-o-value').textContent = `${state.to}°`; saveState(); scheduleSamples(); });
+  $('phi-o').addEventListener('input', () => { state.po = Number($('phi-o').value); $('phi-o-value').textContent = `${state.po}°`; saveState(); scheduleSamples(); });
   $('lit-object').addEventListener('change', () => { state.obj = $('lit-object').value; imagesChanged(); });
   $('exposure').addEventListener('input', () => { state.ev = Number($('exposure').value); $('exposure-value').textContent = evText(state.ev); redrawImages(); });
   $('tone-map').addEventListener('change', () => { state.tm = $('tone-map').value; redrawImages(); });
@@ -558,6 +591,7 @@ async function start() {
   saveState();
   refreshViews();
   scheduleAlbedo();
+  scheduleSamples();
 }
 
 start().catch((e) => showError(e.message));

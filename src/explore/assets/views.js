@@ -181,3 +181,32 @@ function drawAlbedo(answers) {
   });
   $('albedo-readout').tBodies[0].replaceChildren(...rows);
 }
+
+// The samples view: the pdf's cells as a log heat map (null: outside the disc), and the draws
+// above the horizon as dots on the same equal-area disc (radius √2 sin(θ/2), +x right, +y up).
+function drawSamples(a) {
+  const res = a.res;
+  const f = new Float32Array(3 * res * res);
+  a.pdf_grid.forEach((v, k) => f.fill(v === null ? NaN : v, 3 * k, 3 * k + 3));
+  const peak = peakOf(f);
+  const heat = panel(logImage(f, peak), 'pdf over ωi', ...logBar(peak).map((b) => (typeof b === 'string' ? b.replace('1/sr', '1/sr (pdf)') : b)));
+  const size = 300;
+  const dots = Object.assign(document.createElement('canvas'), { width: size, height: size });
+  dots.style.width = dots.style.height = '150px';
+  const g = dots.getContext('2d');
+  g.fillStyle = '#111';
+  g.beginPath(); g.arc(size / 2, size / 2, size / 2, 0, 2 * Math.PI); g.fill();
+  g.fillStyle = 'rgba(240, 249, 33, 0.6)';
+  let shown = 0;
+  a.wi.forEach((w, k) => {
+    if (a.delta[k] || a.pdf[k] === 0 || w[2] <= 0) return;
+    const s = Math.hypot(w[0], w[1]);
+    const r = Math.SQRT2 * Math.sin(Math.acos(Math.min(1, w[2])) / 2);
+    const [x, y] = s > 0 ? [r * w[0] / s, r * w[1] / s] : [0, 0];
+    g.fillRect((x + 1) / 2 * size - 1, (1 - y) / 2 * size - 1, 2, 2);
+    shown += 1;
+  });
+  probe.samplesShown = shown;
+  const caption = `${a.wi.length} draws (seed ${a.seed}): ${shown} shown, ${a.delta_count} delta (mirror spike), ${a.lost} lost`;
+  $('samples').replaceChildren(heat, panel(dots, caption));
+}
