@@ -200,8 +200,8 @@ fn cdf_uniform(n: usize) -> Vec<f32> {
     (0..=n).map(|k| (k as f64 / n as f64) as f32).collect()
 }
 
-/// The largest k < n with cdf[k] ≤ u (cdf[0] = 0 ≤ u < 1 = cdf[n]), and where u lies within
-/// [cdf[k], cdf[k + 1]) as a fraction in [0, 1): `merl_search` in the GLSL.
+/// The largest k < n with `cdf[k] ≤ u` (`cdf[0] = 0 ≤ u < 1 = cdf[n]`), and where u lies within
+/// `[cdf[k], cdf[k + 1])` as a fraction in [0, 1): `merl_search` in the GLSL.
 pub fn merl_search(cdf: &[f32], u: f64) -> (usize, f64) {
     let (mut lo, mut hi) = (0, cdf.len() - 1);
     while hi - lo > 1 {
