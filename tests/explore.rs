@@ -646,6 +646,126 @@ fn samples_view_in_chromium_shows_draws_and_pdf() {
     );
 }
 
+/// The lit view in the page: GGX under the sky drawn exact, split sum and their difference; a
+/// pixel of the exact canvas is the route's value through the page's tone map (clamped, sRGB,
+/// at the default exposure); the exposure slider changes it without a new request; a model
+/// without a split sum shows the route's note.
+#[test]
+fn lit_view_in_chromium_shows_exact_split_and_difference() {
+    /// A canvas byte may differ by one from the test's own tone map of the route's value: both
+    /// round the same sRGB value, computed in f64 along slightly different paths.
+    const BYTE_SLACK: f64 = 1.0;
+    /// The page's full size (app.js LIGHT_FULL).
+    const FULL: u64 = 96;
+    let srgb = |c: f64| {
+        if c <= 0.0031308 {
+            12.92 * c
+        } else {
+            1.055 * c.powf(1.0 / 2.4) - 0.055
+        }
+    };
+    let byte = |v: f64, ev: f64| (255.0 * srgb((v * 2f64.powf(ev)).clamp(0.0, 1.0))).round();
+    let server = Server::start(&["microfacet{distribution=ggx}"]);
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    b.wait_for(
+        &format!("!!(window.lobeExplore && window.lobeExplore.lightShown === {FULL} && document.querySelectorAll('#light canvas').length === 3)"),
+        PAGE_TIMEOUT,
+    );
+    assert!(b.errors().is_empty(), "console errors: {:?}", b.errors());
+    let light = b.eval("window.lobeExplore.light");
+    let asked = b.eval("window.lobeExplore.lightRequest");
+    let r = server.post("/api/light", &asked);
+    assert_eq!(r.status, 200, "{}", r.text());
+    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    let numbers = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (exact, route) = (numbers(&light["exact"]), numbers(&want["exact"]));
+    assert_eq!(exact.len(), route.len());
+    // Both went through JSON (the route's, then the page's): each read within a unit in the last
+    // place.
+    let off = exact
+        .iter()
+        .zip(&route)
+        .position(|(g, w)| (g - w).abs() > JSON_READ_ABS * w.abs().max(1.0));
+    assert!(
+        off.is_none(),
+        "the page drew other values than the route's at {off:?}"
+    );
+    let n = FULL as usize;
+    // A pixel on the sphere neither black nor clipped at 0 EV or at +1 EV.
+    let k = (0..n * n)
+        .find(|&k| {
+            let (row, col) = (k / n, k % n);
+            let (x, y) = (
+                -1.0 + (col as f64 + 0.5) * 2.0 / n as f64,
+                1.0 - (row as f64 + 0.5) * 2.0 / n as f64,
+            );
+            x * x + y * y < 0.8 && (0..3).all(|c| (0.05..0.45).contains(&exact[3 * k + c]))
+        })
+        .expect("a mid-grey pixel on the sphere");
+    let (row, col) = (k / n, k % n);
+    let pixel = |b: &mut cdp::Browser| -> Vec<f64> {
+        let v = b.eval(&format!("Array.from(document.querySelectorAll('#light canvas')[0].getContext('2d').getImageData({col}, {row}, 1, 1).data)"));
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let at0 = pixel(&mut b);
+    for c in 0..3 {
+        let want = byte(exact[3 * k + c], 0.0);
+        assert!(
+            (at0[c] - want).abs() <= BYTE_SLACK,
+            "pixel ({row}, {col}) channel {c}: {} against {want}",
+            at0[c]
+        );
+    }
+    let diff = b.eval("window.lobeExplore.lightDifference");
+    assert!(
+        diff["rms"].as_f64().unwrap() > 0.0,
+        "the split sum differs under a sun: {diff}"
+    );
+    let requests = b.eval("window.lobeExplore.lightRequests");
+    b.eval("(() => { const s = document.getElementById('exposure'); s.value = 1; s.dispatchEvent(new Event('input')); })()");
+    std::thread::sleep(Duration::from_millis(1500));
+    let at1 = pixel(&mut b);
+    for c in 0..3 {
+        let want = byte(exact[3 * k + c], 1.0);
+        assert!(
+            (at1[c] - want).abs() <= BYTE_SLACK,
+            "+1 EV, channel {c}: {} against {want}",
+            at1[c]
+        );
+        assert!(at1[c] > at0[c], "+1 EV brightens channel {c}");
+    }
+    assert_eq!(
+        b.eval("window.lobeExplore.lightRequests"),
+        requests,
+        "the exposure asks nothing of the server"
+    );
+
+    let server = Server::start(&["phong"]);
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    b.wait_for(
+        &format!("!!(window.lobeExplore && window.lobeExplore.lightShown === {FULL})"),
+        PAGE_TIMEOUT,
+    );
+    let text = b.eval("document.querySelector('#light').textContent");
+    assert!(text.as_str().unwrap().contains("no split sum"), "{text}");
+    assert_eq!(
+        b.eval("document.querySelectorAll('#light canvas').length"),
+        json!(1)
+    );
+}
+
 /// The lit view's route: GGX (microfacet) under the built-in sky, exact and split sum, equal to
 /// `Session::light` and `Session::light_split_sum` on the same device at every pixel; a model
 /// without a split sum says so; bad settings are refused with a sentence.

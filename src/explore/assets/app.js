@@ -9,6 +9,9 @@ const POLAR_SAMPLES = 721;      // view angles per curve: one every 0.25°
 const IMAGE_RES = 64;           // cells across the hemisphere, slice, lit object and 3D lobe mesh
 const ALBEDO_POINTS = 24;       // E(μ) view directions
 const SAMPLE_DRAWS = 2048;      // draws of the samples view
+const LIGHT_SMALL = 48;         // the lit sphere's pixels per side while settings change
+const LIGHT_FULL = 96;          // ... and once they settle (lavapipe: a few seconds under a 256 x 128 map)
+const LIGHT_SETTLE_MS = 800;    // how long settings must stay put before the full image is asked for
 const SAMPLE_SEED = 0;          // its random stream (lobe sample --seed)
 const ALBEDO_DELAY_MS = 250;    // quiet time after the last change before the albedo is asked for
 const BUSY_DELAY_MS = 150;      // how long a view may wait before the page says it is busy
@@ -19,7 +22,7 @@ const DASHES = [[], [8, 4], [2, 3], [10, 3, 2, 3]];
 // What tests and benchmarks read: the last values drawn and the input-to-frame latencies.
 const probe = window.lobeExplore = {
   ready: false, frames: 0, polar: [], angles: [], params: [], latencies: [], errors: [], albedo: [], downloads: [],
-  notices: [], sliceCut: [], lobeFaces: 0,
+  notices: [], sliceCut: [], lobeFaces: 0, lightRequests: 0,
 };
 
 let catalog = null;
@@ -309,6 +312,7 @@ function changed(rebuild) {
   imagesChanged();
   scheduleAlbedo();
   scheduleSamples();
+  scheduleLight();
 }
 
 // A change the albedo does not see (the slice's φd, the lit object) asks for the views only.
@@ -390,6 +394,35 @@ async function refreshAlbedo() {
     probe.albedoRequest = asked;
     drawAlbedo(answers);
     drawSkies(answers);
+  } catch (e) {
+    if (e.name !== 'AbortError') showError(e.message);
+  }
+}
+
+let lightTimers = [];
+let lightAbort = null;
+
+// The lit sphere: a small image soon after a change, the full one once the settings settle.
+function scheduleLight() {
+  lightTimers.forEach(clearTimeout);
+  lightTimers = [setTimeout(() => refreshLight(LIGHT_SMALL), ALBEDO_DELAY_MS),
+    setTimeout(() => refreshLight(LIGHT_FULL), LIGHT_SETTLE_MS)];
+}
+
+// The first model's sphere under the chosen map; a newer request drops the one under way.
+async function refreshLight(size) {
+  if (lightAbort) lightAbort.abort();
+  const abort = lightAbort = new AbortController();
+  if (!state.m.length) return;
+  try {
+    const { model, material, sets } = request(state.m[0], 0);
+    const asked = { model, material, sets, env: $('light-env').value, size };
+    probe.lightRequests += 1;
+    const answer = await (await call('/api/light', asked, abort.signal)).json();
+    if (abort.signal.aborted) return;
+    probe.light = answer;
+    probe.lightRequest = asked;
+    drawLight(answer);
   } catch (e) {
     if (e.name !== 'AbortError') showError(e.message);
   }
@@ -549,6 +582,7 @@ const evText = (ev) => `${ev > 0 ? '+' : ''}${ev} EV`;
 function redrawImages() {
   saveState();
   if (probe.hemi && probe.hemi.length === state.m.length) drawImages();
+  if (probe.light) drawLight(probe.light);
 }
 
 async function start() {
@@ -571,6 +605,7 @@ async function start() {
   $('lit-object').addEventListener('change', () => { state.obj = $('lit-object').value; imagesChanged(); });
   $('exposure').addEventListener('input', () => { state.ev = Number($('exposure').value); $('exposure-value').textContent = evText(state.ev); redrawImages(); });
   $('tone-map').addEventListener('change', () => { state.tm = $('tone-map').value; redrawImages(); });
+  $('light-env').addEventListener('change', scheduleLight);
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
   // The clipboard exists only on a secure origin (localhost is one; --host's other addresses are
@@ -592,6 +627,7 @@ async function start() {
   refreshViews();
   scheduleAlbedo();
   scheduleSamples();
+  scheduleLight();
 }
 
 start().catch((e) => showError(e.message));

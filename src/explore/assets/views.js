@@ -210,3 +210,65 @@ function drawSamples(a) {
   const caption = `${a.wi.length} draws (seed ${a.seed}): ${shown} shown, ${a.delta_count} delta (mirror spike), ${a.lost} lost`;
   $('samples').replaceChildren(heat, panel(dots, caption));
 }
+
+// The lit sphere under an environment map (POST /api/light): linear radiance in the map's units
+// times 2^EV, tone-mapped in each channel as the lit objects are, as sRGB; outside the sphere
+// (pixel centres with x² + y² > 1) left empty.
+const lightByte = (v) => {
+  const k = Math.pow(2, state.ev), tone = TONE_MAPS[state.tm];
+  return Math.round(255 * srgb(Math.min(1, Math.max(0, tone(Math.max(0, k * v))))));
+};
+
+function lightCanvas(n, colour) {
+  const c = Object.assign(document.createElement('canvas'), { width: n, height: n });
+  c.style.width = c.style.height = '192px';
+  c.style.imageRendering = 'pixelated';
+  const g = c.getContext('2d');
+  const img = g.createImageData(n, n);
+  for (let row = 0; row < n; row++) {
+    for (let col = 0; col < n; col++) {
+      const x = -1 + (col + 0.5) * 2 / n, y = 1 - (row + 0.5) * 2 / n;
+      if (x * x + y * y > 1) continue;
+      const k = row * n + col;
+      img.data.set([...colour(k), 255], 4 * k);
+    }
+  }
+  g.putImageData(img, 0, 0);
+  return c;
+}
+
+// Blue (below) through white to red (above), t in [−1, 1].
+function diverging(t) {
+  const u = Math.min(1, Math.abs(t));
+  const far = t < 0 ? [33, 102, 172] : [178, 24, 43];
+  return far.map((c) => Math.round(255 + (c - 255) * u));
+}
+
+function drawLight(a) {
+  const n = a.size;
+  const rgb = (img) => (k) => [0, 1, 2].map((c) => lightByte(img[3 * k + c]));
+  const panels = [panel(lightCanvas(n, rgb(a.exact)), `exact, ${n}² under ${a.env}`)];
+  if (a.split) {
+    const lum = (img, k) => luminance(img[3 * k], img[3 * k + 1], img[3 * k + 2]);
+    let peak = 0, sum2 = 0, count = 0, rel = 0;
+    for (let row = 0; row < n; row++) {
+      for (let col = 0; col < n; col++) {
+        const x = -1 + (col + 0.5) * 2 / n, y = 1 - (row + 0.5) * 2 / n;
+        if (x * x + y * y > 1) continue;
+        const k = row * n + col, e = lum(a.exact, k), d = lum(a.split, k) - e;
+        peak = Math.max(peak, Math.abs(d)); sum2 += d * d; count += 1;
+        if (e > 0) rel = Math.max(rel, Math.abs(d) / e);
+      }
+    }
+    const rms = Math.sqrt(sum2 / Math.max(count, 1));
+    probe.lightDifference = { rms, peak, largest_relative: rel };
+    panels.push(panel(lightCanvas(n, rgb(a.split)), 'split sum'),
+      panel(lightCanvas(n, (k) => diverging(peak > 0 ? (lum(a.split, k) - lum(a.exact, k)) / peak : 0)),
+        `split − exact: RMS ${fmt(rms)}, ±${fmt(peak)} at full colour, largest relative ${fmt(rel)}`));
+  } else {
+    probe.lightDifference = null;
+    panels.push(Object.assign(document.createElement('div'), { className: 'note', textContent: `no split sum: ${a.split_note}` }));
+  }
+  $('light').replaceChildren(...panels);
+  probe.lightShown = n;
+}
