@@ -78,6 +78,12 @@ fn flag(option: &str) -> Option<String> {
     }
 }
 
+/// The files a run wrote, as its last line names them.
+fn listed(paths: &[PathBuf]) -> String {
+    let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    names.join(", ")
+}
+
 pub fn run(a: LightArgs) -> Result<()> {
     if !a.exposure.is_finite() {
         anyhow::bail!(
@@ -140,11 +146,6 @@ pub fn run(a: LightArgs) -> Result<()> {
         .map_err(session_error);
     progress.finish_and_clear();
     let summary = with_flag(summary, flag)?;
-    let written: Vec<String> = summary
-        .paths
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
     eprintln!(
         "lobe: lit {} pixels of a {}² sphere under {} ({}x{} texels, {}) in {:.2} s on {}; wrote {}",
         summary.lit_pixels,
@@ -155,7 +156,7 @@ pub fn run(a: LightArgs) -> Result<()> {
         a.method,
         summary.seconds,
         summary.backend,
-        written.join(", ")
+        listed(&summary.paths)
     );
     if let Some(e) = &summary.error {
         eprintln!(
@@ -209,11 +210,6 @@ fn run_report(a: LightArgs) -> Result<()> {
         .map_err(session_error);
     progress.finish_and_clear();
     let summary = with_flag(summary, flag)?;
-    let written: Vec<String> = summary
-        .paths
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
     eprintln!(
         "lobe: swept {} values of {} under {} on {}² spheres in {:.2} s on {}; wrote {}",
         summary.report.rows.len(),
@@ -222,7 +218,7 @@ fn run_report(a: LightArgs) -> Result<()> {
         a.size,
         summary.seconds,
         summary.backend,
-        written.join(", ")
+        listed(&summary.paths)
     );
     for r in &summary.report.rows {
         eprintln!(

@@ -3,6 +3,11 @@
 //! and F90, the lobe's weight, and the Lambertian albedo beside it. Models with neither a
 //! microfacet lobe nor a Lambertian part have no description: the split sum cannot prefilter
 //! them.
+//!
+//! This description has no GLSL twin: the split sum is computed on the host in f64 whatever the
+//! backend (only its DFG rows come from the backend's engine LUT), since it is the
+//! approximation under test and its prefilter is a weighted sum over the map's texels, not a
+//! kernel's per-pixel work.
 
 use super::microfacet::Microfacet;
 use super::registry::components::{Distribution, Fresnel};
