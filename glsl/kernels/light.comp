@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // `lobe light`'s exact sum (docs/design.md §15): one pixel of the lit sphere per evaluation, the
 // radiance toward the camera as the sum over every texel of the environment map of
-// f(wi, wo) cos(theta_i) L dOmega, texels below the pixel's horizon skipped. Twin of
+// f(wi, wo) cos(theta_i) L dOmega, texels below the pixel's horizon skipped (whole rows, and
+// the columns of a row outside the arc that may lie above it). Twin of
 // `WeightedTexels::light_pixel` (src/backend/light.rs): the host makes each pixel's frame and
 // each texel's direction and L dOmega in f64 and hands them over rounded to f32, so the kernel
 // only rotates, evaluates and sums.
@@ -37,25 +38,68 @@ layout(std430, set = 0, binding = 2) readonly buffer Texels { Texel texels[]; };
 // Twin of HORIZON_MARGIN in src/backend/light.rs.
 const float HORIZON_MARGIN = 1e-5;
 
+// The columns of a row that may lie above the pixel's horizon, as the spans [0, a) and [lo, hi)
+// in increasing order (a = 0 where there is one span): over a row of polar angle theta the texel
+// at azimuth phi has n . d = cos(theta) n.y + sin(theta) |n.xz| cos(phi - psi), psi = atan(n.x,
+// -n.z), below -HORIZON_MARGIN outside the arc |phi - psi| <= acos(c), widened by COLUMN_MARGIN
+// columns on each side (one column's angle is far more than acos's and atan's f32 error). Twin
+// of visible_columns in src/backend/light.rs.
+const float COLUMN_MARGIN = 1.0;
+const float TWO_PI = 6.283185307179586;
+
+void visible_columns(vec3 d0, vec3 n, float n_xz, uint width, out uint a, out uint lo, out uint hi) {
+    a = 0u;
+    lo = 0u;
+    hi = width;
+    float across = length(d0.xz) * n_xz;
+    if (!(across > 0.0)) return;
+    float c = (-HORIZON_MARGIN - d0.y * n.y) / across;
+    if (c <= -1.0) return;
+    float w = float(width);
+    float half_width = acos(min(c, 1.0)) * w / TWO_PI + COLUMN_MARGIN;
+    if (2.0 * half_width + 1.0 >= w) return;
+    float centre = atan(n.x, -n.z) * w / TWO_PI - 0.5;
+    int l = int(ceil(centre - half_width));
+    int h = int(floor(centre + half_width));
+    int wi = int(width);
+    if (l < 0) {
+        l += wi;
+        h += wi;
+    }
+    if (h >= wi) {
+        a = uint(h - wi + 1);
+        lo = uint(l);
+        hi = width;
+    } else {
+        lo = uint(l);
+        hi = uint(h + 1);
+    }
+}
+
+// Adds the terms of texels first + begin .. first + end to sum, in order.
+void add_terms(MODEL_PARAMS p, Pixel px, vec3 wo, uint first, uint begin, uint end, inout vec3 sum) {
+    for (uint k = first + begin; k < first + end; ++k) {
+        vec3 d = texels[k].direction.xyz;
+        vec3 wi = vec3(dot(d, px.t.xyz), dot(d, px.b.xyz), dot(d, px.n.xyz));
+        if (wi.z > 0.0) {
+            sum += brdf(p, wi, wo) * wi.z * texels[k].weight.rgb;
+        }
+    }
+}
+
 vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
     vec3 wo = vec3(px.t.w, px.b.w, px.n.w);
     vec3 total = vec3(0.0);
     float n_xz = length(px.n.xz);
-    uint k = 0u;
-    for (uint row = 0u; row < map.y; ++row) {
+    for (uint row = 0u, k = 0u; row < map.y; ++row, k += map.x) {
         vec3 d0 = texels[k].direction.xyz;
-        if (d0.y * px.n.y + length(d0.xz) * n_xz < -HORIZON_MARGIN) {
-            k += map.x;
-            continue;
-        }
+        if (d0.y * px.n.y + length(d0.xz) * n_xz < -HORIZON_MARGIN) continue;
+        uint a, lo, hi;
+        visible_columns(d0, px.n.xyz, n_xz, map.x, a, lo, hi);
+        // The two spans in order into one sum, so the row adds its terms as the full loop would.
         vec3 sum = vec3(0.0);
-        for (uint col = 0u; col < map.x; ++col, ++k) {
-            vec3 d = texels[k].direction.xyz;
-            vec3 wi = vec3(dot(d, px.t.xyz), dot(d, px.b.xyz), dot(d, px.n.xyz));
-            if (wi.z > 0.0) {
-                sum += brdf(p, wi, wo) * wi.z * texels[k].weight.rgb;
-            }
-        }
+        add_terms(p, px, wo, k, 0u, a, sum);
+        add_terms(p, px, wo, k, lo, hi, sum);
         total += sum;
     }
     return total;

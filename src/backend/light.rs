@@ -107,7 +107,8 @@ impl EnvMap {
 }
 
 /// A map's texels as the sums take them: row by row, each the world direction of its centre and
-/// its radiance times its solid angle (L ΔΩ per channel).
+/// its radiance times its solid angle (L ΔΩ per channel). The directions are those of
+/// [`texel_direction`], on which the sums' horizon skips rely ([`visible_columns`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WeightedTexels {
     /// Texels per row: the sums add each row first, then the rows.
@@ -130,6 +131,53 @@ pub fn row_below_horizon(d0: DVec3, n: DVec3) -> bool {
     d0.y * n.y + d_xz * n_xz < -HORIZON_MARGIN
 }
 
+/// How many columns [`visible_columns`] adds on each side of the arc it computes: one column's
+/// angle, 2π / W ≥ 3.8e-4 rad at the largest map side, is far more than the f32 error of the
+/// kernel's acos and atan (about 1e-6 rad) and covers the step from the arc to whole columns.
+pub const COLUMN_MARGIN: f64 = 1.0;
+
+/// The columns of a lat-long row, `width` texels whose first has direction `d0`, that may lie
+/// above the horizon of normal `n`, as two ranges in increasing order (either may be empty); the
+/// sums visit only these, in order, and every other column's computed cos θi is negative.
+///
+/// Over a row of polar angle θ, the texel at azimuth φ has n·d = cos θ n_y + sin θ |n_xz|
+/// cos(φ − ψ) with ψ = atan2(n_x, −n_z) (the texel directions of [`texel_direction`]), which is
+/// below −[`HORIZON_MARGIN`] wherever cos(φ − ψ) < c = (−`HORIZON_MARGIN` − cos θ n_y) /
+/// (sin θ |n_xz|), i.e. outside the arc |φ − ψ| ≤ acos(c). The margin in c (at least
+/// `HORIZON_MARGIN`, since sin θ |n_xz| ≤ 1) is far more than the rounding of c, and
+/// [`COLUMN_MARGIN`] columns are added on each side of the arc.
+pub fn visible_columns(d0: DVec3, n: DVec3, width: u32) -> [std::ops::Range<u32>; 2] {
+    let full = [0..width, 0..0];
+    let n_xz = (n.x * n.x + n.z * n.z).sqrt();
+    let d_xz = (d0.x * d0.x + d0.z * d0.z).sqrt();
+    let across = d_xz * n_xz;
+    if !(across > 0.0) {
+        return full;
+    }
+    let c = (-HORIZON_MARGIN - d0.y * n.y) / across;
+    if c <= -1.0 {
+        return full;
+    }
+    let w = width as f64;
+    let half = c.min(1.0).acos() * w / (2.0 * PI) + COLUMN_MARGIN;
+    if 2.0 * half + 1.0 >= w {
+        return full;
+    }
+    // Column j's centre lies at φ = 2π (j + 0.5) / W; ψ's column is then ψ W / 2π − 0.5.
+    let centre = n.x.atan2(-n.z) * w / (2.0 * PI) - 0.5;
+    let (mut lo, mut hi) = ((centre - half).ceil() as i64, (centre + half).floor() as i64);
+    let wi = width as i64;
+    if lo < 0 {
+        lo += wi;
+        hi += wi;
+    }
+    if hi >= wi {
+        [0..(hi - wi + 1) as u32, lo as u32..width]
+    } else {
+        [lo as u32..(hi + 1) as u32, 0..0]
+    }
+}
+
 impl WeightedTexels {
     /// L_o at `pixel` from these texels with `f` as f(ωi, ωo) in the local frame (the CPU
     /// reference's sum; `glsl/kernels/light.comp` is its twin): per map row, Σ f cos θi L ΔΩ
@@ -144,10 +192,12 @@ impl WeightedTexels {
                 continue;
             }
             let mut sum = DVec3::ZERO;
-            for &(d, weight) in row {
-                let wi = pixel.local(d);
-                if wi.z > 0.0 {
-                    sum += f(wi, wo) * wi.z * weight;
+            for span in visible_columns(row[0].0, pixel.n, row.len() as u32) {
+                for &(d, weight) in &row[span.start as usize..span.end as usize] {
+                    let wi = pixel.local(d);
+                    if wi.z > 0.0 {
+                        sum += f(wi, wo) * wi.z * weight;
+                    }
                 }
             }
             total += sum;
