@@ -1433,7 +1433,12 @@ fn rows_skipped_below_the_horizon_hold_no_texel_above_it() {
 #[test]
 fn columns_skipped_below_the_horizon_hold_no_texel_above_it() {
     use lobe::backend::light::{row_below_horizon, texel_direction, visible_columns};
-    for (w, h, size) in [(256u32, 128u32, SIZE), (8, 4, 16), (4096, 16, 12), (3, 2, 8)] {
+    for (w, h, size) in [
+        (256u32, 128u32, SIZE),
+        (8, 4, 16),
+        (4096, 16, 12),
+        (3, 2, 8),
+    ] {
         let (mut visited, mut skipped) = (0usize, 0usize);
         for q in sphere_pixels(size, 0..size) {
             let n32 = q.n.as_vec3();

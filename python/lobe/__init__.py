@@ -281,6 +281,16 @@ class Samples(NamedTuple):
     delta: np.ndarray
 
 
+
+def _env(env):
+    """An environment map argument as (name or path, None) or (None, an (H, W, 3) float32 array)."""
+    if isinstance(env, (str, os.PathLike)):
+        return os.fspath(env), None
+    array = np.asarray(env)
+    if array.ndim != 3 or array.shape[2] != 3 or not np.issubdtype(array.dtype, np.number):
+        raise ValueError(f"env: expected a map name, a path or an (H, W, 3) array of radiance, got shape {array.shape}")
+    return None, np.ascontiguousarray(array, dtype=np.float32)
+
 class Session:
     def __init__(self, backend: str = "gpu", device: Optional[str] = None) -> None:
         if device is not None and not isinstance(device, str):
@@ -407,13 +417,7 @@ class Session:
         if method not in ("exact", "split_sum"):
             raise ValueError(f"method: {method!r}; expected \"exact\" (the sum over every texel) or \"split_sum\" (Karis' split sum)")
         size = _positive_ints("size", size, 1)[0]
-        if isinstance(env, (str, os.PathLike)):
-            name, array = os.fspath(env), None
-        else:
-            array = np.asarray(env)
-            if array.ndim != 3 or array.shape[2] != 3 or not np.issubdtype(array.dtype, np.number):
-                raise ValueError(f"env: expected a map name, a path or an (H, W, 3) array of radiance, got shape {array.shape}")
-            name, array = None, np.ascontiguousarray(array, dtype=np.float32)
+        name, array = _env(env)
         return _lobe.light(self._s, _model(model), material, _sets(params), name, array, size, method)
 
     def light_report(self, model, env, size=64, steps=9, params=None, material=None, white_furnace=False):
@@ -422,13 +426,7 @@ class Session:
         and "rows", one dict per value with the report CSV's columns (docs/commands.md)."""
         size = _positive_ints("size", size, 1)[0]
         steps = _positive_ints("steps", steps, 1)[0]
-        if isinstance(env, (str, os.PathLike)):
-            name, array = os.fspath(env), None
-        else:
-            array = np.asarray(env)
-            if array.ndim != 3 or array.shape[2] != 3 or not np.issubdtype(array.dtype, np.number):
-                raise ValueError(f"env: expected a map name, a path or an (H, W, 3) array of radiance, got shape {array.shape}")
-            name, array = None, np.ascontiguousarray(array, dtype=np.float32)
+        name, array = _env(env)
         return json.loads(_lobe.light_report(self._s, _model(model), material, _sets(params), bool(white_furnace),
                                              name, array, size, steps))
 

@@ -165,7 +165,10 @@ pub fn visible_columns(d0: DVec3, n: DVec3, width: u32) -> [std::ops::Range<u32>
     }
     // Column j's centre lies at φ = 2π (j + 0.5) / W; ψ's column is then ψ W / 2π − 0.5.
     let centre = n.x.atan2(-n.z) * w / (2.0 * PI) - 0.5;
-    let (mut lo, mut hi) = ((centre - half).ceil() as i64, (centre + half).floor() as i64);
+    let (mut lo, mut hi) = (
+        (centre - half).ceil() as i64,
+        (centre + half).floor() as i64,
+    );
     let wi = width as i64;
     if lo < 0 {
         lo += wi;

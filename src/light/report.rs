@@ -316,7 +316,7 @@ pub fn write_report(
             report.axis.key,
             report.axis.mapping.name()
         ),
-        "relative error |split − exact| / exact over the sphere's pixels and R, G, B; grey band: lobe narrower than 3 texels (either sum resolves it poorly)".to_string(),
+        "relative error |split − exact| / exact over the sphere's pixels and R, G, B (logarithmic); grey band: lobe narrower than 3 texels (either sum resolves it poorly)".to_string(),
     ];
     let png = picture(&report, &title, &lines, Format::Png)?;
     let svg = picture(&report, &title, &lines, Format::Svg)?;
@@ -405,6 +405,9 @@ pub fn write_report(
 const CANVAS: (u32, u32) = (1000, 640);
 
 /// The report's plot: relative error against the parameter, one line per figure.
+/// Decades the report's logarithmic error axis spans at most below its largest value.
+const REPORT_DECADES: i32 = 8;
+
 fn picture(report: &Report, title: &str, lines: &[String], format: Format) -> Result<Vec<u8>> {
     render_bytes(format, CANVAS, |root, ink| {
         draw(root, ink, report, title, lines)
@@ -455,18 +458,27 @@ fn draw<DB: DrawingBackend>(
             Box::new(|r| r.band_mean_relative[2]),
         ),
     ];
-    let top = rows
+    // A logarithmic error axis: the errors of the sharpest lobes are often decades above the
+    // rest. It spans the smallest positive value to the largest, at most REPORT_DECADES.
+    let values: Vec<f64> = rows
         .iter()
         .flat_map(|r| series.iter().filter_map(move |s| (s.2)(r)))
-        .filter(|v| v.is_finite())
-        .fold(0.0f64, f64::max);
-    let y_hi = if top > 0.0 { top * 1.08 } else { 1.0 };
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let top = values.iter().copied().fold(0.0f64, f64::max);
+    let (y_lo, y_hi) = if top > 0.0 {
+        let floor = top * 10f64.powi(-REPORT_DECADES);
+        let least = values.iter().copied().fold(top, f64::min).max(floor);
+        (least / 1.5, top * 1.5)
+    } else {
+        (1e-6, 1.0)
+    };
     let (x_lo, x_hi) = (report.axis.lo, report.axis.hi);
     let mut chart = ChartBuilder::on(&body)
         .margin(16)
         .x_label_area_size(44)
         .y_label_area_size(70)
-        .build_cartesian_2d(x_lo..x_hi, 0.0..y_hi)
+        .build_cartesian_2d(x_lo..x_hi, (y_lo..y_hi).log_scale())
         .drawing("the report's chart")?;
     chart
         .configure_mesh()
@@ -480,7 +492,7 @@ fn draw<DB: DrawingBackend>(
     if let Some(last) = rows.iter().rev().find(|r| !r.lobe_resolved) {
         chart
             .draw_series(std::iter::once(Rectangle::new(
-                [(x_lo, 0.0), (last.value, y_hi)],
+                [(x_lo, y_lo), (last.value, y_hi)],
                 RGBColor(225, 225, 225).filled(),
             )))
             .drawing("the unresolved band")?;
@@ -490,6 +502,8 @@ fn draw<DB: DrawingBackend>(
             .iter()
             .filter_map(|r| of(r).map(|v| (r.value, v)))
             .filter(|p| p.1.is_finite())
+            // A value below the axis (0, or decades below the largest) sits on its floor.
+            .map(|(x, v)| (x, v.max(y_lo)))
             .collect();
         let colour = *colour;
         chart
