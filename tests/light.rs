@@ -1385,6 +1385,16 @@ fn write_env_writes_the_map_that_env_reads_back() {
     assert!(!dir.path().join("sky.hdr").exists());
 }
 
+/// Texel (row `i`, column `j`) of a `w` × `h` map lies below the horizon of pixel `q`: its
+/// cos θi is negative in f64, as the CPU reference computes it, and in f32 from the rounded
+/// normal and direction, as the kernel does.
+fn assert_below_horizon(q: &SpherePixel, w: u32, h: u32, i: u32, j: u32) {
+    let d = lobe::backend::light::texel_direction(w, h, i, j);
+    let at = format!("{w}x{h}: pixel ({}, {}) row {i} texel {j}", q.row, q.col);
+    assert!(q.local(d).z < 0.0, "{at}");
+    assert!(d.as_vec3().dot(q.n.as_vec3()) < 0.0, "f32: {at}");
+}
+
 /// The rows the sums skip whole lie wholly below the pixel's horizon: every texel of a skipped
 /// row has cos θi < 0, computed in f64 as the CPU reference does and in f32 from the rounded
 /// frame and direction as the kernel does, so skipping them leaves the sums unchanged; and the
@@ -1402,21 +1412,8 @@ fn rows_skipped_below_the_horizon_hold_no_texel_above_it() {
                 continue;
             }
             skipped += 1;
-            let n32 = q.n.as_vec3();
             for j in 0..w {
-                let d = lobe::backend::light::texel_direction(w, h, i, j);
-                assert!(
-                    q.local(d).z < 0.0,
-                    "pixel ({}, {}) row {i} texel {j}",
-                    q.row,
-                    q.col
-                );
-                assert!(
-                    d.as_vec3().dot(n32) < 0.0,
-                    "f32: pixel ({}, {}) row {i} texel {j}",
-                    q.row,
-                    q.col
-                );
+                assert_below_horizon(&q, w, h, i, j);
             }
         }
         skipped_rows += skipped;
@@ -1441,7 +1438,6 @@ fn columns_skipped_below_the_horizon_hold_no_texel_above_it() {
     ] {
         let (mut visited, mut skipped) = (0usize, 0usize);
         for q in sphere_pixels(size, 0..size) {
-            let n32 = q.n.as_vec3();
             for i in 0..h {
                 let d0 = texel_direction(w, h, i, 0);
                 if row_below_horizon(d0, q.n) {
@@ -1451,19 +1447,7 @@ fn columns_skipped_below_the_horizon_hold_no_texel_above_it() {
                 assert!(a.end <= b.start || b.is_empty(), "spans {a:?} {b:?}");
                 assert!(a.end <= w && b.end <= w, "spans {a:?} {b:?} of {w}");
                 for j in (0..w).filter(|j| !a.contains(j) && !b.contains(j)) {
-                    let d = texel_direction(w, h, i, j);
-                    assert!(
-                        q.local(d).z < 0.0,
-                        "{w}x{h}: pixel ({}, {}) row {i} texel {j}",
-                        q.row,
-                        q.col
-                    );
-                    assert!(
-                        d.as_vec3().dot(n32) < 0.0,
-                        "{w}x{h} f32: pixel ({}, {}) row {i} texel {j}",
-                        q.row,
-                        q.col
-                    );
+                    assert_below_horizon(&q, w, h, i, j);
                     skipped += 1;
                 }
                 visited += w as usize;
