@@ -1,5 +1,6 @@
 //! Throughput of each model on this machine: evaluations per second of a lobe table and of an
-//! albedo integration (and, for a table, cells written per second, which exceeds evaluations
+//! albedo integration, draws per second of the sampling test and texel terms per second of the
+//! lit sphere's exact sum (and, for a table, cells written per second, which exceeds evaluations
 //! per second where a reciprocal table copies mirror cells, docs/design.md §4.5), on the GPU (kernel time from timestamp queries, and wall time including
 //! upload and read-back) and on the CPU reference (wall time, all cores). The two backends never
 //! run at the same time: on lavapipe both would compete for the same cores.
@@ -19,14 +20,16 @@ pub struct Throughput {
     /// The model's name.
     pub model: String,
     /// What was timed: "table" (a lobe table, output discarded), "albedo" (directional albedo
-    /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU) or "lut" (an
-    /// albedo look-up table E(μ, p) and E_avg(p), [`measure_lut`]).
+    /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU), "lut" (an
+    /// albedo look-up table E(μ, p) and E_avg(p), [`measure_lut`]), "chi2" (the sampling test,
+    /// [`measure_chi2`]) or "light" (the lit sphere's exact sum, [`measure_light`]).
     pub task: &'static str,
     /// The backend timed, as [`Evaluator::name`] says.
     pub backend: String,
     /// The GPU's driver and its version ([`Evaluator::driver`]); None on the CPU.
     pub driver: Option<String>,
-    /// BRDF (integrand) evaluations in one run, as the backend reports them.
+    /// BRDF (integrand) evaluations in one run, as the backend reports them; for "chi2" the
+    /// draws, for "light" the texel terms (pixels × texels, before the horizon skips).
     pub evaluations: u64,
     /// Evaluations per second by wall clock, read-back included.
     pub wall_per_s: f64,
@@ -211,4 +214,71 @@ pub fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
         total += rule_evaluations(rule, params.model().is_tabulated(), &wo);
     }
     Ok(total)
+}
+
+/// Draws per run of the timed sampling test, at θo = [`CHI2_THETA_O_DEG`].
+pub const CHI2_SAMPLES: u64 = 1 << 22;
+
+/// The timed sampling test's view direction, in degrees from the normal.
+pub const CHI2_THETA_O_DEG: f64 = 45.0;
+
+/// Throughput of the sampling test (`lobe chi2`: [`CHI2_SAMPLES`] draws of the model's sampler
+/// at θo = [`CHI2_THETA_O_DEG`], counted in cells on the device or drawn and checked in f64 on
+/// the CPU, then the expected counts and the verdict), the median of `repeats` runs;
+/// evaluations = draws.
+pub fn measure_chi2<'q>(
+    eval: &Evaluator,
+    query: impl Into<Query<'q>>,
+    repeats: usize,
+) -> Result<Throughput> {
+    let query = query.into();
+    let params = query.params();
+    let options = crate::chi2::Options {
+        directions: vec![[CHI2_THETA_O_DEG, 0.0]],
+        samples: CHI2_SAMPLES,
+        ..Default::default()
+    };
+    time_task(eval, params, "chi2", repeats, || {
+        let report = crate::chi2::test_model(
+            params,
+            query.white_furnace,
+            &options,
+            eval.backend(),
+            None,
+            |_, _| {},
+        )?;
+        std::hint::black_box(report);
+        Ok(CHI2_SAMPLES)
+    })
+}
+
+/// Pixels per side of the timed lit sphere.
+pub const LIGHT_SIZE: u32 = 64;
+
+/// Throughput of the lit sphere's exact sum (`lobe light --method exact`: a [`LIGHT_SIZE`]²
+/// sphere under the built-in sky, 256 × 128 texels), the median of `repeats` runs;
+/// evaluations = texel terms, the pixels inside the sphere times the map's texels (the sums
+/// skip those below each pixel's horizon, so a faster skip shows as more terms a second).
+pub fn measure_light<'q>(
+    eval: &Evaluator,
+    query: impl Into<Query<'q>>,
+    repeats: usize,
+) -> Result<Throughput> {
+    let query = query.into();
+    let params = query.params();
+    let map = crate::light::maps::Builtin::Sky.map();
+    let pixels = crate::backend::light::sphere_pixels(LIGHT_SIZE, 0..LIGHT_SIZE).len() as u64;
+    let terms = pixels * map.texels().len() as u64;
+    time_task(eval, params, "light", repeats, || {
+        let image = crate::light::exact(
+            eval,
+            params,
+            query.white_furnace,
+            &map,
+            LIGHT_SIZE,
+            &mut |_, _| {},
+        )?;
+        std::hint::black_box(image);
+        Ok(terms)
+    })
 }

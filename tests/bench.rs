@@ -135,3 +135,45 @@ fn bench_times_a_full_table_and_counts_its_copied_cells() {
         );
     }
 }
+
+/// `lobe bench --tasks chi2,light` times the sampling test and the lit sphere on each backend:
+/// one row per task and backend, whose evaluations are the draws (2²² at θo = 45°) and the texel
+/// terms (the 64² sphere's pixels inside the disc × the sky's 256 × 128 texels, counted here
+/// from the view's own definition, docs/design.md §15.2), at positive rates.
+#[test]
+fn bench_times_the_sampling_test_and_the_lit_sphere() {
+    if common::gpu_device("bench_times_the_sampling_test_and_the_lit_sphere").is_none() {
+        return;
+    }
+    let v = common::lobe_json(&[
+        "bench",
+        "--model",
+        "lambert",
+        "--tasks",
+        "chi2,light",
+        "--repeats",
+        "1",
+        "--format",
+        "json",
+    ]);
+    let rows = v.as_array().expect("a list of rows");
+    let size = 64.0f64;
+    let pixels = (0..64)
+        .flat_map(|r| (0..64).map(move |c| (r, c)))
+        .filter(|&(r, c)| {
+            let x = -1.0 + (2.0 * c as f64 + 1.0) / size;
+            let y = 1.0 - (2.0 * r as f64 + 1.0) / size;
+            x * x + y * y < 1.0
+        })
+        .count() as u64;
+    for backend in ["gpu", "cpu"] {
+        for (task, evaluations) in [("chi2", 1u64 << 22), ("light", pixels * 256 * 128)] {
+            let row = rows
+                .iter()
+                .find(|r| r["task"] == task && r["backend"].as_str().unwrap().starts_with(backend))
+                .unwrap_or_else(|| panic!("no {task} row on {backend}: {rows:?}"));
+            assert_eq!(row["evaluations"].as_u64(), Some(evaluations), "{row}");
+            assert!(row["wall_per_s"].as_f64().unwrap() > 0.0, "{row}");
+        }
+    }
+}

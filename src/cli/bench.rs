@@ -20,6 +20,12 @@ pub enum BenchTask {
     /// An albedo look-up table: the model's default axis, 32 x 32 cells, the peak rule at 32768
     /// nodes per direction (as `lobe albedo --lut --samples 32768`, no file written).
     Lut,
+    /// The sampling test: 2^22 draws of the model's sampler at theta_o = 45 deg, counted and
+    /// judged (as `lobe chi2 --samples 2^22`); rates are draws per second.
+    Chi2,
+    /// The lit sphere's exact sum: 64^2 pixels under the built-in sky (as `lobe light --method
+    /// exact --size 64 --env sky`); rates are texel terms (pixels x texels) per second.
+    Light,
 }
 
 #[derive(Args)]
@@ -134,6 +140,12 @@ pub fn run(a: BenchArgs) -> Result<()> {
                     BenchTask::Lut => {
                         session.bench_lut(Query::one(params).with_white_furnace(wf), a.repeats)?
                     }
+                    BenchTask::Chi2 => {
+                        session.bench_chi2(Query::one(params).with_white_furnace(wf), a.repeats)?
+                    }
+                    BenchTask::Light => {
+                        session.bench_light(Query::one(params).with_white_furnace(wf), a.repeats)?
+                    }
                 });
                 progress.inc(1);
             }
@@ -183,7 +195,9 @@ fn print_table(
              allow, docs/design.md 4.5-4.6, the GPU evaluates some cells and copies the others: \
              evaluations count the first, cells both); \
              albedo = {} view directions x {} nodes (Gauss-Legendre, with its two coarse levels); \
-             lut = {}x{} albedo LUT, peak rule at {} nodes per direction",
+             lut = {}x{} albedo LUT, peak rule at {} nodes per direction; \
+             chi2 = the sampling test's draws per second, {} at theta_o = {} deg; \
+             light = the lit sphere's texel terms per second, {}^2 pixels under the 256x128 sky",
         a.repeats,
         grid.cells().unwrap_or(0),
         grid.name(),
@@ -195,7 +209,10 @@ fn print_table(
             .sum::<usize>(),
         lobe::bench::LUT_RES,
         lobe::bench::LUT_RES,
-        lobe::bench::LUT_SAMPLES
+        lobe::bench::LUT_SAMPLES,
+        lobe::bench::CHI2_SAMPLES,
+        lobe::bench::CHI2_THETA_O_DEG,
+        lobe::bench::LIGHT_SIZE
     )?;
     let mut drivers: Vec<(&str, &str)> = rows
         .iter()

@@ -78,4 +78,33 @@ impl Session {
         let query = query.into();
         crate::bench::measure_lut(&self.evaluator(), query, repeats).lobe()
     }
+
+    /// Throughput of the sampling test ([`crate::bench::measure_chi2`]) on this session's
+    /// backend; evaluations = draws.
+    ///
+    /// ```
+    /// let lambert = lobe::ParamSet::for_model("lambert")?;
+    /// let t = lobe::Session::cpu().bench_chi2(&lambert, 1)?;
+    /// assert_eq!(t.evaluations, lobe::bench::CHI2_SAMPLES);
+    /// # Ok::<(), lobe::Error>(())
+    /// ```
+    pub fn bench_chi2<'q>(
+        &self,
+        query: impl Into<Query<'q>>,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        let query = query.into();
+        crate::bench::measure_chi2(&self.evaluator(), query, repeats).lobe()
+    }
+
+    /// Throughput of the lit sphere's exact sum ([`crate::bench::measure_light`]) on this
+    /// session's backend; evaluations = texel terms.
+    pub fn bench_light<'q>(
+        &self,
+        query: impl Into<Query<'q>>,
+        repeats: usize,
+    ) -> Result<Throughput> {
+        let query = query.into();
+        crate::bench::measure_light(&self.evaluator(), query, repeats).lobe()
+    }
 }
