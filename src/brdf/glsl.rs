@@ -78,6 +78,21 @@ const MODEL_FN: &str = "lobe_model";
 /// What the file's shader must define, as messages say it.
 pub const SIGNATURE: &str = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)";
 
+/// The file's own sampler, optional, both or neither (docs/sampling.md): a direction drawn from
+/// two uniform numbers, and its density over the solid angle of `L`.
+pub const SAMPLER_SIGNATURES: [&str; 2] = [
+    "vec3 sampleL(vec2 u, vec3 V, vec3 N, vec3 X, vec3 Y)",
+    "float pdfL(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)",
+];
+
+/// The names of [`SAMPLER_SIGNATURES`]' functions.
+const SAMPLER_FNS: [&str; 2] = ["sampleL", "pdfL"];
+
+/// The kernels' sampler and density functions for a file with its own sampler (`MODEL_SAMPLE`,
+/// `MODEL_PDF` of kernels/draw.glsl).
+const SAMPLE_FN: &str = "lobe_model_sample";
+const PDF_FN: &str = "lobe_model_pdf";
+
 /// Lobe's global names in the kernels and their includes: (names to rename, macros to undefine).
 fn kernel_names() -> &'static (BTreeSet<String>, BTreeSet<String>) {
     static NAMES: OnceLock<(BTreeSet<String>, BTreeSet<String>)> = OnceLock::new();
@@ -255,9 +270,36 @@ pub fn unused_tangents(shader: &str) -> bool {
     false
 }
 
+/// Whether the file's shader has its own sampler: both `sampleL` and `pdfL`, or neither (then
+/// the kernels draw by the cosine). One without the other is refused, naming its line.
+pub fn has_sampler(file: &BrdfFile) -> Result<bool, BrdfError> {
+    let defined = super::rename::user_functions(&file.shader);
+    match SAMPLER_FNS.map(|n| defined.contains(n)) {
+        [true, true] => Ok(true),
+        [false, false] => Ok(false),
+        [has_sample, _] => {
+            let (present, missing) = if has_sample { (0, 1) } else { (1, 0) };
+            Err(BrdfError::Parse {
+                file: file.file.clone(),
+                line: line_of(file, SAMPLER_FNS[present]).unwrap_or(file.shader_line),
+                message: format!(
+                    "the shader defines {} but not {}: a shader's own sampler needs both \
+                     (`{}` and `{}`); without either, lobe draws directions by the cosine",
+                    SAMPLER_FNS[present],
+                    SAMPLER_FNS[missing],
+                    SAMPLER_SIGNATURES[0],
+                    SAMPLER_SIGNATURES[1]
+                ),
+            })
+        }
+    }
+}
+
 /// The generated `model.glsl`: the parameter block's struct (members in the file's order, as
-/// [`crate::model::runtime::std430_layout`] lays them out) and the model function's prototype.
-fn model_glsl(file: &BrdfFile) -> String {
+/// [`crate::model::runtime::std430_layout`] lays them out) and the model function's prototype;
+/// with the file's own sampler, the prototypes of the kernels' sampler and density functions,
+/// which draw.glsl then calls instead of the cosine.
+fn model_glsl(file: &BrdfFile, sampler: bool) -> String {
     let mut s = format!(
         "// The parameters of {}.\nstruct {PARAMS_STRUCT} {{\n",
         file.file
@@ -278,12 +320,40 @@ fn model_glsl(file: &BrdfFile) -> String {
         s,
         "}};\nvec3 {MODEL_FN}({PARAMS_STRUCT} p, vec3 wi, vec3 wo);"
     );
+    if sampler {
+        let _ = writeln!(
+            s,
+            "#include \"brdf/sample.glsl\"\n\
+             Sample {SAMPLE_FN}({PARAMS_STRUCT} p, vec3 wo, float uc, vec2 u);\n\
+             float {PDF_FN}({PARAMS_STRUCT} p, vec3 wi, vec3 wo);\n\
+             #define MODEL_SAMPLE {SAMPLE_FN}\n#define MODEL_PDF {PDF_FN}"
+        );
+    }
+    s
+}
+
+/// The statements of a glue function that copy the parameter block `lobe_p` into the
+/// parameters' globals.
+fn copy_params(file: &BrdfFile) -> String {
+    let mut s = String::new();
+    for (k, p) in file.params.iter().enumerate() {
+        let value = format!("{RESERVED}p.{RESERVED}{k}");
+        match p.kind {
+            ParamType::Bool { .. } => {
+                let _ = writeln!(s, "    {} = {value} != 0.0;", p.name);
+            }
+            _ => {
+                let _ = writeln!(s, "    {} = {value};", p.name);
+            }
+        }
+    }
     s
 }
 
 /// What follows the kernel: lobe's names released, the parameters as globals, the shader, and
-/// the model function that calls the shader's BRDF.
-fn tail(file: &BrdfFile) -> String {
+/// the model function that calls the shader's BRDF (with its own sampler, the sampler and
+/// density functions that call `sampleL` and `pdfL`).
+fn tail(file: &BrdfFile, sampler: bool) -> String {
     let (globals, macros) = kernel_names();
     let mut s = String::from("\n");
     for name in globals.iter().chain(macros) {
@@ -307,22 +377,32 @@ fn tail(file: &BrdfFile) -> String {
         s,
         "\n#line 1 \"{GLUE_TAG}\"\nvec3 {MODEL_FN}({PARAMS_STRUCT} {RESERVED}p, vec3 {RESERVED}wi, vec3 {RESERVED}wo) {{"
     );
-    for (k, p) in file.params.iter().enumerate() {
-        let value = format!("{RESERVED}p.{RESERVED}{k}");
-        match p.kind {
-            ParamType::Bool { .. } => {
-                let _ = writeln!(s, "    {} = {value} != 0.0;", p.name);
-            }
-            _ => {
-                let _ = writeln!(s, "    {} = {value};", p.name);
-            }
-        }
-    }
+    s.push_str(&copy_params(file));
     // docs/design.md §2: L = ωi (to the light), V = ωo (to the viewer), the frame n, t, b.
+    const FRAME: &str = "vec3(0.0, 0.0, 1.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0)";
     let _ = writeln!(
         s,
-        "    return BRDF({RESERVED}wi, {RESERVED}wo, vec3(0.0, 0.0, 1.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0));\n}}"
+        "    return BRDF({RESERVED}wi, {RESERVED}wo, {FRAME});\n}}"
     );
+    if sampler {
+        // The rules of Reference::sample: sample_from_draw loses a draw below the horizon or
+        // with a density that is not positive; weight = f cos θi / pdf with f one-sided (as eval.glsl's brdf).
+        // The names are lobe's as the kernel renamed them (its #defines are undone above).
+        let (sample, pdf) = (SAMPLER_FNS[0], SAMPLER_FNS[1]);
+        let user = super::rename::USER_FN;
+        let _ = writeln!(
+            s,
+            "{RESERVED}Sample {SAMPLE_FN}({PARAMS_STRUCT} {RESERVED}p, vec3 {RESERVED}wo, float {RESERVED}uc, vec2 {RESERVED}u) {{\n{}\
+             \x20   vec3 {RESERVED}wi = {user}{sample}({RESERVED}u, {RESERVED}wo, {FRAME});\n\
+             \x20   float {RESERVED}pdf = {user}{pdf}({RESERVED}wi, {RESERVED}wo, {FRAME});\n\
+             \x20   vec3 {RESERVED}f = {RESERVED}wi.z > 0.0 && {RESERVED}wo.z > 0.0 ? {MODEL_FN}({RESERVED}p, {RESERVED}wi, {RESERVED}wo) : vec3(0.0);\n\
+             \x20   return {RESERVED}sample_from_draw({RESERVED}wi, {RESERVED}pdf, {RESERVED}f);\n}}\n\
+             float {PDF_FN}({PARAMS_STRUCT} {RESERVED}p, vec3 {RESERVED}wi, vec3 {RESERVED}wo) {{\n{}\
+             \x20   return {user}{pdf}({RESERVED}wi, {RESERVED}wo, {FRAME});\n}}",
+            copy_params(file),
+            copy_params(file),
+        );
+    }
     s
 }
 
@@ -369,6 +449,7 @@ pub fn compile(file: &BrdfFile) -> Result<Vec<(&'static str, Vec<u8>)>, BrdfErro
             message: "a NUL byte in the shader; a .brdf file is text".into(),
         });
     }
+    has_sampler(file)?;
     // One compilation at a time: glslang's process-wide state is shared.
     static LOCK: Mutex<()> = Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
@@ -450,9 +531,13 @@ fn compile_kernel(
         renames,
         "#define MODEL_PARAMS {PARAMS_STRUCT}\n#define MODEL_EVAL {MODEL_FN}\n#line 2"
     );
-    let model = model_glsl(file);
+    let sampler = has_sampler(file).map_err(|e| match e {
+        BrdfError::Parse { line, message, .. } => (line, message),
+        other => (file.shader_line, other.to_string()),
+    })?;
+    let model = model_glsl(file, sampler);
     let (version, body) = text.split_once('\n').unwrap_or((text, ""));
-    let source = ShaderSource::from(format!("{version}\n{renames}{body}{}", tail(file)));
+    let source = ShaderSource::from(format!("{version}\n{renames}{body}{}", tail(file, sampler)));
     let mut includes = Includes { model: &model };
     ShaderInput::new(
         &source,
@@ -497,10 +582,18 @@ fn map_log(file: &BrdfFile, log: &str) -> (usize, String) {
             }
             first.get_or_insert(file.shader_line.saturating_sub(1).max(1));
             let text = original_names(rest.split_once(':').map_or(rest, |r| r.1).trim());
-            lines.push(format!(
-                "the shader section (line {}) must define {SIGNATURE}; calling it failed: {text}",
-                file.shader_line.saturating_sub(1).max(1)
-            ));
+            let line = file.shader_line.saturating_sub(1).max(1);
+            lines.push(if has_sampler(file).unwrap_or(false) {
+                format!(
+                    "the shader section (line {line}) must define {SIGNATURE}, {} and {}; \
+                     calling them failed: {text}",
+                    SAMPLER_SIGNATURES[0], SAMPLER_SIGNATURES[1]
+                )
+            } else {
+                format!(
+                    "the shader section (line {line}) must define {SIGNATURE}; calling it failed: {text}"
+                )
+            });
         } else if !entry.contains("compilation errors") && !entry.contains("compilation terminated")
         {
             lines.push(format!("in lobe's kernel: {entry}"));
