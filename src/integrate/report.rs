@@ -68,6 +68,7 @@ impl AlbedoReport {
                     "error_estimate": a(p.error),
                     "samples": p.samples,
                     "stopped_short": p.stopped_short,
+                    "variance_per_sample": p.variance_per_sample.map(|v| v.to_array()),
                 })
             })
             .collect();
