@@ -139,12 +139,14 @@ pub fn sampled_albedo(
     } else {
         DVec3::ZERO
     };
-    // The GPU's f32 values: the rules' rounding bound, far below the statistical error.
-    let rounding = if backend.precision() == Precision::F32 {
-        mean.abs() * (GPU_ROUNDING_FACTOR * f32::EPSILON as f64 / wo.z.max(f64::MIN_POSITIVE))
-    } else {
-        DVec3::ZERO
-    };
+    // The f64 sum of N terms: at most N ε |E| (the whole error where every weight is the same,
+    // as for Lambert's cosine draws); on the GPU also the rules' f32 rounding bound. Both are far
+    // below the statistical error wherever the weights vary.
+    let mut rounding = mean.abs() * (count * f64::EPSILON);
+    if backend.precision() == Precision::F32 {
+        rounding +=
+            mean.abs() * (GPU_ROUNDING_FACTOR * f32::EPSILON as f64 / wo.z.max(f64::MIN_POSITIVE));
+    }
     Ok(SampledAlbedo {
         estimate: Estimate {
             value: mean - delta,
