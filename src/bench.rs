@@ -202,16 +202,20 @@ pub fn lut_evaluations(spec: &LutSpec) -> Result<u64> {
     let mut total = 0;
     for p in spec.ps() {
         let params = spec.params_at(p)?;
-        let Some(rule) = spec.method.rule(spec.samples, &params) else {
+        let rule = spec.method.rule(spec.samples, &params);
+        if rule.is_none() && spec.method.sampler().is_none() {
             continue;
-        };
+        }
         let mut wo: Vec<glam::DVec3> = spec
             .mus()
             .into_iter()
             .map(|mu| view_direction(mu, spec.phi))
             .collect();
         wo.extend(hemispherical_directions(&params, spec.phi));
-        total += rule_evaluations(rule, params.model().is_tabulated(), &wo);
+        total += match rule {
+            Some(rule) => rule_evaluations(rule, params.model().is_tabulated(), &wo),
+            None => spec.samples.max(2) as u64 * wo.len() as u64,
+        };
     }
     Ok(total)
 }

@@ -166,6 +166,14 @@ pub enum MethodArg {
     /// Randomised low-discrepancy points from a cosine + mirror-lobe mixture tuned to the model;
     /// error = 3.5 standard errors of 8 replicates.
     Importance,
+    /// Monte Carlo, draws uniform over the hemisphere; error = 4 standard errors, the variance
+    /// per draw reported.
+    Uniform,
+    /// Monte Carlo, cosine-distributed draws; error and variance as for uniform.
+    Cosine,
+    /// Monte Carlo with the model's own sampler (as `lobe sample` draws); error and variance
+    /// as for uniform.
+    Sampled,
     /// Adaptive f64 Gauss-Kronrod; always runs on the CPU (no Vulkan needed).
     Reference,
 }
@@ -178,6 +186,9 @@ impl From<MethodArg> for Method {
             MethodArg::Midpoint => Method::Midpoint,
             MethodArg::Qmc => Method::Qmc,
             MethodArg::Importance => Method::Importance,
+            MethodArg::Uniform => Method::Uniform,
+            MethodArg::Cosine => Method::Cosine,
+            MethodArg::Sampled => Method::Sampled,
             MethodArg::Reference => Method::Reference,
         }
     }

@@ -4,8 +4,10 @@
 use super::backend::{rule_albedo, rule_albedo_rows};
 use super::gauss::{adaptive_until, gk15, gk15_combine, gk15_nodes, graded, Estimate};
 use super::reference::{reference_albedo_within, Budget, REFERENCE_RTOL};
-use super::{view_direction, Settings};
+use super::sampled::{sampled_albedo, DEFAULT_SEED};
+use super::{view_direction, Settings, MAX_SAMPLES};
 use crate::eval::Evaluator;
+use crate::input::BadInput;
 use crate::model::{ParamSet, Reference};
 use anyhow::{bail, Result};
 use glam::DVec3;
@@ -33,6 +35,21 @@ pub struct PointAlbedo {
     /// or its panels too many or too narrow): `albedo` is as far as it got, within `error`.
     /// Always false for the fixed rules, which have no tolerance to meet.
     pub stopped_short: bool,
+    /// The Monte Carlo methods' variance of one draw's weight per channel
+    /// ([`SampledAlbedo::variance`](super::SampledAlbedo)); None for the rules.
+    pub variance_per_sample: Option<DVec3>,
+}
+
+/// Refuses a Monte Carlo job of more than [`MAX_SAMPLES`] draws per view direction (option
+/// `"samples"`): the draws are held in memory, about 100 bytes each.
+fn check_draws(n: usize) -> Result<()> {
+    if n > MAX_SAMPLES {
+        bail!(BadInput::new(
+            "samples",
+            format!("{n} draws per view direction: expected from 16 to {MAX_SAMPLES} (2^20)"),
+        ));
+    }
+    Ok(())
 }
 
 /// E(ωo) at each (μ, φ) on `backend` (the reference runs on the CPU whatever the backend).
@@ -51,6 +68,28 @@ pub fn directional(
     }
     let wo = directions(points);
     let r = Reference::new(params, s.white_furnace);
+    if let Some(sampler) = s.method.sampler() {
+        check_draws(s.samples)?;
+        let mut est = Vec::with_capacity(wo.len());
+        let mut var = Vec::with_capacity(wo.len());
+        for &o in &wo {
+            let a = sampled_albedo(
+                backend,
+                s.query(params),
+                sampler,
+                s.samples,
+                DEFAULT_SEED,
+                o,
+            )?;
+            est.push((a.estimate, false));
+            var.push(a.variance);
+        }
+        let mut out = point_albedos(&r, points, est);
+        for (p, v) in out.iter_mut().zip(var) {
+            p.variance_per_sample = Some(v);
+        }
+        return Ok(out);
+    }
     let est: Vec<(Estimate, bool)> = match s.method.rule(s.samples, params) {
         Some(rule) => rule_albedo(backend, s.query(params), rule, &wo)?
             .into_iter()
@@ -103,6 +142,7 @@ fn point_albedos(
                 error: e.error,
                 samples: e.evals,
                 stopped_short,
+                variance_per_sample: None,
             }
         })
         .collect()
@@ -189,6 +229,24 @@ pub fn hemispherical(
     s: &Settings,
     phi: f64,
 ) -> Result<HemiAlbedo> {
+    if let Some(sampler) = s.method.sampler() {
+        check_draws(s.samples)?;
+        let table = hemispherical_directions(params, phi)
+            .into_iter()
+            .map(|o| {
+                Ok(sampled_albedo(
+                    backend,
+                    s.query(params),
+                    sampler,
+                    s.samples,
+                    DEFAULT_SEED,
+                    o,
+                )?
+                .estimate)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        return hemispherical_from(backend, params, s, phi, table);
+    }
     let table: Vec<Estimate> = match s.method.rule(s.samples, params) {
         Some(rule) => {
             let wo = hemispherical_directions(params, phi);

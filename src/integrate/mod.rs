@@ -19,6 +19,9 @@
 //! - `peak` (default): composite Gauss–Legendre in polar coordinates (α, β) centred on the mirror
 //!   direction of ωo, where every built-in lobe peaks, graded towards the peak in α and towards the
 //!   horizon's fast turn in β: it resolves lobes of width 1e-3 rad with a few thousand nodes.
+//! - `uniform`, `cosine`, `sampled`: plain Monte Carlo, N independent draws from the uniform
+//!   hemisphere, the cosine density or the model's own sampler, E ≈ the mean of f c_i / p, with
+//!   [`SAMPLED_T`] standard errors as the error and the variance per draw reported.
 //! - `reference` (CPU, f64): nested adaptive Gauss–Kronrod (7/15) in the same coordinates,
 //!   converged to [`REFERENCE_RTOL`]; the truth the others are tested against.
 //!
@@ -42,6 +45,7 @@ mod peak;
 mod reference;
 mod report;
 mod rules;
+mod sampled;
 mod vcavity;
 
 // The one-dimensional rules live in the core layer; the integrators reach them by this name.
@@ -64,6 +68,7 @@ pub use reference::{
 };
 pub use report::{albedo_report, AlbedoReport};
 pub use rules::Rule;
+pub use sampled::{sampled_albedo, SampledAlbedo, Sampler, DEFAULT_SEED, SAMPLED_T};
 pub use vcavity::{v_cavity_kinks, v_cavity_turns};
 
 use crate::backend::Query;
@@ -92,18 +97,27 @@ pub enum Method {
     Importance,
     /// Composite Gauss–Legendre in polar coordinates about the mirror direction (the default).
     Peak,
+    /// Plain Monte Carlo with draws uniform over the hemisphere.
+    Uniform,
+    /// Plain Monte Carlo with cosine-distributed draws.
+    Cosine,
+    /// Plain Monte Carlo with the model's own sampler (`Backend::draws`).
+    Sampled,
     /// The adaptive f64 Gauss–Kronrod integrator on the CPU, converged to [`REFERENCE_RTOL`].
     Reference,
 }
 
 impl Method {
     /// Every method, in the order `lobe albedo --help` lists them.
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 9] = [
         Method::Midpoint,
         Method::Gauss,
         Method::Qmc,
         Method::Importance,
         Method::Peak,
+        Method::Uniform,
+        Method::Cosine,
+        Method::Sampled,
         Method::Reference,
     ];
 
@@ -115,6 +129,9 @@ impl Method {
             Method::Qmc => "qmc",
             Method::Importance => "importance",
             Method::Peak => "peak",
+            Method::Uniform => "uniform",
+            Method::Cosine => "cosine",
+            Method::Sampled => "sampled",
             Method::Reference => "reference",
         }
     }
@@ -142,12 +159,25 @@ impl Method {
             Method::Midpoint | Method::Gauss => 1 << 16,
             Method::Qmc | Method::Importance => 1 << 16,
             Method::Peak => 1 << 16,
+            Method::Uniform | Method::Cosine | Method::Sampled => 1 << 16,
             Method::Reference => 0,
         }
     }
 
+    /// The sampler of a Monte Carlo method ([`sampled_albedo`]), None for the rules and the
+    /// reference.
+    pub fn sampler(self) -> Option<Sampler> {
+        match self {
+            Method::Uniform => Some(Sampler::Uniform),
+            Method::Cosine => Some(Sampler::Cosine),
+            Method::Sampled => Some(Sampler::Brdf),
+            _ => None,
+        }
+    }
+
     /// The fixed rule with about `samples` nodes per direction for the model `params` (only
-    /// `importance` looks at them), or None for the adaptive reference.
+    /// `importance` looks at them), or None for the adaptive reference and the Monte Carlo
+    /// methods ([`Method::sampler`]).
     pub fn rule(self, samples: usize, params: &ParamSet) -> Option<Rule> {
         let samples = samples.max(16);
         // (θ or μ) × φ with four times as many φ as θ cells: square cells at the equator.
@@ -170,7 +200,7 @@ impl Method {
                     .sampling_lobes()
                     .map_or(0, |l| peak::lobe_levels(l.exponents[0].max(l.exponents[1]))),
             }),
-            Method::Reference => None,
+            Method::Reference | Method::Uniform | Method::Cosine | Method::Sampled => None,
         }
     }
 }

@@ -68,6 +68,7 @@ impl AlbedoReport {
                     "error_estimate": a(p.error),
                     "samples": p.samples,
                     "stopped_short": p.stopped_short,
+                    "variance_per_sample": p.variance_per_sample.map(|v| v.to_array()),
                 })
             })
             .collect();
@@ -143,6 +144,8 @@ impl AlbedoReport {
         writeln!(out, "{} {}", params.model().name(), params.to_text())?;
         let nodes = if self.method == Method::Reference {
             format!("a budget of {} evaluations", self.samples)
+        } else if self.method.sampler().is_some() {
+            format!("{} draws per direction", self.samples)
         } else {
             format!("{} nodes per direction", self.samples)
         };
