@@ -829,6 +829,76 @@ fn light_route_equals_session_light() {
     }
 }
 
+/// A map opened through the page's file input lights the sphere: the menu chooses it, the page
+/// asks for it and draws the route's numbers; a file that is not a map shows the reason beside the
+/// menu and the map stays chosen.
+#[test]
+fn a_map_opened_in_chromium_lights_the_sphere() {
+    const FULL: u64 = 96;
+    let server = Server::start(&["microfacet"]);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("room.exr");
+    let map = lobe::light::maps::procedural_map(32, 16, |d| {
+        lobe::glam::DVec3::new(1.0 + d.x, 1.5 + d.y, 2.0 + 0.5 * d.z)
+    })
+    .unwrap();
+    lobe::light::maps::write_map(&map, "room", &file).unwrap();
+    let bad = dir.path().join("bad.exr");
+    std::fs::write(&bad, b"not a map").unwrap();
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    b.wait_for(
+        &format!("!!(window.lobeExplore && window.lobeExplore.lightShown === {FULL})"),
+        PAGE_TIMEOUT,
+    );
+    b.set_file("#open-env", &file);
+    b.wait_for(
+        &format!("document.querySelector('#light-env').value === 'room.exr' && window.lobeExplore.lightRequest.env === 'room.exr' && window.lobeExplore.lightShown === {FULL}"),
+        PAGE_TIMEOUT,
+    );
+    assert!(b.errors().is_empty(), "console errors: {:?}", b.errors());
+    let light = b.eval("window.lobeExplore.light");
+    let asked = b.eval("window.lobeExplore.lightRequest");
+    let r = server.post("/api/light", &asked);
+    assert_eq!(r.status, 200, "{}", r.text());
+    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    assert_eq!(want["env"], "room.exr");
+    let numbers = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (got, want) = (numbers(&light["exact"]), numbers(&want["exact"]));
+    assert_eq!(got.len(), want.len());
+    // Both went through JSON (the route's, then the page's): each read within a unit in the last
+    // place.
+    let off = got
+        .iter()
+        .zip(&want)
+        .position(|(g, w)| (g - w).abs() > JSON_READ_ABS * w.abs().max(1.0));
+    assert!(
+        off.is_none(),
+        "the page drew other values than the route's at {off:?}"
+    );
+
+    b.set_file("#open-env", &bad);
+    b.wait_for(
+        "document.querySelector('#light-env-error').textContent.includes('bad.exr')",
+        PAGE_TIMEOUT,
+    );
+    let text = b.eval("document.querySelector('#light-env-error').textContent");
+    assert!(
+        text.as_str().unwrap().contains("not an environment map"),
+        "{text}"
+    );
+    assert_eq!(
+        b.eval("document.querySelector('#light-env').value"),
+        json!("room.exr")
+    );
+}
+
 /// A map opened from the page (`POST /api/env`): read by `lobe light --env`'s reader, kept under
 /// its file's name, and the lit view under it equals `Session::light` with the map read from the
 /// same file; a file that is not a map and a body over the bound are refused with a sentence, and
