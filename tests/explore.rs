@@ -829,6 +829,186 @@ fn light_route_equals_session_light() {
     }
 }
 
+/// A map opened through the page's file input lights the sphere: the menu chooses it, the page
+/// asks for it and draws the route's numbers; a file that is not a map shows the reason beside the
+/// menu and the map stays chosen.
+#[test]
+fn a_map_opened_in_chromium_lights_the_sphere() {
+    const FULL: u64 = 96;
+    let server = Server::start(&["microfacet"]);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("room.exr");
+    let map = lobe::light::maps::procedural_map(32, 16, |d| {
+        lobe::glam::DVec3::new(1.0 + d.x, 1.5 + d.y, 2.0 + 0.5 * d.z)
+    })
+    .unwrap();
+    lobe::light::maps::write_map(&map, "room", &file).unwrap();
+    let bad = dir.path().join("bad.exr");
+    std::fs::write(&bad, b"not a map").unwrap();
+    let mut b = cdp::Browser::launch(1400, 1400);
+    b.navigate(&server.url);
+    b.wait_for(
+        &format!("!!(window.lobeExplore && window.lobeExplore.lightShown === {FULL})"),
+        PAGE_TIMEOUT,
+    );
+    b.set_file("#open-env", &file);
+    b.wait_for(
+        &format!("document.querySelector('#light-env').value === 'room.exr' && window.lobeExplore.lightRequest.env === 'room.exr' && window.lobeExplore.lightShown === {FULL}"),
+        PAGE_TIMEOUT,
+    );
+    assert!(b.errors().is_empty(), "console errors: {:?}", b.errors());
+    let light = b.eval("window.lobeExplore.light");
+    let asked = b.eval("window.lobeExplore.lightRequest");
+    let r = server.post("/api/light", &asked);
+    assert_eq!(r.status, 200, "{}", r.text());
+    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    assert_eq!(want["env"], "room.exr");
+    let numbers = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (got, want) = (numbers(&light["exact"]), numbers(&want["exact"]));
+    assert_eq!(got.len(), want.len());
+    // Both went through JSON (the route's, then the page's): each read within a unit in the last
+    // place.
+    let off = got
+        .iter()
+        .zip(&want)
+        .position(|(g, w)| (g - w).abs() > JSON_READ_ABS * w.abs().max(1.0));
+    assert!(
+        off.is_none(),
+        "the page drew other values than the route's at {off:?}"
+    );
+
+    b.set_file("#open-env", &bad);
+    b.wait_for(
+        "document.querySelector('#light-env-error').textContent.includes('bad.exr')",
+        PAGE_TIMEOUT,
+    );
+    let text = b.eval("document.querySelector('#light-env-error').textContent");
+    assert!(
+        text.as_str().unwrap().contains("not an environment map"),
+        "{text}"
+    );
+    assert_eq!(
+        b.eval("document.querySelector('#light-env').value"),
+        json!("room.exr")
+    );
+}
+
+/// A map opened from the page (`POST /api/env`): read by `lobe light --env`'s reader, kept under
+/// its file's name, and the lit view under it equals `Session::light` with the map read from the
+/// same file; a file that is not a map and a body over the bound are refused with a sentence, and
+/// the opened map stays; a map wider than the lit view's bound is box-averaged down to it.
+#[test]
+fn an_opened_map_lights_the_route_as_session_light() {
+    let server = Server::start(&["microfacet"]);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("room.exr");
+    // Radiance varying with direction, so that a wrong texel order or orientation shows.
+    let map = lobe::light::maps::procedural_map(32, 16, |d| {
+        lobe::glam::DVec3::new(1.0 + d.x, 1.5 + d.y, 2.0 + 0.5 * d.z)
+    })
+    .unwrap();
+    lobe::light::maps::write_map(&map, "room", &file).unwrap();
+    let headers = [("x-lobe-token", server.token.as_str())];
+    let bytes = std::fs::read(&file).unwrap();
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/env?name=room.exr",
+        &headers,
+        &bytes,
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let opened: Value = serde_json::from_slice(&r.body).unwrap();
+    assert_eq!(opened["name"], "room.exr");
+    assert_eq!(opened["downsampled"], false);
+    let size = 12u32;
+    let light = || {
+        server.post(
+            "/api/light",
+            &json!({"model": "microfacet", "env": "room.exr", "size": size}),
+        )
+    };
+    let r = light();
+    assert_eq!(r.status, 200, "{}", r.text());
+    let v: Value = serde_json::from_slice(&r.body).unwrap();
+    let params =
+        lobe::resolve_spec("microfacet", None, &[], &Default::default(), &mut |_| {}).unwrap();
+    let session = lobe::Session::open(Default::default()).unwrap();
+    let read = lobe::light::maps::read_map(&file).unwrap();
+    let exact = session.light(&params, &read, size, &mut |_, _| {}).unwrap();
+    let got = v["exact"].as_array().unwrap();
+    assert_eq!(got.len(), 3 * exact.pixels.len());
+    for (k, w) in exact.pixels.iter().flatten().enumerate() {
+        let g = got[k].as_f64().unwrap();
+        // The reply's f32 rounding (2^-24 relative) on the same device's sums.
+        assert!(
+            (g - w).abs() <= SAME_RULE_REL * w.abs() + 1e-30,
+            "exact[{k}]: route {g}, Session {w}"
+        );
+    }
+
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/env?name=notes.txt",
+        &headers,
+        b"not a map",
+    );
+    assert_eq!(r.status, 422, "{}", r.text());
+    assert!(
+        r.text().contains("notes.txt is not an environment map"),
+        "{}",
+        r.text()
+    );
+    assert!(
+        !r.text().contains(&*server.tmp.path().to_string_lossy()),
+        "{}",
+        r.text()
+    );
+    // A declared length over the bound is refused before the body is read.
+    let r = http_claiming(
+        &server.addr,
+        "POST",
+        "/api/env?name=big.exr",
+        &headers,
+        64 * 1024 * 1024 + 1,
+        b"",
+    );
+    assert_eq!(r.status, 413, "{}", r.text());
+    assert!(r.text().contains("bytes"), "{}", r.text());
+    // The map opened first still lights the sphere.
+    assert_eq!(light().status, 200);
+
+    let wide = dir.path().join("wide.hdr");
+    let constant =
+        lobe::light::maps::procedural_map(1024, 512, |_| lobe::glam::DVec3::ONE).unwrap();
+    std::fs::write(&wide, lobe::light::maps::encode_hdr(&constant)).unwrap();
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/env?name=wide.hdr",
+        &headers,
+        &std::fs::read(&wide).unwrap(),
+    );
+    assert_eq!(r.status, 200, "{}", r.text());
+    let opened: Value = serde_json::from_slice(&r.body).unwrap();
+    assert_eq!(
+        (
+            opened["file_width"].clone(),
+            opened["width"].clone(),
+            opened["height"].clone()
+        ),
+        (json!(1024), json!(256), json!(128))
+    );
+    assert_eq!(opened["downsampled"], true);
+}
+
 #[test]
 fn exits_on_sigterm_leaving_nothing() {
     let mut server = Server::start(&["lambert"]);

@@ -1264,8 +1264,8 @@ fn lobe_at(
     l
 }
 
-/// `lobe light --prefilter-out DIR` writes every level's lat-long and cube files and the JSON,
-/// the files holding the library's chain; refusals name their flag and leave nothing; a file
+/// `lobe light --prefilter-out DIR` writes every level's lat-long and cube files, the JSON and
+/// the DFG table (`lobe albedo --engine dfg`'s files), the files holding the library's chain; refusals name their flag and leave nothing; a file
 /// that cannot be replaced stops the whole set.
 #[test]
 fn the_prefilter_command_writes_the_chain_all_or_none() {
@@ -1292,7 +1292,11 @@ fn the_prefilter_command_writes_the_chain_all_or_none() {
         String::from_utf8_lossy(&out.stderr)
     );
     let chain_dir = dir.path().join("chain");
-    assert_eq!(std::fs::read_dir(&chain_dir).unwrap().count(), 3 * 7 + 1);
+    // 3 levels of a lat-long and 6 faces, the JSON, the DFG table's EXR, .npy, .h and .json.
+    assert_eq!(
+        std::fs::read_dir(&chain_dir).unwrap().count(),
+        3 * 7 + 1 + 4
+    );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(chain_dir.join("prefilter.json")).unwrap()).unwrap();
     assert_eq!(json["kind"], "prefilter");
@@ -1306,6 +1310,32 @@ fn the_prefilter_command_writes_the_chain_all_or_none() {
     let d = lobe::backend::light::texel_direction(64, 32, 5, 7);
     let want = prefilter::prefiltered_at(&map, &ggx_lobe(1.0), d);
     assert_eq!(rgb[5 * 64 + 7], want.map(|c| c as f32));
+
+    // The DFG table beside the chain is `lobe albedo --engine dfg`'s, byte for byte: the command
+    // the JSON names, run on its own, writes the same numbers.
+    let dfg = &json["dfg"];
+    assert_eq!(dfg["file"], "dfg.exr");
+    assert_eq!(dfg["layout"]["channels"]["R"], "scale (the factor of F0)");
+    assert_eq!(dfg["layout"]["channels"]["G"], "bias (the factor of F90)");
+    assert_eq!(dfg["layout"]["npy_shape"], serde_json::json!([32, 32, 2]));
+    let command = dfg["command"].as_str().unwrap();
+    let mut args: Vec<&str> = command.split_whitespace().skip(1).collect();
+    args.extend_from_slice(&["--backend", "cpu"]);
+    let reference = dir.path().join("reference");
+    std::fs::create_dir_all(&reference).unwrap();
+    let out = lobe_cli(&reference, &args);
+    assert!(
+        out.status.success(),
+        "{command}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for file in ["dfg.npy", "dfg.exr"] {
+        assert_eq!(
+            std::fs::read(chain_dir.join(file)).unwrap(),
+            std::fs::read(reference.join(file)).unwrap(),
+            "{file}"
+        );
+    }
 
     let cases: [(&[&str], &[&str]); 2] = [
         (

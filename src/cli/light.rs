@@ -49,7 +49,9 @@ pub struct LightArgs {
     /// Write the map prefiltered by the model's D as an engine's mip chain into this folder
     /// instead of images: level k of L at perceptual roughness k/(L-1), half the size of the
     /// level above, as latlong_L{k}.exr and six cube faces cube_L{k}_{px,nx,py,ny,pz,nz}.exr
-    /// (OpenGL/KTX order), and prefilter.json naming the layout (microfacet, cook_torrance).
+    /// (OpenGL/KTX order), the split sum's DFG table as `lobe albedo --engine dfg` writes it
+    /// (dfg.exr, .npy, .h, .json), and prefilter.json naming the layout (microfacet,
+    /// cook_torrance).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["method", "report"])]
     prefilter_out: Option<PathBuf>,
     /// Levels of the prefiltered chain (2 to 16; default: down to a level 8 texels high).

@@ -50,6 +50,7 @@ pub(crate) fn router(state: Arc<State>) -> Router {
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES))
         .route("/api/brdf", post(upload::brdf))
         .route("/api/merl", post(upload::merl))
+        .route("/api/env", post(super::env::env))
         .fallback(|r: Request| async move {
             refuse(
                 StatusCode::NOT_FOUND,
@@ -456,17 +457,36 @@ async fn light_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
             req.size
         )));
     }
-    let Some(builtin) = crate::light::maps::Builtin::from_name(&req.env) else {
-        return Err(bad(format!(
-            "env '{}': expected a built-in map: sky, studio or constant",
-            req.env
-        )));
-    };
+    let map: Arc<crate::backend::light::EnvMap> =
+        match crate::light::maps::Builtin::from_name(&req.env) {
+            Some(builtin) => Arc::new(builtin.map()),
+            None => {
+                let list = state
+                    .maps
+                    .lock()
+                    .map_err(|_| bad("the opened maps' list is unavailable".to_string()))?;
+                match list.iter().find(|(name, _)| *name == req.env) {
+                    Some((_, m)) => m.clone(),
+                    None => {
+                        let opened: Vec<&str> = list.iter().map(|(n, _)| n.as_str()).collect();
+                        return Err(bad(format!(
+                            "env '{}': expected a built-in map (sky, studio or constant) or a map \
+                             opened from the page ({})",
+                            req.env,
+                            if opened.is_empty() {
+                                "none yet".to_string()
+                            } else {
+                                opened.join(", ")
+                            }
+                        )));
+                    }
+                }
+            }
+        };
     let params = resolve(&req.model, req.material.as_deref(), &req.sets)?;
     let size = req.size;
     let p = params.clone();
     let (exact, split) = evaluate(&state, params.model(), move |session| {
-        let map = builtin.map();
         let exact = session.light(&p, &map, size, &mut |_, _| {})?;
         let split = match session.light_split_sum(&p, &map, size, &mut |_, _| {}) {
             Ok(s) => Ok(s),
@@ -481,7 +501,7 @@ async fn light_values(state: Arc<State>, body: Bytes) -> Result<Response, Refusa
     };
     let body = json!({
         "size": size,
-        "env": builtin.name(),
+        "env": req.env,
         "exact": flat(&exact),
         "split": split.as_ref().ok().map(flat),
         "split_note": split.as_ref().err(),

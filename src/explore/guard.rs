@@ -1,7 +1,7 @@
 //! What every request passes before a handler sees it: the session token, a `Host` header that
 //! names the bound address, no foreign `Origin`, and a bounded target and body.
 
-use super::limits::{MAX_BODY_BYTES, MAX_BRDF_BYTES, MAX_MERL_BYTES, MAX_URI_BYTES};
+use super::limits::{MAX_BODY_BYTES, MAX_BRDF_BYTES, MAX_ENV_BYTES, MAX_MERL_BYTES, MAX_URI_BYTES};
 use super::State;
 use axum::extract::Request;
 use axum::http::{header, StatusCode};
@@ -51,6 +51,7 @@ fn body_limit(path: &str) -> usize {
     match path {
         "/api/brdf" => MAX_BRDF_BYTES,
         "/api/merl" => MAX_MERL_BYTES,
+        "/api/env" => MAX_ENV_BYTES,
         _ => MAX_BODY_BYTES,
     }
 }

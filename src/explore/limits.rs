@@ -15,8 +15,13 @@ pub const MAX_BRDF_BYTES: usize = 1024 * 1024;
 /// × 3 channels of f64, and a 12-byte header).
 pub const MAX_MERL_BYTES: usize = crate::merl::FILE_BYTES;
 
+/// The largest environment map file the page may open (`POST /api/env`); the map within it is
+/// bounded as `lobe light --env FILE` bounds it.
+pub const MAX_ENV_BYTES: usize = 64 * 1024 * 1024;
+
 /// Files the page may open in one server's life: each stays loaded (a MERL table is 17 MB as
-/// f32 on the device and 35 MB as f64 for the reference), so their number is bounded.
+/// f32 on the device and 35 MB as f64 for the reference), so their number is bounded (models
+/// and maps counted apart).
 pub const MAX_UPLOADS: usize = 32;
 
 /// View angles of one polar curve: 4096 puts a point every 0.044°.

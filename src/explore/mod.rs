@@ -11,6 +11,7 @@
 mod api;
 mod cells;
 mod download;
+mod env;
 mod guard;
 mod limits;
 mod objects;
@@ -93,6 +94,8 @@ pub(crate) struct State {
     pub uploaded: Mutex<Vec<(crate::Model, String, String)>>,
     /// The folder uploaded files are compiled from; removed when the server ends.
     pub uploads: tempfile::TempDir,
+    /// Environment maps opened from the page (`POST /api/env`), each under its name.
+    pub maps: Mutex<Vec<(String, Arc<crate::backend::light::EnvMap>)>>,
     /// See [`ExploreOptions::shader_session`].
     pub shader_options: Option<SessionOptions>,
     /// The session models compiled at run time are evaluated on, once one was needed.
@@ -173,6 +176,7 @@ impl Server {
             initial: opts.models,
             material: opts.material,
             uploaded: Mutex::new(Vec::new()),
+            maps: Mutex::new(Vec::new()),
             uploads,
             shader_options: opts.shader_session,
             shaders: Mutex::new(None),

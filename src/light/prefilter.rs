@@ -9,7 +9,9 @@
 
 use super::split::Texels;
 use crate::backend::light::{texel_direction, EnvMap};
+use crate::eval::Evaluator;
 use crate::input::BadInput;
+use crate::lut::engine::{stage_engine, EngineKind, EngineSpec};
 use crate::model::split_sum::{split_sum_lobe, SpecularLobe};
 use crate::model::ParamSet;
 use crate::output::FileSet;
@@ -205,10 +207,20 @@ pub fn paths(dir: &Path, levels: u32) -> Vec<PathBuf> {
     out
 }
 
+/// The DFG table's EXR in the chain's folder; its `.npy`, `.h` and `.json` lie beside it.
+pub const DFG_FILE: &str = "dfg.exr";
+
+/// The split sum's DFG table for `lobe` as `lobe albedo --engine dfg` makes it (the lobe's D and
+/// masking, 32 × 32 cells): the table the chain's JSON names.
+pub fn dfg_spec(lobe: &SpecularLobe) -> Result<EngineSpec> {
+    EngineSpec::new(EngineKind::Dfg, &lobe.lut_sets)
+}
+
 /// What [`write_chain`] made.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChainSummary {
-    /// The files ([`paths`]), the JSON last.
+    /// The files ([`paths`], the JSON last among them), then the DFG table's ([`DFG_FILE`] and
+    /// its siblings).
     pub paths: Vec<PathBuf>,
     /// Seconds the prefilter took (writing not included).
     pub seconds: f64,
@@ -217,9 +229,11 @@ pub struct ChainSummary {
 }
 
 /// The chain of `params`'s distribution under `map` ([`chain`]) written into `dir` (made if
-/// missing): every level's lat-long EXR and six cube-face EXRs and `prefilter.json`, together or
-/// none of them. `env` names the map in the JSON.
+/// missing): every level's lat-long EXR and six cube-face EXRs, `prefilter.json`, and the split
+/// sum's DFG table on `eval` ([`dfg_spec`], the files of `lobe albedo --lut dfg.exr --engine
+/// dfg`), together or none of them. `env` names the map in the JSON.
 pub fn write_chain(
+    eval: &Evaluator,
     params: &ParamSet,
     map: &EnvMap,
     env: &str,
@@ -230,12 +244,20 @@ pub fn write_chain(
 ) -> Result<ChainSummary> {
     check_levels(levels)?;
     let lobe = chain_lobe(params)?;
-    let paths = paths(dir, levels);
+    let mut paths = paths(dir, levels);
     let mut set = FileSet::empty();
     set.create_folder(dir)?;
     for p in &paths {
         set.add(p)?;
     }
+    let dfg_spec = dfg_spec(&lobe)?;
+    let dfg = stage_engine(
+        eval,
+        &dfg_spec,
+        &dir.join(DFG_FILE),
+        &mut set,
+        &mut |_, _| {},
+    )?;
     let started = std::time::Instant::now();
     let chain = chain(map, &lobe, levels, cancelled, progress)?;
     let seconds = started.elapsed().as_secs_f64();
@@ -297,9 +319,19 @@ pub fn write_chain(
         "cube_convention": CUBE_CONVENTION,
         "face_order": FACES,
         "dfg": {
-            "file": "not written here: lobe albedo --engine dfg writes it",
-            "command": format!("lobe albedo --engine dfg --set {dfg_sets}"),
-            "layout": "32 x 32 cells over n.v (columns) and sqrt(alpha) (rows), scale and bias; the split sum reads it bilinearly between cell centres",
+            "file": DFG_FILE,
+            "files": dfg.files.iter().map(name).collect::<Vec<_>>(),
+            "command": format!("lobe albedo --lut {DFG_FILE} --engine dfg --set {dfg_sets}"),
+            "layout": {
+                "width": dfg_spec.lut.n_mu,
+                "height": dfg_spec.lut.n_p,
+                "columns": "n.v: mu_j = (j + 0.5) / width",
+                "rows": "perceptual roughness: r_k = (k + 0.5) / height, alpha = r_k^2",
+                "channels": { "R": "scale (the factor of F0)", "G": "bias (the factor of F90)" },
+                "exr_layer": "DFG",
+                "npy_shape": [dfg_spec.lut.n_p, dfg_spec.lut.n_mu, 2],
+                "lookup": "the split sum reads it bilinearly between cell centres: specular = prefiltered(r) * (F0 * scale + F90 * bias)",
+            },
         },
         "files": level_json,
         "seconds": seconds,
@@ -309,6 +341,7 @@ pub fn write_chain(
     w.write_all(b"\n")?;
     w.finish()?;
     set.commit()?;
+    paths.extend(dfg.files);
     Ok(ChainSummary {
         paths,
         seconds,

@@ -30,7 +30,7 @@
 use super::{check_max_error, check_path, compute, LutSpec, LutSummary, Mapping, AVG};
 use crate::eval::Evaluator;
 use crate::model::Value;
-use crate::output::{file_name, sibling, ArtifactSet, ExrLayer, Provenance};
+use crate::output::{file_name, sibling, ArtifactSet, ExrLayer, FileSet, Provenance};
 use anyhow::Result;
 use exr::prelude::f16;
 use serde_json::json;
@@ -306,10 +306,31 @@ pub fn write_engine(
     exr_path: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<EngineTable> {
+    let mut set = FileSet::empty();
+    let table = stage_engine(eval, spec, exr_path, &mut set, progress)?;
+    set.commit()?;
+    Ok(table)
+}
+
+/// [`write_engine`]'s files staged into `set`, which commits them with whatever else it holds
+/// (`lobe light --prefilter-out DIR` writes the DFG table beside the mip chain this way).
+pub fn stage_engine(
+    eval: &Evaluator,
+    spec: &EngineSpec,
+    exr_path: &Path,
+    set: &mut FileSet,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<EngineTable> {
     check_path(exr_path)?;
     let avg: &[&str] = if spec.kind.has_avg() { &[AVG] } else { &[] };
     let npy = [&[""], avg].concat();
-    let files = ArtifactSet::create(crate::output::ENGINE_LUT_SET, exr_path, &npy, &[HEADER])?;
+    let files = ArtifactSet::stage(
+        set,
+        crate::output::ENGINE_LUT_SET,
+        exr_path,
+        &npy,
+        &[HEADER],
+    )?;
     let mut table = compute_engine(eval, spec, progress)?;
     check_max_error(table.max_error, spec.lut.max_error)?;
     let (n_mu, n_p, c) = (spec.lut.n_mu, spec.lut.n_p, table.channels);
@@ -333,7 +354,7 @@ pub fn write_engine(
         white_furnace: s.white_furnace,
         backend: &eval.name(),
     };
-    files.commit(&provenance, engine_sidecar(spec, &table, &paths))?;
+    files.finish(&provenance, engine_sidecar(spec, &table, &paths))?;
     table.files = paths;
     Ok(table)
 }
@@ -346,8 +367,8 @@ const CHANNEL_NAMES: [&str; 2] = ["R", "G"];
 
 /// Layer `DFG` (R, G) or `E` (R) with the `lobe.*` attributes, and `E_avg` (R) where the table
 /// has one; `values` and `avg` are the table's as float32.
-fn write_engine_exr(
-    files: &ArtifactSet,
+fn write_engine_exr<S: std::borrow::BorrowMut<FileSet>>(
+    files: &ArtifactSet<S>,
     spec: &EngineSpec,
     t: &EngineTable,
     values: &[f32],

@@ -157,7 +157,9 @@ impl Session {
     /// The map prefiltered by the model's D as an engine's mip chain (`lobe light
     /// --prefilter-out DIR`, docs/design.md §15.5): `levels` levels, level k at perceptual
     /// roughness k/(levels − 1), each a lat-long EXR and six cube faces (OpenGL order), and
-    /// `prefilter.json`, written into `dir` all or none; `progress` gets (levels done, levels).
+    /// `prefilter.json` and the split sum's DFG table (`dfg.exr` and its siblings, as `lobe albedo
+    /// --engine dfg` writes it), written into `dir` all or none; `progress` gets (levels done,
+    /// levels).
     pub fn write_prefilter(
         &self,
         params: &ParamSet,
@@ -169,6 +171,7 @@ impl Session {
     ) -> Result<ChainSummary> {
         let eval = self.evaluator();
         let cancelled = || eval.check_cancelled().map_err(anyhow::Error::from);
-        light::prefilter::write_chain(params, map, env, levels, dir, &cancelled, progress).lobe()
+        light::prefilter::write_chain(&eval, params, map, env, levels, dir, &cancelled, progress)
+            .lobe()
     }
 }

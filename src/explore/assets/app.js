@@ -46,6 +46,33 @@ function showError(text) {
   if (text) probe.errors.push(text);
 }
 
+// An environment map opened from the page: read by the server (`lobe light --env`'s reader), then
+// offered in the lit view's map menu and chosen; a refusal is shown beside the menu, and the map
+// chosen before stays.
+async function openMap(file) {
+  const shown = $('light-env-error');
+  shown.textContent = '';
+  try {
+    const r = await fetch(`/api/env?name=${encodeURIComponent(file.name)}`, {
+      method: 'POST',
+      headers: { 'x-lobe-token': TOKEN, 'content-type': 'application/octet-stream' },
+      body: file,
+    });
+    if (!r.ok) throw new Error(await r.text());
+    const map = await r.json();
+    const option = document.createElement('option');
+    option.value = map.name;
+    option.textContent = map.downsampled
+      ? `${map.name} (${map.file_width}×${map.file_height}, shown at ${map.width}×${map.height})`
+      : map.name;
+    $('light-env').append(option);
+    $('light-env').value = map.name;
+    scheduleLight();
+  } catch (e) {
+    shown.textContent = `${file.name}: ${e.message}`;
+  }
+}
+
 async function call(path, body, signal) {
   const r = await fetch(path, {
     method: 'POST', signal,
@@ -606,6 +633,7 @@ async function start() {
   $('exposure').addEventListener('input', () => { state.ev = Number($('exposure').value); $('exposure-value').textContent = evText(state.ev); redrawImages(); });
   $('tone-map').addEventListener('change', () => { state.tm = $('tone-map').value; redrawImages(); });
   $('light-env').addEventListener('change', scheduleLight);
+  $('open-env').addEventListener('change', (ev) => { if (ev.target.files[0]) openMap(ev.target.files[0]); ev.target.value = ''; });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
   // The clipboard exists only on a secure origin (localhost is one; --host's other addresses are
