@@ -245,10 +245,11 @@ class Session:
         Returns ``Albedo(albedo, error)``, each of shape mu.shape + (3,): the same numbers as
         ``lobe albedo --mu``. ``params`` may be a list of dicts: the sets are integrated
         together (one batch on the device when they share a model), and the results gain a
-        leading axis. ``method``: "peak" (default), "gauss", "midpoint", "qmc", "importance" or
-        "reference" (the adaptive f64 integrator, on the CPU); ``samples``: nodes per
-        direction (the method's default when None), for "reference" its budget of integrand
-        evaluations for the job."""
+        leading axis. ``method``: "peak" (default), "gauss", "midpoint", "qmc", "importance",
+        "reference" (the adaptive f64 integrator, on the CPU), or Monte Carlo by "uniform",
+        "cosine" or "sampled" draws (the model's own sampler; error 4 standard errors);
+        ``samples``: nodes or draws per direction (the method's default when None), for
+        "reference" its budget of integrand evaluations for the job."""
 
     @overload
     def hemispherical_albedo(self, model: ModelSpec, params: Optional[Params] = None,
