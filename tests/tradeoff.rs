@@ -108,6 +108,7 @@ fn row(section: Section, name: &str, cost: f64, err: f64) -> Row {
         rms_error: err,
         error_kind: section.error_kind().into(),
         pareto: false,
+        variance_per_sample: None,
     }
 }
 
@@ -529,7 +530,7 @@ fn cli_prints_sections_and_writes_the_default_plot() {
             "no {section} rows:\n{stdout}"
         );
     }
-    // Variant names hold commas: quoted, so every row has the header's 11 fields.
+    // Variant names hold commas: quoted, so every row has the header's 12 fields.
     for l in &lines[1..] {
         let mut fields = 0;
         let mut quoted = false;
@@ -540,8 +541,29 @@ fn cli_prints_sections_and_writes_the_default_plot() {
                 _ => {}
             }
         }
-        assert_eq!(fields + 1, 11, "{l}");
+        assert_eq!(fields + 1, 12, "{l}");
     }
+    // The Monte Carlo methods have integration rows of their own, with the variance per draw
+    // (the last field); the rules' rows leave it empty.
+    for method in ["uniform", "cosine", "sampled"] {
+        let rows: Vec<&&str> = lines
+            .iter()
+            .filter(|l| l.starts_with(&format!("integration,\"{method} ")))
+            .collect();
+        assert!(!rows.is_empty(), "no {method} rows:\n{stdout}");
+        for l in rows {
+            let v: f64 = l.rsplit(',').next().unwrap().parse().expect(l);
+            assert!(v.is_finite() && v >= 0.0, "{l}");
+        }
+    }
+    let peak: Vec<&&str> = lines
+        .iter()
+        .filter(|l| l.starts_with("integration,\"peak "))
+        .collect();
+    assert!(
+        !peak.is_empty() && peak.iter().all(|l| l.ends_with(',')),
+        "{peak:?}"
+    );
     let plot = dir.path().join("tradeoff-lambert.png");
     assert!(
         plot.is_file(),

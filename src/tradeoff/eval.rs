@@ -213,6 +213,7 @@ pub fn measure_eval(
             rms_error: rms_rel_error,
             error_kind: Section::Evaluation.error_kind().into(),
             pareto: false,
+            variance_per_sample: None,
         });
     }
     mark_pareto(&mut rows);

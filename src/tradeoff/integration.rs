@@ -4,9 +4,12 @@
 
 use super::setup::{albedo_errors, backend_tag, AlbedoSetup};
 use super::{mark_pareto, Row, Section};
+use crate::backend::Query;
 use crate::bench::median;
 use crate::eval::Evaluator;
-use crate::integrate::{sum_rule, view_direction, Method, Rule};
+use crate::integrate::{
+    sampled_albedo, sum_rule, view_direction, Method, Rule, DEFAULT_SEED, MAX_SAMPLES,
+};
 use crate::model::ParamSet;
 use anyhow::Result;
 use glam::DVec3;
@@ -117,9 +120,79 @@ pub fn measure_integration(
                 rms_error,
                 error_kind: Section::Integration.error_kind().into(),
                 pareto: false,
+                variance_per_sample: None,
+            });
+        }
+        rows.extend(measure_monte_carlo(
+            backend, params, setup, truth, &wo, progress,
+        )?);
+    }
+    mark_pareto(&mut rows);
+    Ok(rows)
+}
+
+/// The Monte Carlo methods (uniform, cosine and the model's own sampler, [`sampled_albedo`])
+/// at each count of the ladder (at most [`MAX_SAMPLES`] draws) on `backend`, timed as the
+/// rules are, each row with the largest variance per draw over the view directions.
+fn measure_monte_carlo(
+    backend: &Evaluator,
+    params: &ParamSet,
+    setup: &AlbedoSetup,
+    truth: &[DVec3],
+    wo: &[DVec3],
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<Row>> {
+    let query = Query::one(params);
+    let mut counts: Vec<usize> = setup.samples.iter().map(|&n| n.min(MAX_SAMPLES)).collect();
+    counts.dedup();
+    let mut rows = Vec::new();
+    for method in Method::ALL {
+        let Some(sampler) = method.sampler() else {
+            continue;
+        };
+        for &n in &counts {
+            backend.check_cancelled()?;
+            let label = format!("{} {}", method.name(), backend_tag(backend));
+            progress(&label);
+            // The untimed run: its values are the ones judged.
+            let mut values = Vec::with_capacity(wo.len());
+            let mut variance = 0.0f64;
+            for &o in wo {
+                let a = sampled_albedo(backend, query, sampler, n, DEFAULT_SEED, o)?;
+                values.push(a.estimate.value);
+                variance = variance.max(a.variance.max_element());
+            }
+            let (max_error, rms_error) = albedo_errors(&values, truth);
+            let mut walls = Vec::new();
+            for _ in 0..setup.repeats {
+                let t = Instant::now();
+                for &o in wo {
+                    std::hint::black_box(sampled_albedo(
+                        backend,
+                        query,
+                        sampler,
+                        n,
+                        DEFAULT_SEED,
+                        o,
+                    )?);
+                }
+                walls.push(t.elapsed().as_secs_f64() * 1e3 / wo.len() as f64);
+            }
+            rows.push(Row {
+                section: Section::Integration,
+                variant: format!("{} {} draws, {}", method.name(), n, backend_tag(backend)),
+                backend: backend.name(),
+                samples: Some(n as u64),
+                cost: median(walls),
+                cost_unit: Section::Integration.cost_unit().into(),
+                kernel_cost: None,
+                max_error,
+                rms_error,
+                error_kind: Section::Integration.error_kind().into(),
+                pareto: false,
+                variance_per_sample: Some(variance),
             });
         }
     }
-    mark_pareto(&mut rows);
     Ok(rows)
 }

@@ -26,7 +26,9 @@
 //! Gauss–Kronrod in f64, converged to
 //! [`REFERENCE_RTOL`](crate::integrate::REFERENCE_RTOL)), computed once per μ. The model is
 //! integrated as given (no truth swap): the figure is the quadrature's error (and on the GPU its
-//! f32 error), not the model's.
+//! f32 error), not the model's. Beside the rules, the Monte Carlo methods (uniform, cosine and
+//! the model's own sampler, [`crate::integrate::sampled_albedo`]) at the same ladder of draw
+//! counts, timed and judged alike, each row with its variance per draw.
 //!
 //! **Table resolution**: E(μ) from a tabulated isotropic lobe table (θi, θo, Δφ) of N × N × 2N
 //! cells (square cells at the equator; the centring of docs/design.md §4), as a user holding
@@ -139,7 +141,7 @@ pub struct Row {
     pub variant: String,
     /// The evaluator that ran it: `gpu (device)` or `cpu (f64 reference)`.
     pub backend: String,
-    /// Integration: quadrature nodes per albedo (mean over the view directions); table
+    /// Integration: quadrature nodes (or Monte Carlo draws) per albedo (mean over the view directions); table
     /// resolution: table cells; evaluation: none.
     pub samples: Option<u64>,
     /// Median over repeats, in `cost_unit` (see the module notes for what each section times).
@@ -157,6 +159,10 @@ pub struct Row {
     pub error_kind: String,
     /// On its section's Pareto front: no other row of the section beats it ([`mark_pareto`]).
     pub pareto: bool,
+    /// Integration by Monte Carlo draws (uniform, cosine or the model's own sampler): the
+    /// variance of one draw's weight, the largest over the view directions and channels, what
+    /// a sampler is judged by; None for the rules and the other sections.
+    pub variance_per_sample: Option<f64>,
 }
 
 /// Errors within this relative margin of each other count as equal when the Pareto front is

@@ -147,12 +147,12 @@ impl Report {
     pub fn write_csv(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
-            "section,variant,backend,samples,cost,cost_unit,kernel_cost,max_error,rms_error,error_kind,pareto"
+            "section,variant,backend,samples,cost,cost_unit,kernel_cost,max_error,rms_error,error_kind,pareto,variance_per_sample"
         )?;
         for r in &self.rows {
             writeln!(
                 out,
-                "{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.section.name(),
                 csv_field(&r.variant),
                 csv_field(&r.backend),
@@ -163,7 +163,10 @@ impl Report {
                 r.max_error,
                 r.rms_error,
                 r.error_kind,
-                r.pareto
+                r.pareto,
+                r.variance_per_sample
+                    .map(|v| v.to_string())
+                    .unwrap_or_default()
             )?;
         }
         Ok(())
@@ -211,13 +214,13 @@ impl Report {
                     };
                     writeln!(
                         out,
-                        "{:<36} {:>9} {:>11} {:>11} {:>12} {:>12}  pareto",
-                        "variant", n, c, "kernel ms", "max |dE|", "rms |dE|"
+                        "{:<36} {:>9} {:>11} {:>11} {:>12} {:>12} {:>12}  pareto",
+                        "variant", n, c, "kernel ms", "max |dE|", "rms |dE|", "var/draw"
                     )?;
                     for r in self.rows_of(s) {
                         writeln!(
                             out,
-                            "{:<36} {:>9} {:>11.4} {:>11} {:>12.3e} {:>12.3e}  {}",
+                            "{:<36} {:>9} {:>11.4} {:>11} {:>12.3e} {:>12.3e} {:>12}  {}",
                             r.variant,
                             r.samples.unwrap_or(0),
                             r.cost,
@@ -226,6 +229,9 @@ impl Report {
                                 .unwrap_or_else(|| "-".into()),
                             r.max_error,
                             r.rms_error,
+                            r.variance_per_sample
+                                .map(|v| format!("{v:.3e}"))
+                                .unwrap_or_else(|| "-".into()),
                             if r.pareto { "*" } else { "" }
                         )?;
                     }

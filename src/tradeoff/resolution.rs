@@ -114,6 +114,7 @@ pub fn measure_tables(
                 rms_error,
                 error_kind: Section::TableResolution.error_kind().into(),
                 pareto: false,
+                variance_per_sample: None,
             });
         }
     }
