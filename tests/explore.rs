@@ -971,6 +971,29 @@ fn an_opened_map_lights_the_route_as_session_light() {
         "{}",
         r.text()
     );
+    // A map with a NaN texel is refused as `lobe light --env` refuses it, naming the texel.
+    let nan = dir.path().join("nan.exr");
+    exr::prelude::write_rgb_file(&nan, 8, 4, |x, y| {
+        if (x, y) == (6, 2) {
+            (0.0, f32::NAN, 0.0)
+        } else {
+            (1.0, 1.0, 1.0)
+        }
+    })
+    .unwrap();
+    let r = http(
+        &server.addr,
+        "POST",
+        "/api/env?name=nan.exr",
+        &headers,
+        &std::fs::read(&nan).unwrap(),
+    );
+    assert_eq!(r.status, 422, "{}", r.text());
+    assert!(
+        r.text().contains("row 2, column 6") && r.text().contains("finite"),
+        "{}",
+        r.text()
+    );
     // A declared length over the bound is refused before the body is read.
     let r = http_claiming(
         &server.addr,
