@@ -22,7 +22,7 @@ pub struct Throughput {
     /// What was timed: "table" (a lobe table, output discarded), "albedo" (directional albedo
     /// by a fixed quadrature: the reduction kernel on the GPU, f64 sums on the CPU), "lut" (an
     /// albedo look-up table E(μ, p) and E_avg(p), [`measure_lut`]), "chi2" (the sampling test,
-    /// [`measure_chi2`]) or "light" (the lit sphere's exact sum, [`measure_light`]).
+    /// `Session::bench_chi2`) or "light" (the lit sphere's exact sum, `Session::bench_light`).
     pub task: &'static str,
     /// The backend timed, as [`Evaluator::name`] says.
     pub backend: String,
@@ -51,7 +51,7 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// Times `repeats` runs of `work`, which returns the integrand evaluations it made, after one
 /// warm-up run, which also builds the pipeline; wall time always, kernel time from the GPU's
 /// timestamp queries when `eval` is the GPU.
-fn time_task(
+pub fn time_task(
     eval: &Evaluator,
     params: &ParamSet,
     task: &'static str,
@@ -226,63 +226,5 @@ pub const CHI2_SAMPLES: u64 = 1 << 22;
 /// The timed sampling test's view direction, in degrees from the normal.
 pub const CHI2_THETA_O_DEG: f64 = 45.0;
 
-/// Throughput of the sampling test (`lobe chi2`: [`CHI2_SAMPLES`] draws of the model's sampler
-/// at θo = [`CHI2_THETA_O_DEG`], counted in cells on the device or drawn and checked in f64 on
-/// the CPU, then the expected counts and the verdict), the median of `repeats` runs;
-/// evaluations = draws.
-pub fn measure_chi2<'q>(
-    eval: &Evaluator,
-    query: impl Into<Query<'q>>,
-    repeats: usize,
-) -> Result<Throughput> {
-    let query = query.into();
-    let params = query.params();
-    let options = crate::chi2::Options {
-        directions: vec![[CHI2_THETA_O_DEG, 0.0]],
-        samples: CHI2_SAMPLES,
-        ..Default::default()
-    };
-    time_task(eval, params, "chi2", repeats, || {
-        let report = crate::chi2::test_model(
-            params,
-            query.white_furnace,
-            &options,
-            eval.backend(),
-            None,
-            |_, _| {},
-        )?;
-        std::hint::black_box(report);
-        Ok(CHI2_SAMPLES)
-    })
-}
-
 /// Pixels per side of the timed lit sphere.
 pub const LIGHT_SIZE: u32 = 64;
-
-/// Throughput of the lit sphere's exact sum (`lobe light --method exact`: a [`LIGHT_SIZE`]²
-/// sphere under the built-in sky, 256 × 128 texels), the median of `repeats` runs;
-/// evaluations = texel terms, the pixels inside the sphere times the map's texels (the sums
-/// skip those below each pixel's horizon, so a faster skip shows as more terms a second).
-pub fn measure_light<'q>(
-    eval: &Evaluator,
-    query: impl Into<Query<'q>>,
-    repeats: usize,
-) -> Result<Throughput> {
-    let query = query.into();
-    let params = query.params();
-    let map = crate::light::maps::Builtin::Sky.map();
-    let pixels = crate::backend::light::sphere_pixels(LIGHT_SIZE, 0..LIGHT_SIZE).len() as u64;
-    let terms = pixels * map.texels().len() as u64;
-    time_task(eval, params, "light", repeats, || {
-        let image = crate::light::exact(
-            eval,
-            params,
-            query.white_furnace,
-            &map,
-            LIGHT_SIZE,
-            &mut |_, _| {},
-        )?;
-        std::hint::black_box(image);
-        Ok(terms)
-    })
-}

@@ -79,8 +79,11 @@ impl Session {
         crate::bench::measure_lut(&self.evaluator(), query, repeats).lobe()
     }
 
-    /// Throughput of the sampling test ([`crate::bench::measure_chi2`]) on this session's
-    /// backend; evaluations = draws.
+    /// Throughput of the sampling test on this session's backend (`lobe chi2`:
+    /// [`CHI2_SAMPLES`](crate::bench::CHI2_SAMPLES) draws of the model's sampler at θo =
+    /// [`CHI2_THETA_O_DEG`](crate::bench::CHI2_THETA_O_DEG), counted in cells on the device or
+    /// drawn and checked in f64 on the CPU, then the expected counts and the verdict), the median
+    /// of `repeats` runs; evaluations = draws.
     ///
     /// ```
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
@@ -93,18 +96,59 @@ impl Session {
         query: impl Into<Query<'q>>,
         repeats: usize,
     ) -> Result<Throughput> {
+        use crate::bench::{CHI2_SAMPLES, CHI2_THETA_O_DEG};
         let query = query.into();
-        crate::bench::measure_chi2(&self.evaluator(), query, repeats).lobe()
+        let params = query.params();
+        let eval = self.evaluator();
+        let options = crate::chi2::Options {
+            directions: vec![[CHI2_THETA_O_DEG, 0.0]],
+            samples: CHI2_SAMPLES,
+            ..Default::default()
+        };
+        crate::bench::time_task(&eval, params, "chi2", repeats, || {
+            let report = crate::chi2::test_model(
+                params,
+                query.white_furnace,
+                &options,
+                eval.backend(),
+                None,
+                |_, _| {},
+            )?;
+            std::hint::black_box(report);
+            Ok(CHI2_SAMPLES)
+        })
+        .lobe()
     }
 
-    /// Throughput of the lit sphere's exact sum ([`crate::bench::measure_light`]) on this
-    /// session's backend; evaluations = texel terms.
+    /// Throughput of the lit sphere's exact sum on this session's backend (`lobe light --method
+    /// exact`: a [`LIGHT_SIZE`](crate::bench::LIGHT_SIZE)² sphere under the built-in sky, 256 ×
+    /// 128 texels), the median of `repeats` runs; evaluations = texel terms, the pixels inside the
+    /// sphere times the map's texels (the sums skip those below each pixel's horizon, so a faster
+    /// skip shows as more terms a second).
     pub fn bench_light<'q>(
         &self,
         query: impl Into<Query<'q>>,
         repeats: usize,
     ) -> Result<Throughput> {
+        use crate::bench::LIGHT_SIZE;
         let query = query.into();
-        crate::bench::measure_light(&self.evaluator(), query, repeats).lobe()
+        let params = query.params();
+        let eval = self.evaluator();
+        let map = crate::light::maps::Builtin::Sky.map();
+        let pixels = crate::backend::light::sphere_pixels(LIGHT_SIZE, 0..LIGHT_SIZE).len() as u64;
+        let terms = pixels * map.texels().len() as u64;
+        crate::bench::time_task(&eval, params, "light", repeats, || {
+            let image = crate::light::exact(
+                &eval,
+                params,
+                query.white_furnace,
+                &map,
+                LIGHT_SIZE,
+                &mut |_, _| {},
+            )?;
+            std::hint::black_box(image);
+            Ok(terms)
+        })
+        .lobe()
     }
 }
