@@ -20,6 +20,7 @@
 
 pub mod glsl;
 mod lex;
+mod names;
 pub mod parse;
 mod rename;
 pub mod validate;
