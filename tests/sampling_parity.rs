@@ -481,6 +481,75 @@ fn gpu_draws_equal_cpu_draws_for_every_model() {
     });
 }
 
+/// Densities below this are not compared: their f32 evaluation nears the end of f32's exponent
+/// range (1.2e-38) in its intermediate products (a Beckmann exp(−tan²θ/α²) far in its tail),
+/// where relative precision is lost; no cell of the sampling test at 2⁴⁰ draws expects a draw
+/// of a density this small over a cell's solid angle (1e-30 · 2⁴⁰ · 1.3e-3 ≈ 1e-21).
+const TINY_PDF: f64 = 1e-30;
+
+/// The kernels' density (`Backend::pdf`, the pairs kernel's `pdf_at`) equals the f64
+/// reference's at the same directions, for every model: over a grid of the hemisphere and at
+/// the reference's own draws (where the density is largest and steepest). This is the density
+/// the sampling test integrates for a `.brdf` file's sampler; here it is checked against the
+/// reference for the models that have one.
+#[test]
+fn gpu_density_equals_cpu_density_for_every_model() {
+    common::on_gpu("density parity", false, |gpu: &Gpu| {
+        let grid: Vec<DVec3> = (0..12)
+            .flat_map(|i| (0..24).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let mu = (i as f64 + 0.5) / 12.0;
+                let phi = (j as f64 + 0.5) / 24.0 * 2.0 * std::f64::consts::PI;
+                let s = (1.0 - mu * mu).sqrt();
+                DVec3::new(s * phi.cos(), s * phi.sin(), mu)
+            })
+            .collect();
+        let (mut failures, mut largest, mut compared) = (Vec::new(), (0.0f64, String::new()), 0);
+        for (name, p, white) in &cases() {
+            let query = Query::one(p).with_white_furnace(*white);
+            for &theta in &THETAS {
+                let wo = direction(theta, PHI);
+                let draws = CpuBackend
+                    .draws(query, wo, range(SEED, 0, 0, 512), None)
+                    .unwrap_or_else(|e| panic!("{name}: cpu draws: {e}"));
+                let wi: Vec<DVec3> = grid
+                    .iter()
+                    .copied()
+                    .chain(draws.iter().filter(|d| !d.delta).map(|d| DVec3::from(d.wi)))
+                    // A direction within f32 rounding of the horizon may land on either side.
+                    .filter(|w| w.z.abs() > WI_TOL)
+                    .collect();
+                let cpu = CpuBackend.pdf(query, wo, &wi).unwrap();
+                let gpu_pdf = gpu
+                    .pdf(query, wo, &wi)
+                    .unwrap_or_else(|e| panic!("{name}: gpu pdf: {e:#}"));
+                assert_eq!(gpu_pdf.len(), wi.len(), "{name}");
+                for ((w, c), g) in wi.iter().zip(&cpu).zip(&gpu_pdf) {
+                    if c.abs().max(g.abs()) < TINY_PDF {
+                        continue;
+                    }
+                    compared += 1;
+                    let e = rel(*c, *g);
+                    let at = || format!("{name}, θo {theta}, ωi {w:?}: cpu {c:e}, gpu {g:e}");
+                    if e > largest.0 {
+                        largest = (e, at());
+                    }
+                    if !(e <= REL_TOL) && failures.len() < 10 {
+                        failures.push(format!("{} ({e:.2e})", at()));
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "density parity on {}: {compared} densities, largest relative difference {:.3e} ({})",
+            gpu.device().name(),
+            largest.0,
+            largest.1
+        );
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    });
+}
+
 /// The draws are counter-based on the GPU too: a range drawn in two requests equals the same
 /// range drawn in one, and the chunking of a request does not show.
 #[test]

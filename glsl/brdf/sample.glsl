@@ -33,6 +33,23 @@ Sample sample_from_draw(vec3 wi, float pdf, vec3 f) {
     return Sample(wi, pdf, f * (wi.z / pdf), 0u);
 }
 
+// Finite, by the exponent's bits (a driver's fast-math may fold isnan and isinf away).
+bool finite1(float x) {
+    return (floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+bool finite3(vec3 v) {
+    return finite1(v.x) && finite1(v.y) && finite1(v.z);
+}
+
+// A draw of a sampler lobe did not write (a .brdf file's sampleL and pdfL): as sample_from_draw,
+// except that a wi or pdf that is NaN or infinite, or a negative pdf, stays as drawn with weight
+// 0, so that the sampling test counts the draw as invalid and names it rather than losing it.
+Sample sample_from_user_draw(vec3 wi, float pdf, vec3 f) {
+    if (!finite3(wi) || !finite1(pdf) || pdf < 0.0) return Sample(wi, pdf, vec3(0.0), 0u);
+    return sample_from_draw(wi, pdf, f);
+}
+
 // The mirror direction of w about the normal, 2 (w.n) n - w with n = +z.
 vec3 mirror(vec3 w) {
     return vec3(-w.x, -w.y, w.z);

@@ -45,15 +45,6 @@ float infinity() {
     return uintBitsToFloat(0x7f800000u);
 }
 
-// Finite, by the exponent's bits (a driver's fast-math may fold isnan and isinf away).
-bool finite1(float x) {
-    return (floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u;
-}
-
-bool finite3(vec3 v) {
-    return finite1(v.x) && finite1(v.y) && finite1(v.z);
-}
-
 // Twin of Cells::index: the cell (i_cos * n_phi + i_phi) of a unit direction with cos theta > 0,
 // -1 otherwise; n_phi equal steps of phi over [0, 2 pi), n_cos of cos theta over [0, 1].
 int cells_index(vec3 w, uint n_phi, uint n_cos) {

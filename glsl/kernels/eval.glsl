@@ -13,7 +13,8 @@ layout(std430, set = 0, binding = 0) readonly buffer ParamBlock { MODEL_PARAMS p
 layout(std430, set = 0, binding = 3) writeonly buffer Output { float f_out[]; };
 
 // first: index of the chunk's first element in the whole job; count: elements in this chunk;
-// n_wo: length of the wo list (table kernel only).
+// n_wo: length of the wo list (the table kernel; the counting kernel: the cells' steps in phi;
+// the pairs kernel: whether to store f or the density).
 layout(push_constant) uniform Chunk { uint first; uint count; uint n_wo; uint pad; } chunk;
 
 // docs/design.md §2: f = 0 whenever c_i <= 0 or c_o <= 0.

@@ -53,6 +53,17 @@ impl Backend for CpuBackend {
         Ok(model.require_reference("the CPU backend")?)
     }
 
+    fn pdf(&self, query: Query, wo: DVec3, wi: &[DVec3]) -> Result<Vec<f64>> {
+        let refs = self.references(&Query {
+            sets: &query.sets[..query.sets.len().min(1)],
+            ..query
+        })?;
+        let Some(r) = refs.first() else {
+            return Ok(Vec::new());
+        };
+        Ok(wi.par_iter().map(|&w| r.pdf(w, wo)).collect())
+    }
+
     fn draws(
         &self,
         query: Query,

@@ -56,6 +56,10 @@ const INCLUDES: &[(&str, &str)] = &[
     ),
     ("random.glsl", include_str!("../../glsl/random.glsl")),
     (
+        "kernels/sampler.glsl",
+        include_str!("../../glsl/kernels/sampler.glsl"),
+    ),
+    (
         "kernels/draw.glsl",
         include_str!("../../glsl/kernels/draw.glsl"),
     ),
@@ -91,7 +95,7 @@ pub const SAMPLER_SIGNATURES: [&str; 2] = [
 const SAMPLER_FNS: [&str; 2] = ["sampleL", "pdfL"];
 
 /// The kernels' sampler and density functions for a file with its own sampler (`MODEL_SAMPLE`,
-/// `MODEL_PDF` of kernels/draw.glsl).
+/// `MODEL_PDF` of kernels/sampler.glsl).
 const SAMPLE_FN: &str = "lobe_model_sample";
 const PDF_FN: &str = "lobe_model_pdf";
 
@@ -140,7 +144,7 @@ pub fn has_sampler(file: &BrdfFile) -> Result<bool, BrdfError> {
 /// The generated `model.glsl`: the parameter block's struct (members in the file's order, as
 /// [`crate::model::runtime::std430_layout`] lays them out) and the model function's prototype;
 /// with the file's own sampler, the prototypes of the kernels' sampler and density functions,
-/// which draw.glsl then calls instead of the cosine.
+/// which kernels/sampler.glsl then calls instead of the cosine.
 fn model_glsl(file: &BrdfFile, sampler: bool) -> String {
     let mut s = format!(
         "// The parameters of {}.\nstruct {PARAMS_STRUCT} {{\n",
@@ -227,8 +231,10 @@ fn tail(file: &BrdfFile, sampler: bool) -> String {
         "    return BRDF({RESERVED}wi, {RESERVED}wo, {FRAME});\n}}"
     );
     if sampler {
-        // The rules of Reference::sample: sample_from_draw loses a draw below the horizon or
-        // with a density that is not positive; weight = f cos θi / pdf with f one-sided (as eval.glsl's brdf).
+        // The rules of Reference::sample: sample_from_user_draw loses a draw below the horizon
+        // or with a density of 0, and keeps one whose ωi or density is not finite (or whose
+        // density is negative) as drawn, for the sampling test to count as invalid; weight =
+        // f cos θi / pdf with f one-sided (as eval.glsl's brdf).
         // The names are lobe's as the kernel renamed them (its #defines are undone above).
         let (sample, pdf) = (SAMPLER_FNS[0], SAMPLER_FNS[1]);
         let user = super::rename::USER_FN;
@@ -238,7 +244,7 @@ fn tail(file: &BrdfFile, sampler: bool) -> String {
              \x20   vec3 {RESERVED}wi = {user}{sample}({RESERVED}u, {RESERVED}wo, {FRAME});\n\
              \x20   float {RESERVED}pdf = {user}{pdf}({RESERVED}wi, {RESERVED}wo, {FRAME});\n\
              \x20   vec3 {RESERVED}f = {RESERVED}wi.z > 0.0 && {RESERVED}wo.z > 0.0 ? {MODEL_FN}({RESERVED}p, {RESERVED}wi, {RESERVED}wo) : vec3(0.0);\n\
-             \x20   return {RESERVED}sample_from_draw({RESERVED}wi, {RESERVED}pdf, {RESERVED}f);\n}}\n\
+             \x20   return {RESERVED}sample_from_user_draw({RESERVED}wi, {RESERVED}pdf, {RESERVED}f);\n}}\n\
              float {PDF_FN}({PARAMS_STRUCT} {RESERVED}p, vec3 {RESERVED}wi, vec3 {RESERVED}wo) {{\n{}\
              \x20   return {user}{pdf}({RESERVED}wi, {RESERVED}wo, {FRAME});\n}}",
             copy_params(file),

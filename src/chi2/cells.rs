@@ -7,8 +7,11 @@
 //! A cell's expected count is N ∫_cell pdf dω = N ∫∫ pdf(ω(φ, μ)) dμ dφ, integrated in f64 by a
 //! globally adaptive product Gauss–Kronrod 7/15 rule in (μ, φ) on each cell alone: the test
 //! needs each count accurate to well under its own noise, sqrt(count), so every cell is refined
-//! to its own tolerance (docs/design.md §14).
+//! to its own tolerance (docs/design.md §14). The rule refines all cells together in rounds, and
+//! each round asks the density for every new node at once ([`Density`]), so that a density
+//! evaluated on a device (a `.brdf` file's `pdfL`) costs one dispatch a round.
 
+use crate::error::{Error, Result};
 use crate::quadrature::{gk15_combine, gk15_nodes, Estimate};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -102,41 +105,35 @@ impl Cells {
     }
 
     /// Each cell's integral of `pdf` (a density over solid angle), for a test of `samples` draws
-    /// (which sets the absolute tolerance), in parallel over cells.
+    /// (which sets the absolute tolerance), the nodes evaluated in parallel.
     pub fn integrate<F: Fn(DVec3) -> f64 + Sync>(&self, pdf: &F, samples: u64) -> Integrals {
+        let mut density = pointwise(pdf);
+        self.integrate_density(&mut density, samples)
+            .expect("a pointwise density cannot fail")
+    }
+
+    /// [`Cells::integrate`] of a density evaluated many directions at a time.
+    pub fn integrate_density(&self, pdf: &mut Density<'_>, samples: u64) -> Result<Integrals> {
         let floor = ABSOLUTE_TOLERANCE_DRAWS / samples.max(1) as f64;
-        let per_cell: Vec<CellIntegral> = (0..self.len())
-            .into_par_iter()
-            .map(|c| {
-                let (phi, mu) = self.bounds(c);
-                integrate_cell(pdf, mu, phi, floor)
-            })
-            .collect();
-        let n = samples as f64;
-        let accuracy = per_cell
-            .iter()
-            .map(|c| n * c.error / (n * c.value).max(1.0).sqrt())
-            .fold(0.0, f64::max);
-        Integrals {
-            total: per_cell.iter().map(|c| c.value).sum(),
-            total_error: per_cell.iter().map(|c| c.error).sum(),
-            accuracy,
-            evaluations: per_cell.iter().map(|c| c.evals).sum(),
-            unconverged_cells: per_cell.iter().filter(|c| !c.converged).count(),
-            non_finite_cells: per_cell
-                .iter()
-                .filter(|c| !c.value.is_finite() || !c.error.is_finite())
-                .count(),
-            negative_cells: per_cell.iter().filter(|c| c.value < 0.0).count(),
+        let all: Vec<usize> = (0..self.len()).collect();
+        let per_cell = self.integrate_cells(pdf, floor, &all, 1)?;
+        let mut ints = Integrals {
             probability: per_cell.iter().map(|c| c.value).collect(),
             error: per_cell.iter().map(|c| c.error).collect(),
-            refined_cells: 0,
+            evaluations: per_cell.iter().map(|c| c.evals).sum(),
+            unconverged_cells: per_cell.iter().filter(|c| !c.converged).count(),
             converged: per_cell.iter().map(|c| c.converged).collect(),
-        }
+            total: 0.0,
+            total_error: 0.0,
+            accuracy: 0.0,
+            non_finite_cells: 0,
+            negative_cells: 0,
+            refined_cells: 0,
+        };
+        ints.summarise(samples);
+        Ok(ints)
     }
-}
 
-impl Cells {
     /// Integrates the cells `suspects` again from [`REFINE_SPLITS`]² rectangles each and puts
     /// their values into `ints` (which came from [`Cells::integrate`] for the same `pdf` and
     /// `samples`), its sums and accuracy made again. A correct integral stays what it was to
@@ -148,15 +145,22 @@ impl Cells {
         ints: &mut Integrals,
         suspects: &[usize],
     ) {
+        let mut density = pointwise(pdf);
+        self.refine_density(&mut density, samples, ints, suspects)
+            .expect("a pointwise density cannot fail")
+    }
+
+    /// [`Cells::refine`] of a density evaluated many directions at a time.
+    pub fn refine_density(
+        &self,
+        pdf: &mut Density<'_>,
+        samples: u64,
+        ints: &mut Integrals,
+        suspects: &[usize],
+    ) -> Result<()> {
         let floor = ABSOLUTE_TOLERANCE_DRAWS / samples.max(1) as f64;
-        let again: Vec<(usize, CellIntegral)> = suspects
-            .par_iter()
-            .map(|&c| {
-                let (phi, mu) = self.bounds(c);
-                (c, integrate_cell_from(pdf, mu, phi, floor, REFINE_SPLITS))
-            })
-            .collect();
-        for (c, cell) in again {
+        let again = self.integrate_cells(pdf, floor, suspects, REFINE_SPLITS)?;
+        for (&c, cell) in suspects.iter().zip(again) {
             ints.probability[c] = cell.value;
             ints.error[c] = cell.error;
             ints.evaluations += cell.evals;
@@ -167,23 +171,191 @@ impl Cells {
             }
             ints.converged[c] = cell.converged;
         }
+        ints.summarise(samples);
+        ints.refined_cells += suspects.len();
+        Ok(())
+    }
+
+    /// The cells `which`, each from `splits` × `splits` equal rectangles, refined adaptively and
+    /// all together: in each round every cell short of its tolerance, max(RELATIVE_TOLERANCE ·
+    /// |value|, floor), bisects its rectangles of largest error (each across the variable that
+    /// contributes more of it) until those it leaves hold at most half the tolerance, and the
+    /// new rectangles' nodes of every cell go to `pdf` at once. A cell stops at
+    /// max(MAX_RECTANGLES, 2 splits²) rectangles even short of its tolerance.
+    fn integrate_cells(
+        &self,
+        pdf: &mut Density<'_>,
+        floor: f64,
+        which: &[usize],
+        splits: usize,
+    ) -> Result<Vec<CellIntegral>> {
+        let splits = splits.max(1);
+        let max_rectangles = MAX_RECTANGLES.max(2 * splits * splits);
+        let tolerance = |v: f64| (RELATIVE_TOLERANCE * v.abs()).max(floor);
+        let at = |r: [f64; 2], k: usize| r[0] + (r[1] - r[0]) * k as f64 / splits as f64;
+        let mut work: Vec<CellWork> = which.iter().map(|_| CellWork::default()).collect();
+        // (slot in `work`, μ range, φ range) of the rectangles whose nodes are wanted.
+        let mut pending: Vec<(usize, [f64; 2], [f64; 2])> = Vec::new();
+        for (slot, &c) in which.iter().enumerate() {
+            let (phi, mu) = self.bounds(c);
+            for i in 0..splits {
+                for j in 0..splits {
+                    pending.push((
+                        slot,
+                        [at(mu, i), at(mu, i + 1)],
+                        [at(phi, j), at(phi, j + 1)],
+                    ));
+                }
+            }
+        }
+        while !pending.is_empty() {
+            let rects = evaluate(pdf, &pending)?;
+            for (&(slot, _, _), r) in pending.iter().zip(rects) {
+                work[slot].heap.push(r);
+                work[slot].evals += RECT_NODES as u64;
+            }
+            pending.clear();
+            for (slot, w) in work.iter_mut().enumerate() {
+                if w.settled {
+                    continue;
+                }
+                let (value, error) = w.sums();
+                let tol = tolerance(value);
+                // A NaN error stops the refinement at once (no bisection mends it); the final
+                // test below reports the cell as not converged.
+                if error.is_nan() || error <= tol {
+                    w.settled = true;
+                    continue;
+                }
+                let mut rest = error;
+                let mut live = w.heap.len() + w.done.len();
+                let before = pending.len();
+                while rest > 0.5 * tol && live < max_rectangles {
+                    let Some(worst) = w.heap.pop() else { break };
+                    rest -= worst.error();
+                    let split_mu = worst.error_mu >= worst.error_phi;
+                    let [lo, hi] = if split_mu { worst.mu } else { worst.phi };
+                    let mid = 0.5 * (lo + hi);
+                    // Rectangles too narrow to bisect in f64 keep their error: counted, not
+                    // hidden.
+                    if !(mid > lo && mid < hi) {
+                        w.done.push(worst);
+                        continue;
+                    }
+                    live += 1;
+                    if split_mu {
+                        pending.push((slot, [lo, mid], worst.phi));
+                        pending.push((slot, [mid, hi], worst.phi));
+                    } else {
+                        pending.push((slot, worst.mu, [lo, mid]));
+                        pending.push((slot, worst.mu, [mid, hi]));
+                    }
+                }
+                if pending.len() == before {
+                    w.settled = true;
+                }
+            }
+        }
+        Ok(work
+            .iter()
+            .map(|w| {
+                let (value, error) = w.sums();
+                CellIntegral {
+                    value,
+                    error,
+                    evals: w.evals,
+                    converged: error <= tolerance(value),
+                }
+            })
+            .collect())
+    }
+}
+
+/// A density over solid angle evaluated at many directions at once, in order: the f64
+/// reference's pdf on the CPU's threads ([`Cells::integrate`]), or a backend's kernels
+/// ([`crate::backend::Backend::pdf`]).
+pub type Density<'a> = dyn FnMut(&[DVec3]) -> Result<Vec<f64>> + 'a;
+
+/// A pointwise density as a [`Density`], evaluated in parallel.
+fn pointwise<F: Fn(DVec3) -> f64 + Sync>(pdf: &F) -> impl FnMut(&[DVec3]) -> Result<Vec<f64>> + '_ {
+    move |w: &[DVec3]| Ok(w.par_iter().map(|&d| pdf(d)).collect())
+}
+
+/// Nodes of one rectangle's 15 × 15 product rule.
+const RECT_NODES: usize = 225;
+
+/// Rectangles whose nodes go to the density in one call: 2¹² × 225 directions (22 MB), few
+/// calls a round for a device and parts large enough for the CPU's threads.
+const EVALUATE_RECTS: usize = 1 << 12;
+
+/// The rectangles `pending` integrated from the density at their nodes.
+fn evaluate(pdf: &mut Density<'_>, pending: &[(usize, [f64; 2], [f64; 2])]) -> Result<Vec<Rect>> {
+    let mut out = Vec::with_capacity(pending.len());
+    for part in pending.chunks(EVALUATE_RECTS) {
+        let nodes: Vec<DVec3> = part
+            .par_iter()
+            .flat_map_iter(|&(_, mu, phi)| {
+                let phis = gk15_nodes(phi[0], phi[1]);
+                gk15_nodes(mu[0], mu[1])
+                    .into_iter()
+                    .flat_map(move |m| phis.map(|p| direction(p, m)))
+            })
+            .collect();
+        let values = pdf(&nodes)?;
+        if values.len() != nodes.len() {
+            return Err(Error::Invalid(format!(
+                "the density gave {} values for {} directions",
+                values.len(),
+                nodes.len()
+            )));
+        }
+        out.par_extend(
+            part.par_iter()
+                .zip(values.par_chunks(RECT_NODES))
+                .map(|(&(_, mu, phi), v)| rect(v, mu, phi)),
+        );
+    }
+    Ok(out)
+}
+
+/// One cell's rectangles during [`Cells::integrate_cells`].
+#[derive(Default)]
+struct CellWork {
+    /// Rectangles that may be bisected, the worst on top.
+    heap: BinaryHeap<Rect>,
+    /// Rectangles too narrow to bisect in f64.
+    done: Vec<Rect>,
+    evals: u64,
+    settled: bool,
+}
+
+impl CellWork {
+    /// The cell's integral and error estimate: its rectangles' sums.
+    fn sums(&self) -> (f64, f64) {
+        let all = || self.heap.iter().chain(self.done.iter());
+        (all().map(|r| r.value).sum(), all().map(|r| r.error()).sum())
+    }
+}
+
+impl Integrals {
+    /// The sums, the accuracy and the counts of bad cells made again from the cells' values.
+    fn summarise(&mut self, samples: u64) {
         let n = samples as f64;
-        ints.total = ints.probability.iter().sum();
-        ints.total_error = ints.error.iter().sum();
-        ints.accuracy = ints
+        self.total = self.probability.iter().sum();
+        self.total_error = self.error.iter().sum();
+        self.accuracy = self
             .probability
             .iter()
-            .zip(&ints.error)
+            .zip(&self.error)
             .map(|(v, e)| n * e / (n * v).max(1.0).sqrt())
             .fold(0.0, f64::max);
-        ints.non_finite_cells = ints
+        self.non_finite_cells = self
             .probability
             .iter()
-            .zip(&ints.error)
+            .zip(&self.error)
             .filter(|(v, e)| !v.is_finite() || !e.is_finite())
             .count();
-        ints.negative_cells = ints.probability.iter().filter(|v| **v < 0.0).count();
-        ints.refined_cells += suspects.len();
+        self.negative_cells = self.probability.iter().filter(|v| **v < 0.0).count();
     }
 }
 
@@ -263,18 +435,18 @@ fn direction(phi: f64, mu: f64) -> DVec3 {
     DVec3::new(s * phi.cos(), s * phi.sin(), mu)
 }
 
-/// The 15 × 15 Kronrod product rule on a rectangle. Along φ at each μ node, K15 and its error
-/// |K15 − G7|; then K15 along μ of those: |K15 − G7| along μ is the μ part of the error, and the φ
-/// errors carried through the μ weights the φ part (quadrature::gk15_combine).
-fn rect<F: Fn(DVec3) -> f64>(pdf: &F, mu: [f64; 2], phi: [f64; 2]) -> Rect {
-    let phis = gk15_nodes(phi[0], phi[1]);
-    let rows: Vec<Estimate> = gk15_nodes(mu[0], mu[1])
-        .iter()
-        .map(|&m| {
-            let vals: Vec<Estimate> = phis
+/// The 15 × 15 Kronrod product rule on a rectangle from the density at its nodes (`values`, in
+/// the order [`evaluate`] makes them: μ nodes outer, φ nodes inner). Along φ at each μ node, K15
+/// and its error |K15 − G7|; then K15 along μ of those: |K15 − G7| along μ is the μ part of the
+/// error, and the φ errors carried through the μ weights the φ part (quadrature::gk15_combine).
+fn rect(values: &[f64], mu: [f64; 2], phi: [f64; 2]) -> Rect {
+    let rows: Vec<Estimate> = values
+        .chunks_exact(15)
+        .map(|row| {
+            let vals: Vec<Estimate> = row
                 .iter()
-                .map(|&p| Estimate {
-                    value: DVec3::new(pdf(direction(p, m)), 0.0, 0.0),
+                .map(|&v| Estimate {
+                    value: DVec3::new(v, 0.0, 0.0),
                     error: DVec3::ZERO,
                     evals: 1,
                 })
@@ -297,90 +469,6 @@ fn rect<F: Fn(DVec3) -> f64>(pdf: &F, mu: [f64; 2], phi: [f64; 2]) -> Rect {
         value: both.value.x,
         error_mu,
         error_phi: (both.error.x - error_mu).max(0.0),
-    }
-}
-
-/// One cell, refined adaptively: the rectangle with the largest error is bisected across the
-/// variable that contributes more of its error, until the summed error is within
-/// max(RELATIVE_TOLERANCE · |value|, floor) or MAX_RECTANGLES is reached.
-fn integrate_cell<F: Fn(DVec3) -> f64>(
-    pdf: &F,
-    mu: [f64; 2],
-    phi: [f64; 2],
-    floor: f64,
-) -> CellIntegral {
-    integrate_cell_from(pdf, mu, phi, floor, 1)
-}
-
-/// [`integrate_cell`] from `splits` × `splits` equal rectangles rather than one, refined until
-/// the tolerance or max(MAX_RECTANGLES, 2 splits²) rectangles.
-fn integrate_cell_from<F: Fn(DVec3) -> f64>(
-    pdf: &F,
-    mu: [f64; 2],
-    phi: [f64; 2],
-    floor: f64,
-    splits: usize,
-) -> CellIntegral {
-    let splits = splits.max(1);
-    let at = |r: [f64; 2], k: usize| r[0] + (r[1] - r[0]) * k as f64 / splits as f64;
-    let first: Vec<Rect> = (0..splits)
-        .flat_map(|i| (0..splits).map(move |j| (i, j)))
-        .map(|(i, j)| {
-            rect(
-                pdf,
-                [at(mu, i), at(mu, i + 1)],
-                [at(phi, j), at(phi, j + 1)],
-            )
-        })
-        .collect();
-    let max_rectangles = MAX_RECTANGLES.max(2 * splits * splits);
-    let mut evals = 225 * first.len() as u64;
-    let value: f64 = first.iter().map(|r| r.value).sum();
-    let error: f64 = first.iter().map(|r| r.error()).sum();
-    let (mut value, mut error) = (value, error);
-    let mut heap = BinaryHeap::from(first);
-    // Rectangles too narrow to bisect in f64 keep their error: counted, not hidden.
-    let mut done: Vec<Rect> = Vec::new();
-    let tolerance = |v: f64| (RELATIVE_TOLERANCE * v.abs()).max(floor);
-    // A NaN error stops the refinement at once (no bisection mends it); the final test below
-    // reports the cell as not converged.
-    let settled = |error: f64, value: f64| error.is_nan() || error <= tolerance(value);
-    let mut converged = settled(error, value);
-    while !converged && heap.len() + done.len() < max_rectangles {
-        let Some(worst) = heap.pop() else { break };
-        let split_mu = worst.error_mu >= worst.error_phi;
-        let [lo, hi] = if split_mu { worst.mu } else { worst.phi };
-        let mid = 0.5 * (lo + hi);
-        if !(mid > lo && mid < hi) {
-            done.push(worst);
-            continue;
-        }
-        let halves = if split_mu {
-            [
-                rect(pdf, [lo, mid], worst.phi),
-                rect(pdf, [mid, hi], worst.phi),
-            ]
-        } else {
-            [
-                rect(pdf, worst.mu, [lo, mid]),
-                rect(pdf, worst.mu, [mid, hi]),
-            ]
-        };
-        evals += 450;
-        value += halves[0].value + halves[1].value - worst.value;
-        error += halves[0].error() + halves[1].error() - worst.error();
-        heap.extend(halves);
-        converged = settled(error, value);
-    }
-    // Summed afresh: the running sums only steer the loop.
-    let all = || heap.iter().chain(done.iter());
-    let value: f64 = all().map(|r| r.value).sum();
-    let error: f64 = all().map(|r| r.error()).sum();
-    CellIntegral {
-        value,
-        error,
-        evals,
-        converged: error <= tolerance(value),
     }
 }
 

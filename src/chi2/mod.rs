@@ -30,6 +30,7 @@ pub use stats::{chi2_p_value, gamma_p, gamma_q, sidak, statistic, Statistic};
 use crate::backend::{Backend, DrawCounting, DrawCounts, DrawRange, Precision, Query};
 use crate::error::{Error, IntoLobe, Result};
 use crate::interrupt::CancelToken;
+use crate::model::Reference;
 use crate::random;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -270,6 +271,10 @@ pub struct Report {
     /// Where the draws were made and counted: "cpu (f64 reference)" or the device's backend
     /// name ([`Backend::name`]).
     pub backend: String,
+    /// Where the density the expected counts integrate was evaluated: "f64" for the sampler's
+    /// f64 pdf, or the backend's name and "(f32)" for a density that exists only in a device's
+    /// kernels ([`run_on_device`]). The integration itself is in f64 either way.
+    pub density: String,
     /// Tests made: two per direction (the histogram and the outside share).
     pub tests: usize,
     /// Šidák's significance per test.
@@ -517,8 +522,74 @@ pub fn run_counted<S: Sampler>(
     counting: Counting<'_>,
     options: &Options,
     cancel: Option<&CancelToken>,
+    progress: impl FnMut(u64, u64),
+) -> Result<Report> {
+    let mut density =
+        |wo: DVec3, wi: &[DVec3]| Ok(wi.par_iter().map(|&w| sampler.pdf(w, wo)).collect());
+    let expected = Expected {
+        density: &mut density,
+        name: "f64".into(),
+    };
+    run_with(Some(sampler), counting, expected, options, cancel, progress)
+}
+
+/// The test of the sampler of `query`'s first set where it exists only on `backend`'s device
+/// (a `.brdf` file's `sampleL` and `pdfL`): drawn and counted there, the expected counts the
+/// f64 integrals of the density the backend evaluates ([`Backend::pdf`], in f32 on a device).
+pub fn run_on_device(
+    backend: &dyn Backend,
+    query: Query<'_>,
+    options: &Options,
+    cancel: Option<&CancelToken>,
+    progress: impl FnMut(u64, u64),
+) -> Result<Report> {
+    if backend.precision() == Precision::F64 {
+        return Err(Error::Invalid(format!(
+            "the backend {} draws on no device; this sampler exists only in a device's kernels",
+            backend.name()
+        )));
+    }
+    let mut density = |wo: DVec3, wi: &[DVec3]| {
+        if let Some(c) = cancel {
+            c.check()?;
+        }
+        backend.pdf(query, wo, wi).lobe()
+    };
+    let expected = Expected {
+        density: &mut density,
+        name: format!("{} (f32)", backend.name()),
+    };
+    run_with(
+        None::<&Reference>,
+        Counting::Backend(backend, query),
+        expected,
+        options,
+        cancel,
+        progress,
+    )
+}
+
+/// The density the expected counts integrate: pdf(ωi, ωo) at many ωi for one ωo, and where it
+/// is evaluated, as the report names it.
+struct Expected<'a> {
+    density: &'a mut dyn FnMut(DVec3, &[DVec3]) -> Result<Vec<f64>>,
+    name: String,
+}
+
+/// The test with the draws counted where `counting` says (through `sampler` on the CPU, which
+/// must then be given) and the expected counts from `expected`.
+fn run_with<S: Sampler>(
+    sampler: Option<&S>,
+    counting: Counting<'_>,
+    expected: Expected<'_>,
+    options: &Options,
+    cancel: Option<&CancelToken>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<Report> {
+    let Expected {
+        density,
+        name: density_name,
+    } = expected;
     let start = Instant::now();
     if options.directions.is_empty() {
         return Err(Error::Invalid(
@@ -583,6 +654,11 @@ pub fn run_counted<S: Sampler>(
             next = chunks;
         }
         while next < chunks {
+            let Some(sampler) = sampler else {
+                return Err(Error::Invalid(
+                    "the sampling test on the CPU's threads needs the sampler's f64 twin".into(),
+                ));
+            };
             if let Some(c) = cancel {
                 c.check()?;
             }
@@ -612,8 +688,8 @@ pub fn run_counted<S: Sampler>(
             c.check()?;
         }
         let t1 = Instant::now();
-        let pdf = |wi: DVec3| sampler.pdf(wi, wo);
-        let mut ints = cells.integrate(&pdf, options.samples);
+        let mut pdf = |wi: &[DVec3]| density(wo, wi);
+        let mut ints = cells.integrate_density(&mut pdf, options.samples)?;
         // Cells holding far more draws than expected are integrated again, finer: a lobe can
         // pass between one rectangle's nodes unseen.
         let n = options.samples as f64;
@@ -624,7 +700,7 @@ pub fn run_counted<S: Sampler>(
             })
             .collect();
         if !suspects.is_empty() {
-            cells.refine(&pdf, options.samples, &mut ints, &suspects);
+            cells.refine_density(&mut pdf, options.samples, &mut ints, &suspects)?;
         }
         let integration_seconds = t1.elapsed().as_secs_f64();
         results.push(judge(
@@ -641,6 +717,7 @@ pub fn run_counted<S: Sampler>(
     Ok(Report {
         options: options.clone(),
         backend: counting.name(),
+        density: density_name,
         tests,
         corrected_significance: corrected,
         passed: results.iter().all(|r| r.passed),

@@ -2,7 +2,7 @@
 //! (docs/design.md §13) judged by [`run`](super::run).
 
 use super::{Counting, Drawn, Options, Report, Sampler};
-use crate::backend::{Backend, Query};
+use crate::backend::{Backend, Precision, Query};
 use crate::error::Result;
 use crate::interrupt::CancelToken;
 use crate::model::{ParamSet, Reference};
@@ -32,7 +32,8 @@ impl Sampler for Reference {
 /// `white_furnace`): drawn and counted on `backend` where it draws on a device
 /// ([`Counting::on`]), else drawn and checked in f64 on the CPU; the expected counts are the
 /// integrals of the f64 reference's pdf either way. A model without an f64 reference (a `.brdf`
-/// shader) is refused with a sentence.
+/// shader) is drawn and counted on the device and its expected counts integrate the density its
+/// kernels evaluate ([`super::run_on_device`]); on the CPU it is refused with a sentence.
 pub fn test_model(
     params: &ParamSet,
     white_furnace: bool,
@@ -41,9 +42,14 @@ pub fn test_model(
     cancel: Option<&CancelToken>,
     progress: impl FnMut(u64, u64),
 ) -> Result<Report> {
-    params.model().require_reference("the sampling test")?;
-    let reference = Reference::new(params, white_furnace);
     let query = Query::one(params).with_white_furnace(white_furnace);
+    if !params.model().has_reference() && backend.precision() == Precision::F32 {
+        return super::run_on_device(backend, query, options, cancel, progress);
+    }
+    params
+        .model()
+        .require_reference("the sampling test on the CPU")?;
+    let reference = Reference::new(params, white_furnace);
     super::run_counted(
         &reference,
         Counting::on(backend, query),

@@ -207,8 +207,8 @@ fn write_text(out: &mut dyn Write, params: &lobe::ParamSet, r: &Report) -> std::
         .fold(0.0, f64::max);
     writeln!(
         out,
-        "expected counts accurate to {accuracy:.1e} of their noise (largest over cells); {:.1} s",
-        r.seconds
+        "expected counts accurate to {accuracy:.1e} of their noise (largest over cells), the pdf from {} integrated in f64; {:.1} s",
+        r.density, r.seconds
     )?;
     writeln!(
         out,

@@ -108,6 +108,26 @@ impl Backend for Gpu {
             .collect())
     }
 
+    fn pdf(&self, query: Query, wo: DVec3, wi: &[DVec3]) -> Result<Vec<f64>> {
+        let Some(params) = query.sets.first() else {
+            return Ok(Vec::new());
+        };
+        let model = params.model();
+        let wo32 = [wo.x as f32, wo.y as f32, wo.z as f32];
+        let gp: Vec<GpuPair> = wi
+            .iter()
+            .map(|w| GpuPair {
+                wi: [w.x as f32, w.y as f32, w.z as f32],
+                param_index: 0,
+                wo: wo32,
+                pad: 0,
+            })
+            .collect();
+        let block = blocks(&query.sets[..1]);
+        let out = self.pdf_pairs(model, &block, &gp, query.white_furnace)?;
+        Ok(out.into_iter().map(f64::from).collect())
+    }
+
     fn draws(
         &self,
         query: Query,

@@ -41,6 +41,17 @@ pub const CHUNK_TIMEOUT: Duration = Duration::from_secs(300);
 /// lavapipe's 128 MiB binding limit and to keep memory bounded.
 pub const CHUNK_OUTPUT_BYTES: u64 = 48 << 20;
 
+/// What the pairs kernel stores at each pair (the chunk's third push-constant word): twin of
+/// `PAIRS_F` and `PAIRS_DENSITY` in `glsl/kernels/pairs.comp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+enum PairsOutput {
+    /// f, three channels.
+    F = 0,
+    /// The model's sampling density, in the first channel.
+    Density = 1,
+}
+
 /// One direction pair for the pairs kernel; the std430 twin of `Pair` in `glsl/kernels/pairs.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -219,6 +230,30 @@ impl Gpu {
         pairs: &[GpuPair],
         white_furnace: bool,
     ) -> Result<Vec<[f32; 3]>> {
+        self.pairs_kernel(model, blocks, pairs, white_furnace, PairsOutput::F)
+    }
+
+    /// The model's sampling density (the kernels' `pdf_at`, twin of `Reference::pdf`) at
+    /// explicit pairs, as [`Gpu::eval_pairs`] takes them.
+    pub fn pdf_pairs(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        pairs: &[GpuPair],
+        white_furnace: bool,
+    ) -> Result<Vec<f32>> {
+        let out = self.pairs_kernel(model, blocks, pairs, white_furnace, PairsOutput::Density)?;
+        Ok(out.into_iter().map(|v| v[0]).collect())
+    }
+
+    fn pairs_kernel(
+        &self,
+        model: Model,
+        blocks: &[Vec<u8>],
+        pairs: &[GpuPair],
+        white_furnace: bool,
+        output: PairsOutput,
+    ) -> Result<Vec<[f32; 3]>> {
         let pipe = self.pipeline(Kernel::Pairs, model, white_furnace, false)?;
         let params: Vec<u8> = blocks.concat();
         let chunk = (self.max_chunk(&pipe, std::mem::size_of::<GpuPair>() as u64) as usize)
@@ -238,7 +273,7 @@ impl Gpu {
             let push = ChunkPush {
                 first: (k * chunk) as u32,
                 count: part.len() as u32,
-                n_wo: 0,
+                n_wo: output as u32,
                 n_wi: 0,
             };
             dispatcher.run_one(&push)?;
