@@ -43,10 +43,13 @@ bool finite3(vec3 v) {
 }
 
 // A draw of a sampler lobe did not write (a .brdf file's sampleL and pdfL): as sample_from_draw,
-// except that a wi or pdf that is NaN or infinite, or a negative pdf, stays as drawn with weight
-// 0, so that the sampling test counts the draw as invalid and names it rather than losing it.
+// except that a wi that is NaN or infinite, or one above the horizon whose pdf is NaN, infinite
+// or negative, stays as drawn with weight 0, so that the sampling test counts the draw as
+// invalid and names it rather than losing it. Below the horizon the draw is lost whatever the
+// pdf says (as pdf_at, lobe asks no density there).
 Sample sample_from_user_draw(vec3 wi, float pdf, vec3 f) {
-    if (!finite3(wi) || !finite1(pdf) || pdf < 0.0) return Sample(wi, pdf, vec3(0.0), 0u);
+    bool bad_pdf = wi.z > 0.0 && (!finite1(pdf) || pdf < 0.0);
+    if (!finite3(wi) || bad_pdf) return Sample(wi, pdf, vec3(0.0), 0u);
     return sample_from_draw(wi, pdf, f);
 }
 

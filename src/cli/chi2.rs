@@ -87,6 +87,13 @@ pub fn run(a: Chi2Args) -> Result<()> {
         std::process::exit(2);
     }
     let params = a.model.params()?;
+    // A shader's sampler exists only in its kernels: on the CPU there is nothing to draw.
+    if a.backend.backend == super::BackendArg::Cpu {
+        if let Err(e) = params.model().require_reference("the sampling test on the CPU") {
+            eprintln!("lobe: error: {e}");
+            std::process::exit(2);
+        }
+    }
     let options = Options {
         directions: a.theta_o_deg.iter().map(|&t| [t, a.phi_o_deg]).collect(),
         samples: a.samples,
