@@ -185,3 +185,53 @@ fn the_directional_job_reports_the_variance_per_draw() {
     let v = e[0].variance_per_sample.expect("a variance");
     assert!(v.max_element() < 1e-20, "{v}");
 }
+
+/// `lobe albedo --format csv` gives a Monte Carlo method's variance per draw in its last three
+/// columns, and leaves them empty for a rule. Closed forms for a Lambert lobe of albedo ρ: drawn
+/// by the cosine every weight is ρ (variance 0, to rounding); drawn uniformly over the
+/// hemisphere the weight is 2ρμ with μ uniform on [0, 1], variance ρ² (4/3 − 1) = ρ²/3.
+#[test]
+fn albedo_csv_carries_the_variance_per_draw() {
+    let rho = 0.5;
+    let csv = |method: &str| {
+        let (code, out, err) = common::lobe_run(&[
+            "albedo",
+            "--backend",
+            "cpu",
+            "--model",
+            "lambert",
+            "--set",
+            "albedo=0.5",
+            "--method",
+            method,
+            "--samples",
+            "65536",
+            "--mu",
+            "0.5",
+            "--format",
+            "csv",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let rows: Vec<Vec<String>> = out
+            .lines()
+            .map(|l| l.split(',').map(str::to_string).collect())
+            .collect();
+        assert_eq!(rows[0][14..], ["variance_r", "variance_g", "variance_b"]);
+        assert!(rows.iter().all(|r| r.len() == 17), "{out}");
+        rows
+    };
+    let cosine = csv("cosine");
+    let v: f64 = cosine[1][14].parse().unwrap();
+    assert!(v.abs() < 1e-20, "cosine-drawn Lambert: variance {v}");
+    let uniform = csv("uniform");
+    let v: f64 = uniform[1][14].parse().unwrap();
+    // The sample variance of 2¹⁶ draws of 2ρμ: its standard error is sqrt((μ4 − σ⁴)/N) with
+    // μ4 = (2ρ)⁴ E[(μ − 1/2)⁴] = (2ρ)⁴/80, σ² = ρ²/3: 3.2e-4 at ρ = 0.5; 5 of them allowed.
+    let want = rho * rho / 3.0;
+    let se = (((2.0 * rho) as f64).powi(4) / 80.0 - want * want) / 65536.0;
+    assert!((v - want).abs() < 5.0 * se.sqrt(), "{v} vs {want}");
+    // The hemispherical row and a rule's rows leave the columns empty.
+    assert!(uniform.last().unwrap()[14..].iter().all(String::is_empty));
+    let gauss = csv("gauss");
+    assert!(gauss[1][14..].iter().all(String::is_empty));
+}

@@ -89,7 +89,10 @@ pub fn run(a: Chi2Args) -> Result<()> {
     let params = a.model.params()?;
     // A shader's sampler exists only in its kernels: on the CPU there is nothing to draw.
     if a.backend.backend == super::BackendArg::Cpu {
-        if let Err(e) = params.model().require_reference("the sampling test on the CPU") {
+        if let Err(e) = params
+            .model()
+            .require_reference("the sampling test on the CPU")
+        {
             eprintln!("lobe: error: {e}");
             std::process::exit(2);
         }

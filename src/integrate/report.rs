@@ -104,13 +104,17 @@ fn rgb(v: DVec3) -> String {
 
 impl AlbedoReport {
     /// The report as CSV: a header, a `directional` row per point (μ, θ and φ in degrees, albedo,
-    /// delta part and error estimate per channel, nodes) and one `hemispherical` row.
+    /// delta part and error estimate per channel, nodes, and for a Monte Carlo method the
+    /// variance per draw per channel, empty otherwise) and one `hemispherical` row.
     pub fn write_csv(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
-        writeln!(out, "kind,mu,theta_deg,phi_deg,albedo_r,albedo_g,albedo_b,delta_r,delta_g,delta_b,error_r,error_g,error_b,samples")?;
+        writeln!(out, "kind,mu,theta_deg,phi_deg,albedo_r,albedo_g,albedo_b,delta_r,delta_g,delta_b,error_r,error_g,error_b,samples,variance_r,variance_g,variance_b")?;
         for p in &self.points {
+            let variance = p
+                .variance_per_sample
+                .map_or_else(|| ",,".to_string(), |v| format!("{},{},{}", v.x, v.y, v.z));
             writeln!(
                 out,
-                "directional,{},{},{},{},{},{},{}",
+                "directional,{},{},{},{},{},{},{},{variance}",
                 p.mu,
                 p.mu.acos().to_degrees(),
                 p.phi.to_degrees(),
@@ -123,7 +127,7 @@ impl AlbedoReport {
         let h = &self.hemispherical;
         writeln!(
             out,
-            "hemispherical,,,,{},{},{},{}",
+            "hemispherical,,,,{},{},{},{},,,",
             rgb(h.albedo),
             rgb(h.delta),
             rgb(h.error),
@@ -156,15 +160,28 @@ impl AlbedoReport {
             backend,
             if white_furnace { ", white furnace" } else { "" }
         )?;
+        // A Monte Carlo method also says how spread its draws' weights are (the largest channel's
+        // variance per draw: what a sampler is judged by).
+        let drawn = self.points.iter().any(|p| p.variance_per_sample.is_some());
         writeln!(
             out,
-            "{:>8} {:>8} {:>8}  {:<38} {:<38} {:>10}",
-            "mu", "theta", "phi", "albedo r,g,b (incl. delta)", "delta r,g,b", "error est"
+            "{:>8} {:>8} {:>8}  {:<38} {:<38} {:>10}{}",
+            "mu",
+            "theta",
+            "phi",
+            "albedo r,g,b (incl. delta)",
+            "delta r,g,b",
+            "error est",
+            if drawn { "   var/draw" } else { "" }
         )?;
         for p in &self.points {
+            let variance = match p.variance_per_sample {
+                Some(v) if drawn => format!(" {:>10.2e}", v.max_element()),
+                _ => String::new(),
+            };
             writeln!(
                 out,
-                "{:>8.4} {:>8.3} {:>8.3}  {:<38} {:<38} {:>10.2e}",
+                "{:>8.4} {:>8.3} {:>8.3}  {:<38} {:<38} {:>10.2e}{variance}",
                 p.mu,
                 p.mu.acos().to_degrees(),
                 p.phi.to_degrees(),
