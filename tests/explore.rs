@@ -1032,6 +1032,48 @@ fn an_opened_map_lights_the_route_as_session_light() {
     assert_eq!(opened["downsampled"], true);
 }
 
+/// The page may open at most `MAX_UPLOADS` maps in one server's life (each stays loaded): the
+/// next is refused with a sentence naming the bound, and the maps opened before it still light
+/// the sphere.
+#[test]
+fn the_page_opens_a_bounded_number_of_maps() {
+    let server = Server::start(&["lambert"]);
+    let headers = [("x-lobe-token", server.token.as_str())];
+    let map = lobe::light::maps::procedural_map(8, 4, |_| lobe::glam::DVec3::ONE).unwrap();
+    let bytes = lobe::light::maps::encode_hdr(&map);
+    let open = |k: usize| {
+        http(
+            &server.addr,
+            "POST",
+            &format!("/api/env?name=m{k}.hdr"),
+            &headers,
+            &bytes,
+        )
+    };
+    for k in 0..lobe::explore::MAX_UPLOADS {
+        let r = open(k);
+        assert_eq!(r.status, 200, "map {k}: {}", r.text());
+    }
+    let r = open(lobe::explore::MAX_UPLOADS);
+    assert_eq!(r.status, 422, "{}", r.text());
+    assert!(
+        r.text()
+            .contains(&format!("at most {}", lobe::explore::MAX_UPLOADS)),
+        "{}",
+        r.text()
+    );
+    for name in [
+        "m0.hdr",
+        &format!("m{}.hdr", lobe::explore::MAX_UPLOADS - 1),
+    ] {
+        let r = server.post(
+            "/api/light",
+            &json!({"model": "lambert", "env": name, "size": 8}),
+        );
+        assert_eq!(r.status, 200, "{name}: {}", r.text());
+    }
+}
+
 #[test]
 fn exits_on_sigterm_leaving_nothing() {
     let mut server = Server::start(&["lambert"]);
