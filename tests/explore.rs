@@ -583,14 +583,26 @@ fn samples_view_equals_lobe_sample_and_session_pdf() {
     }
 }
 
-/// The page's samples view draws the first model's draws and pdf; moving θo asks again, and what
-/// it drew is what the route answers for the request it sent.
+/// The page's samples view has a row per model, in the page's order: moving θo asks again for
+/// each, and each row's draws and pdf are what the route answers for that model's request (the
+/// test's own, so the page asked for the model, ωo, draws and seed it should); a model the server
+/// refuses shows the refusal in its own row, and the other row keeps its draws.
 #[test]
-fn samples_view_in_chromium_shows_draws_and_pdf() {
-    let server = Server::start(&["phong{shininess=20}"]);
+fn samples_view_in_chromium_shows_draws_and_pdf_of_every_model() {
+    /// The page's draws (app.js SAMPLE_DRAWS).
+    const DRAWS: u64 = 2048;
+    /// The page's random stream (app.js SAMPLE_SEED).
+    const SEED: u64 = 0;
+    /// The page's pdf cells across (app.js IMAGE_RES).
+    const RES: u64 = 64;
+    let entries = [
+        ("lambert", json!([])),
+        ("cook_torrance", json!(["roughness=0.1"])),
+    ];
+    let server = Server::start(&["lambert", "cook_torrance{roughness=0.1}"]);
     let mut b = cdp::Browser::launch(1400, 1400);
     b.navigate(&server.url);
-    let shown = "!!(window.lobeExplore && window.lobeExplore.samples && document.querySelectorAll('#samples canvas').length >= 2)";
+    let shown = "!!(window.lobeExplore && window.lobeExplore.ready && window.lobeExplore.samples && window.lobeExplore.samples.length === 2 && document.querySelectorAll('#samples canvas.draws').length === 2)";
     b.wait_for(shown, PAGE_TIMEOUT);
     assert!(
         b.errors().is_empty(),
@@ -599,14 +611,14 @@ fn samples_view_in_chromium_shows_draws_and_pdf() {
     );
     b.eval("(() => { const s = document.getElementById('theta-o'); s.value = 60; s.dispatchEvent(new Event('input')); })()");
     b.wait_for(
-        "window.lobeExplore.samplesRequest.theta_o_deg === 60",
+        "window.lobeExplore.samplesRequest.every((r) => r.theta_o_deg === 60)",
         PAGE_TIMEOUT,
     );
     let asked = b.eval("window.lobeExplore.samplesRequest");
     let drawn = b.eval("window.lobeExplore.samples");
-    let r = server.post("/api/samples", &asked);
-    assert_eq!(r.status, 200, "{}", r.text());
-    let want: Value = serde_json::from_slice(&r.body).unwrap();
+    let counts = b.eval("window.lobeExplore.samplesShown");
+    let rows = b.eval("[...document.querySelectorAll('#samples > .images')].map((r) => ({ title: r.querySelector('.title').textContent, text: r.textContent, draws: r.querySelectorAll('canvas.draws').length, pdf: r.querySelectorAll('canvas.pdf').length }))");
+    assert_eq!(rows.as_array().unwrap().len(), 2, "{rows}");
     // Both went through JSON (the route's, then the page's): each read within a unit in the last
     // place.
     let flat = |v: &Value| -> Vec<Option<f64>> {
@@ -620,29 +632,84 @@ fn samples_view_in_chromium_shows_draws_and_pdf() {
         walk(v, &mut out);
         out
     };
-    for key in ["wi", "pdf_grid"] {
-        let (got, want) = (flat(&drawn[key]), flat(&want[key]));
-        assert_eq!(got.len(), want.len(), "{key}");
-        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
-            match (g, w) {
-                (Some(g), Some(w)) => assert!(
-                    (g - w).abs() <= JSON_READ_ABS * w.abs().max(1.0),
-                    "{key}[{k}]: page {g}, route {w}"
-                ),
-                _ => assert_eq!(g, w, "{key}[{k}]"),
+    let mut firsts = Vec::new();
+    for (i, (model, sets)) in entries.iter().enumerate() {
+        let request = json!({"model": model, "material": null, "sets": sets, "white_furnace": false,
+            "theta_o_deg": 60, "phi_o_deg": 0, "draws": DRAWS, "seed": SEED, "res": RES});
+        assert_eq!(asked[i], request, "row {i}'s request");
+        let r = server.post("/api/samples", &request);
+        assert_eq!(r.status, 200, "{}", r.text());
+        let want: Value = serde_json::from_slice(&r.body).unwrap();
+        for key in ["wi", "pdf", "pdf_grid"] {
+            let (got, want) = (flat(&drawn[i][key]), flat(&want[key]));
+            assert_eq!(got.len(), want.len(), "row {i} {key}");
+            for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                match (g, w) {
+                    (Some(g), Some(w)) => assert!(
+                        (g - w).abs() <= JSON_READ_ABS * w.abs().max(1.0),
+                        "row {i} {key}[{k}]: page {g}, route {w}"
+                    ),
+                    _ => assert_eq!(g, w, "row {i} {key}[{k}]"),
+                }
             }
         }
+        firsts.push(want["wi"][0].clone());
+        let lost = want["lost"].as_u64().unwrap();
+        let delta = want["delta_count"].as_u64().unwrap();
+        assert_eq!(counts[i].as_u64().unwrap(), DRAWS - lost - delta, "row {i}");
+        let row = &rows[i];
+        let label = match sets.as_array().unwrap().as_slice() {
+            [] => model.to_string(),
+            s => format!("{model}{{{}}}", s[0].as_str().unwrap()),
+        };
+        assert_eq!(row["title"], json!(label), "row {i}");
+        assert_eq!(
+            (row["draws"].as_u64(), row["pdf"].as_u64()),
+            (Some(1), Some(1)),
+            "row {i}"
+        );
+        let text = row["text"].as_str().unwrap();
+        assert!(
+            text.contains(&format!("{DRAWS} draws (seed {SEED})")),
+            "row {i}: {text}"
+        );
     }
-    let n = asked["draws"].as_u64().unwrap();
-    let lost = drawn["lost"].as_u64().unwrap();
-    assert_eq!(
-        b.eval("window.lobeExplore.samplesShown").as_u64().unwrap(),
-        n - lost
+    assert_ne!(
+        firsts[0], firsts[1],
+        "the two rows drew the same directions"
     );
-    let caption = b.eval("document.querySelector('#samples').textContent");
+
+    // The second model refused (a roughness below its range): its row says why, the first keeps
+    // its draws.
+    b.eval("(() => { const s = document.querySelectorAll('#models .card')[1].querySelector('input[type=range][data-key=roughness]'); const box = s.nextElementSibling; box.value = '-1'; box.dispatchEvent(new Event('change')); })()");
+    b.wait_for(
+        "window.lobeExplore.samplesRequest[1].sets.includes('roughness=-1')",
+        PAGE_TIMEOUT,
+    );
+    let refused = server.post(
+        "/api/samples",
+        &b.eval("window.lobeExplore.samplesRequest[1]"),
+    );
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    let errors = b.eval("window.lobeExplore.samplesErrors");
+    assert!(errors[0].is_null(), "{errors}");
+    let error = errors[1].as_str().unwrap();
     assert!(
-        caption.as_str().unwrap().contains(&format!("{n} draws")),
-        "{caption}"
+        error.contains(&refused.text()),
+        "{error} vs {}",
+        refused.text()
+    );
+    assert!(
+        b.eval("window.lobeExplore.samples[0] !== null && window.lobeExplore.samples[1] === null")
+            == json!(true)
+    );
+    let rows = b.eval("[...document.querySelectorAll('#samples > .images')].map((r) => ({ text: r.textContent, draws: r.querySelectorAll('canvas.draws').length }))");
+    assert_eq!(rows.as_array().unwrap().len(), 2, "{rows}");
+    assert_eq!(rows[0]["draws"], json!(1), "{rows}");
+    assert_eq!(rows[1]["draws"], json!(0), "{rows}");
+    assert!(
+        rows[1]["text"].as_str().unwrap().contains(&refused.text()),
+        "{rows}"
     );
 }
 

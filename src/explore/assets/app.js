@@ -463,23 +463,27 @@ function scheduleSamples() {
   samplesTimer = setTimeout(refreshSamples, ALBEDO_DELAY_MS);
 }
 
-// The first model's draws and pdf for (θo, φo); a newer state drops the request under way.
+// Every model's draws and pdf for (θo, φo), one request per model; a newer state drops the
+// requests under way. A model the server refuses shows the refusal in its own panel, beside the
+// others' draws.
 async function refreshSamples() {
   if (samplesAbort) samplesAbort.abort();
   const abort = samplesAbort = new AbortController();
   if (!state.m.length) return;
-  try {
-    const { model, material, sets, white_furnace } = request(state.m[0], 0);
-    const asked = { model, material, sets, white_furnace, theta_o_deg: state.to, phi_o_deg: state.po,
+  const labels = state.m.map(spec);
+  const asked = state.m.map((e) => {
+    const { model, material, sets, white_furnace } = request(e, 0);
+    return { model, material, sets, white_furnace, theta_o_deg: state.to, phi_o_deg: state.po,
       draws: SAMPLE_DRAWS, seed: SAMPLE_SEED, res: IMAGE_RES };
-    const answer = await (await call('/api/samples', asked, abort.signal)).json();
-    if (abort.signal.aborted) return;
-    probe.samples = answer;
-    probe.samplesRequest = asked;
-    drawSamples(answer);
-  } catch (e) {
-    if (e.name !== 'AbortError') showError(e.message);
-  }
+  });
+  const settled = await Promise.all(asked.map((r) => call('/api/samples', r, abort.signal)
+    .then((a) => a.json())
+    .then((answer) => ({ answer, error: null }), (e) => ({ answer: null, error: e }))));
+  if (abort.signal.aborted) return;
+  probe.samples = settled.map((s) => s.answer);
+  probe.samplesErrors = settled.map((s) => (s.error ? s.error.message : null));
+  probe.samplesRequest = asked;
+  drawSamples(settled, labels);
 }
 
 // ---- drawing ---------------------------------------------------------------------------------

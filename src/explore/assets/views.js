@@ -182,16 +182,44 @@ function drawAlbedo(answers) {
   $('albedo-readout').tBodies[0].replaceChildren(...rows);
 }
 
-// The samples view: the pdf's cells as a log heat map (null: outside the disc), and the draws
-// above the horizon as dots on the same equal-area disc (radius √2 sin(θ/2), +x right, +y up).
-function drawSamples(a) {
+// The samples view, one row per model in the page's order, titled as the image views' rows: the
+// pdf's cells as a log heat map (null: outside the disc), and the draws above the horizon as dots
+// on the same equal-area disc (radius √2 sin(θ/2), +x right, +y up); a refused model's row
+// shows the refusal instead.
+function drawSamples(settled, labels) {
+  probe.samplesShown = [];
+  const rows = settled.map(({ answer, error }, i) => {
+    const row = document.createElement('div');
+    row.className = 'images';
+    const title = document.createElement('div');
+    title.className = 'title';
+    title.textContent = labels[i];
+    title.style.color = COLOURS[i % COLOURS.length];
+    row.append(title);
+    if (error) {
+      probe.samplesShown.push(null);
+      row.append(Object.assign(document.createElement('div'), { className: 'note error', textContent: error.message }));
+    } else {
+      const [heat, dots] = samplesPanels(answer);
+      probe.samplesShown.push(dots.shown);
+      row.append(heat, dots.div);
+    }
+    return row;
+  });
+  $('samples').replaceChildren(...rows);
+}
+
+// One model's heat map of its pdf and its draws' panel, with how many draws it shows.
+function samplesPanels(a) {
   const res = a.res;
   const f = new Float32Array(3 * res * res);
   a.pdf_grid.forEach((v, k) => f.fill(v === null ? NaN : v, 3 * k, 3 * k + 3));
   const peak = peakOf(f);
-  const heat = panel(logImage(f, peak), 'pdf over ωi', ...logBar(peak).map((b) => (typeof b === 'string' ? b.replace('1/sr', '1/sr (pdf)') : b)));
+  const pdf = logImage(f, peak);
+  pdf.classList.add('pdf');
+  const heat = panel(pdf, 'pdf over ωi', ...logBar(peak).map((b) => (typeof b === 'string' ? b.replace('1/sr', '1/sr (pdf)') : b)));
   const size = 300;
-  const dots = Object.assign(document.createElement('canvas'), { width: size, height: size });
+  const dots = Object.assign(document.createElement('canvas'), { width: size, height: size, className: 'draws' });
   dots.style.width = dots.style.height = '150px';
   const g = dots.getContext('2d');
   g.fillStyle = '#111';
@@ -206,9 +234,8 @@ function drawSamples(a) {
     g.fillRect((x + 1) / 2 * size - 1, (1 - y) / 2 * size - 1, 2, 2);
     shown += 1;
   });
-  probe.samplesShown = shown;
   const caption = `${a.wi.length} draws (seed ${a.seed}): ${shown} shown, ${a.delta_count} delta (mirror spike), ${a.lost} lost`;
-  $('samples').replaceChildren(heat, panel(dots, caption));
+  return [heat, { div: panel(dots, caption), shown }];
 }
 
 // The lit sphere under an environment map (POST /api/light): linear radiance in the map's units
