@@ -190,6 +190,13 @@ pub fn draw(
 /// no density and are not included. Directions must be finite unit vectors.
 pub fn pdf(params: &ParamSet, white_furnace: bool, pairs: &[(DVec3, DVec3)]) -> Result<Vec<f64>> {
     use rayon::prelude::*;
+    check_pairs(pairs)?;
+    let r = Reference::new(params, white_furnace);
+    Ok(pairs.par_iter().map(|(wi, wo)| r.pdf(*wi, *wo)).collect())
+}
+
+/// Refuses more than [`MAX_PAIRS`] pairs, or a direction that is not a unit vector, naming it.
+pub fn check_pairs(pairs: &[(DVec3, DVec3)]) -> Result<()> {
     if pairs.len() > MAX_PAIRS {
         bail!(BadInput::new(
             "wi",
@@ -214,8 +221,7 @@ pub fn pdf(params: &ParamSet, white_furnace: bool, pairs: &[(DVec3, DVec3)]) -> 
             }
         }
     }
-    let r = Reference::new(params, white_furnace);
-    Ok(pairs.par_iter().map(|(wi, wo)| r.pdf(*wi, *wo)).collect())
+    Ok(())
 }
 
 /// Where [`crate::Session::write_samples`] puts the draws of `-o PATH.npy`: the array and,

@@ -178,3 +178,42 @@ fn a_shader_without_a_sampler_is_drawn_by_the_cosine() {
         );
     }
 }
+
+/// `Session::pdf` of a shader's model is its `pdfL` as the kernels evaluate it: at each drawn
+/// ωi it equals the draw's own density (the same f32 function of the same f32 directions, in
+/// another kernel), and it matches the f64 formula within [`PDF_REL`]; a CPU session, which has
+/// no twin of the shader, refuses it naming the file.
+#[test]
+fn session_pdf_of_a_shader_is_its_pdfl() {
+    let (_d, path) = file_with("phong.brdf", PHONG);
+    let model = brdf::load(&path, &LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .model;
+    let p = ParamSet::defaults(model);
+    let refused = lobe::Session::cpu()
+        .pdf(&p, &[(DVec3::Z, DVec3::Z)])
+        .expect_err("a CPU session evaluated a shader's pdfL")
+        .to_string();
+    assert!(refused.contains("phong.brdf"), "{refused}");
+    let Some(session) = common::gpu_session("brdf pdf") else {
+        return;
+    };
+    let (t, ph) = (35f64.to_radians(), 20f64.to_radians());
+    let wo = DVec3::new(t.sin() * ph.cos(), t.sin() * ph.sin(), t.cos());
+    let wo = DVec3::new(wo.x as f32 as f64, wo.y as f32 as f64, wo.z as f32 as f64);
+    let draws = session.sample(&p, wo, DRAWS, 3).expect("draws");
+    let pairs: Vec<(DVec3, DVec3)> = (0..draws.len())
+        .filter(|&k| draws.pdf[k] > 0.0)
+        .map(|k| (DVec3::from_array(draws.wi[k]).normalize(), wo))
+        .collect();
+    let pdf = session.pdf(&p, &pairs).expect("pdf");
+    let kept: Vec<f64> = draws.pdf.iter().copied().filter(|&v| v > 0.0).collect();
+    assert_eq!(pdf.len(), kept.len());
+    for (k, ((wi, _), (got, drawn))) in pairs.iter().zip(pdf.iter().zip(&kept)).enumerate() {
+        let want = phong_pdf(*wi, wo, 20.0);
+        assert!(
+            (got - drawn).abs() <= PDF_REL * drawn && (got - want).abs() <= PDF_REL * want,
+            "pair {k}: Session::pdf {got}, the draw's {drawn}, the formula's {want}"
+        );
+    }
+}

@@ -519,9 +519,10 @@ fn gpu_density_equals_cpu_density_for_every_model() {
                     // A direction within f32 rounding of the horizon may land on either side.
                     .filter(|w| w.z.abs() > WI_TOL)
                     .collect();
-                let cpu = CpuBackend.pdf(query, wo, &wi).unwrap();
+                let pairs: Vec<(DVec3, DVec3)> = wi.iter().map(|&w| (w, wo)).collect();
+                let cpu = CpuBackend.pdf(query, &pairs).unwrap();
                 let gpu_pdf = gpu
-                    .pdf(query, wo, &wi)
+                    .pdf(query, &pairs)
                     .unwrap_or_else(|e| panic!("{name}: gpu pdf: {e:#}"));
                 assert_eq!(gpu_pdf.len(), wi.len(), "{name}");
                 for ((w, c), g) in wi.iter().zip(&cpu).zip(&gpu_pdf) {

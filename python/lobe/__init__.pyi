@@ -306,7 +306,9 @@ class Session:
         ``seed``. Drawn and counted on this session's backend (``"backend"`` in the report
         names it): on "gpu" by the counting kernel with every draw checked in f32 there, on
         "cpu" through the f64 reference; the expected counts are the f64 reference pdf's
-        integrals over the cells either way."""
+        integrals over the cells either way. A ``.brdf`` file's own ``sampleL`` and ``pdfL``
+        are tested on "gpu" only, the expected counts integrating ``pdfL`` as the device
+        evaluates it (``"density"`` in the report names where)."""
 
     def sample(self, model: ModelSpec, wo: npt.ArrayLike, n: int, params: Optional[Params] = None,
                material: Optional[str] = None, seed: int = 0,
@@ -323,8 +325,10 @@ class Session:
         """The density of the model's sampler at each (wi, wo) pair over the solid angle of wi,
         in 1/sr: ``wi`` of shape (N, 3), ``wo`` of shape (3,) or (N, 3) (any shapes that
         broadcast; the result has their shape without the last axis). The f64 reference's pdf
-        on every backend; 0 where a direction is at or below the horizon; delta lobes have no
-        density. At a drawn wi it is the draw's own ``pdf`` (to f32 rounding on the GPU)."""
+        on every backend (a ``.brdf`` file's ``pdfL``, which has no f64 twin, as a "gpu"
+        session's kernels evaluate it); 0 where a direction is at or below the horizon; delta
+        lobes have no density. At a drawn wi it is the draw's own ``pdf`` (to f32 rounding on
+        the GPU)."""
 
     def fit(self, target: ModelSpec, model: ModelSpec, free: Union[str, Sequence[str]],
             params: Optional[Params] = None, target_params: Optional[Params] = None,

@@ -53,7 +53,7 @@ impl Backend for CpuBackend {
         Ok(model.require_reference("the CPU backend")?)
     }
 
-    fn pdf(&self, query: Query, wo: DVec3, wi: &[DVec3]) -> Result<Vec<f64>> {
+    fn pdf(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<f64>> {
         let refs = self.references(&Query {
             sets: &query.sets[..query.sets.len().min(1)],
             ..query
@@ -61,7 +61,7 @@ impl Backend for CpuBackend {
         let Some(r) = refs.first() else {
             return Ok(Vec::new());
         };
-        Ok(wi.par_iter().map(|&w| r.pdf(w, wo)).collect())
+        Ok(pairs.par_iter().map(|&(wi, wo)| r.pdf(wi, wo)).collect())
     }
 
     fn draws(

@@ -303,10 +303,10 @@ pub trait Backend: Send + Sync {
     ) -> Result<Vec<DrawRecord>>;
 
     /// The sampler's density over the solid angle of ωi, pdf(ωi, ωo), of the query's first set
-    /// at each of `wi` for one `wo`, in the backend's precision: `Reference::pdf` in f64, or the
+    /// at each (ωi, ωo) pair, in the backend's precision: `Reference::pdf` in f64, or the
     /// kernels' `pdf_at` in f32 (a `.brdf` file's `pdfL` where it has one). 0 where either
     /// direction is at or below the horizon.
-    fn pdf(&self, query: Query, wo: DVec3, wi: &[DVec3]) -> Result<Vec<f64>>;
+    fn pdf(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<f64>>;
 
     /// The draws `range` of the sampler of the query's first set for `wo`, counted where they
     /// are drawn in `n_phi` × `n_cos` cells of equal solid angle over (φ, cosθ) (the sampling

@@ -284,9 +284,9 @@ fn pointwise<F: Fn(DVec3) -> f64 + Sync>(pdf: &F) -> impl FnMut(&[DVec3]) -> Res
 /// Nodes of one rectangle's 15 × 15 product rule.
 const RECT_NODES: usize = 225;
 
-/// Rectangles whose nodes go to the density in one call: 2¹² × 225 directions (22 MB), few
+/// Rectangles whose nodes go to the density in one call: 2¹¹ × 225 directions (11 MB), few
 /// calls a round for a device and parts large enough for the CPU's threads.
-const EVALUATE_RECTS: usize = 1 << 12;
+const EVALUATE_RECTS: usize = 1 << 11;
 
 /// The rectangles `pending` integrated from the density at their nodes.
 fn evaluate(pdf: &mut Density<'_>, pending: &[(usize, [f64; 2], [f64; 2])]) -> Result<Vec<Rect>> {

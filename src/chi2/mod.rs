@@ -225,7 +225,8 @@ pub fn run_on_device(
         if let Some(c) = cancel {
             c.check()?;
         }
-        backend.pdf(query, wo, wi).lobe()
+        let pairs: Vec<(DVec3, DVec3)> = wi.iter().map(|&w| (w, wo)).collect();
+        backend.pdf(query, &pairs).lobe()
     };
     let expected = Expected {
         density: &mut density,

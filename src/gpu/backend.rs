@@ -108,18 +108,17 @@ impl Backend for Gpu {
             .collect())
     }
 
-    fn pdf(&self, query: Query, wo: DVec3, wi: &[DVec3]) -> Result<Vec<f64>> {
+    fn pdf(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<f64>> {
         let Some(params) = query.sets.first() else {
             return Ok(Vec::new());
         };
         let model = params.model();
-        let wo32 = [wo.x as f32, wo.y as f32, wo.z as f32];
-        let gp: Vec<GpuPair> = wi
+        let gp: Vec<GpuPair> = pairs
             .iter()
-            .map(|w| GpuPair {
-                wi: [w.x as f32, w.y as f32, w.z as f32],
+            .map(|(wi, wo)| GpuPair {
+                wi: [wi.x as f32, wi.y as f32, wi.z as f32],
                 param_index: 0,
-                wo: wo32,
+                wo: [wo.x as f32, wo.y as f32, wo.z as f32],
                 pad: 0,
             })
             .collect();

@@ -106,8 +106,11 @@ impl Session {
 
     /// The density of the query's sampler at each (ωi, ωo) pair, over the solid angle of ωi:
     /// the f64 reference's `pdf` whatever this session's backend ([`samples::pdf`]; a draw's
-    /// own pdf on the GPU is the f32 twin of the same formula). 0 where a direction is at or
-    /// below the horizon; delta lobes have no density. Directions must be unit vectors.
+    /// own pdf on the GPU is the f32 twin of the same formula). A model without an f64
+    /// reference (a `.brdf` file, whose `pdfL` exists only in its kernels) has its density
+    /// evaluated by a GPU session's kernels in f32, and is refused by a CPU session. 0 where a
+    /// direction is at or below the horizon; delta lobes have no density. Directions must be
+    /// unit vectors.
     ///
     /// ```
     /// use lobe::glam::DVec3;
@@ -124,6 +127,10 @@ impl Session {
         pairs: &[(DVec3, DVec3)],
     ) -> Result<Vec<f64>> {
         let query = query.into();
-        samples::pdf(query.params(), query.white_furnace, pairs).lobe()
+        if query.params().model().has_reference() {
+            return samples::pdf(query.params(), query.white_furnace, pairs).lobe();
+        }
+        samples::check_pairs(pairs).lobe()?;
+        self.evaluator().backend().pdf(query, pairs).lobe()
     }
 }
