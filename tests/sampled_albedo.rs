@@ -490,3 +490,34 @@ fn bad_seeds_are_refused_naming_seed() {
         assert!(out.is_empty(), "{method}: {out}");
     }
 }
+
+/// An albedo LUT by a Monte Carlo method draws every entry from the spec's seed: each entry is
+/// the directional albedo of its row's parameters with the same seed, and another seed changes
+/// the table.
+#[test]
+fn a_lut_draws_its_entries_from_its_seed() {
+    let cpu = Evaluator::cpu();
+    let table = |seed: u32| {
+        let mut spec = lobe::lut::LutSpec::new(params("oren_nayar", &[]));
+        (spec.n_mu, spec.n_p, spec.with_avg) = (3, 2, false);
+        (spec.method, spec.samples, spec.seed) = (Method::Uniform, DOOR_DRAWS, seed);
+        let lut = lobe::lut::compute(&cpu, &spec, &mut |_, _| {}).expect("lut");
+        (spec, lut)
+    };
+    let (spec, lut) = table(DOOR_SEED);
+    let points: Vec<(f64, f64)> = lut.mus.iter().map(|&m| (m, 0.0)).collect();
+    for (k, &p) in lut.ps.iter().enumerate() {
+        let at = spec.params_at(p).expect("in range");
+        let direct = directional(
+            &cpu,
+            &at,
+            &door_settings(Method::Uniform, DOOR_SEED),
+            &points,
+        )
+        .expect("albedo");
+        for (j, d) in direct.iter().enumerate() {
+            assert_eq!(lut.e[k * spec.n_mu + j], d.albedo, "p = {p}, mu = {}", d.mu);
+        }
+    }
+    assert_ne!(table(DEFAULT_SEED).1.e, lut.e);
+}
