@@ -97,6 +97,7 @@ pub fn evaluate(
     let s = Settings {
         method,
         samples,
+        seed: crate::integrate::DEFAULT_SEED,
         white_furnace: query.white_furnace,
     };
     let pts = mu_points();
@@ -296,6 +297,7 @@ pub fn report_series_each(
         let s = Settings {
             method,
             samples,
+            seed: crate::integrate::DEFAULT_SEED,
             white_furnace: wf,
         };
         let params: Vec<ParamSet> = group.iter().map(|c| c.3.clone()).collect();

@@ -72,6 +72,8 @@ pub struct LutSpec {
     pub method: Method,
     /// Nodes per view direction (ignored by the reference).
     pub samples: usize,
+    /// The Monte Carlo methods' stream ([`Settings::seed`]; the rules ignore it).
+    pub seed: u32,
     /// View azimuth φo in radians (matters for anisotropic models only).
     pub phi: f64,
     /// Whether to compute E_avg(p) too (150 more view directions a row); without it
@@ -120,6 +122,7 @@ impl LutSpec {
             n_p: 32,
             method: Method::Peak,
             samples: Method::Peak.default_samples(),
+            seed: crate::integrate::DEFAULT_SEED,
             phi: 0.0,
             with_avg: true,
             max_error: None,
@@ -358,6 +361,7 @@ impl LutSummary {
             "res": [spec.n_mu, spec.n_p],
             "method": spec.method.name(),
             "samples": spec.samples,
+            "seed": spec.method.sampler().map(|_| spec.seed),
             "e_range": [e_lo, e_hi],
             "e_avg_range": [a_lo, a_hi],
             "max_error_estimate": self.max_error,
@@ -421,6 +425,7 @@ pub fn compute(
     let settings = Settings {
         method: spec.method,
         samples: spec.samples,
+        seed: spec.seed,
         white_furnace: spec.white_furnace,
     };
     let points: Vec<(f64, f64)> = mus.iter().map(|&m| (m, spec.phi)).collect();

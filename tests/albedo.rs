@@ -144,6 +144,7 @@ fn coupled_albedo_is_the_spike_plus_the_matte_closed_form() {
         let s = Settings {
             method: Method::Reference,
             samples: 0,
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: false,
         };
         let pts: Vec<(f64, f64)> = MUS.iter().map(|&mu| (mu, 0.3)).collect();
@@ -246,6 +247,7 @@ fn schlick_hemispherical_average_and_the_smooth_layered_spike() {
             let s = Settings {
                 method,
                 samples: method.default_samples(),
+                seed: lobe::integrate::DEFAULT_SEED,
                 white_furnace: false,
             };
             let h = hemispherical(&Evaluator::cpu(), &p, &s, 0.0).expect("cpu");
@@ -276,6 +278,7 @@ fn lambert_hemispherical_albedo_is_rho_and_equals_e_avg() {
         let s = Settings {
             method,
             samples: method.default_samples(),
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: false,
         };
         let h = hemispherical(&Evaluator::cpu(), &p, &s, 0.0).expect("cpu");
@@ -567,6 +570,7 @@ fn the_reference_runs_on_the_cpu_whatever_the_backend() {
     let s = Settings {
         method: Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let on_gpu = directional(&Evaluator::gpu(&gpu), &p, &s, &[(0.5, 0.0)]).expect("gpu");

@@ -23,6 +23,7 @@ fn settings() -> Settings {
     Settings {
         method: Method::Peak,
         samples: 4096,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: true,
     }
 }

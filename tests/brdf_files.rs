@@ -108,6 +108,7 @@ fn gauss(samples: usize) -> AlbedoSettings {
     AlbedoSettings {
         method: Method::Gauss,
         samples,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     }
 }
@@ -250,6 +251,7 @@ fn the_ggx_files_albedo_meets_the_target_against_the_built_in_reference() {
     let reference = AlbedoSettings {
         method: Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let want = Session::cpu()
@@ -259,6 +261,7 @@ fn the_ggx_files_albedo_meets_the_target_against_the_built_in_reference() {
     let peak = AlbedoSettings {
         method: Method::Peak,
         samples: 65536,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let got = lobe::integrate::directional(&Evaluator::gpu(&gpu), &file, &peak, &mus)
@@ -319,6 +322,7 @@ fn the_shipped_coated_plastic_file_is_reciprocal_and_conserves_energy() {
     let peak = AlbedoSettings {
         method: Method::Peak,
         samples: 16384,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let albedo =

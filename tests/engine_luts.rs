@@ -71,6 +71,7 @@ fn dfg_channels_add_up_to_the_white_furnace_albedo_of_the_reference() {
     let reference = Settings {
         method: Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: true,
     };
     let fresnel_part = Settings {
@@ -114,6 +115,7 @@ fn kulla_conty_table_is_the_white_furnace_albedo_of_microfacet() {
     let s = Settings {
         method: Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: true,
     };
     for k in 0..2 {
@@ -337,6 +339,7 @@ fn estimates_bound_the_f32_rounding(gpu: &Gpu) {
     let s = Settings {
         method: Method::Peak,
         samples: 1 << 14,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: true,
     };
     let pts: Vec<(f64, f64)> = [1.0, 0.5, 0.1, 0.05, 0.02, 1.0 / 64.0]

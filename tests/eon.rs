@@ -66,6 +66,7 @@ fn reference_e(p: &ParamSet, mus: &[f64]) -> Vec<(DVec3, DVec3)> {
     let s = Settings {
         method: Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let points: Vec<(f64, f64)> = mus.iter().map(|&mu| (mu, 0.3)).collect();

@@ -53,6 +53,7 @@ fn lut_entries_are_the_directional_albedo_at_the_same_mu_and_p() {
         let settings = Settings {
             method: spec.method,
             samples: spec.samples,
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: false,
         };
         for (k, &p) in lut.ps.iter().enumerate() {

@@ -376,6 +376,7 @@ fn a_constant_file_gives_its_albedo_on_both_backends() {
     let s = lobe::AlbedoSettings {
         method: lobe::integrate::Method::Gauss,
         samples: 4096,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     for how in ["nearest", "trilinear"] {

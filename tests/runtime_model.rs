@@ -92,6 +92,7 @@ fn a_model_without_reference_runs_on_the_gpu_and_refuses_the_cpu() {
     let s = AlbedoSettings {
         method: lobe::integrate::Method::Gauss,
         samples: 4096,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let e = lobe::integrate::directional(&Evaluator::gpu(&gpu), &p, &s, &[(0.5, 0.0)])
@@ -122,6 +123,7 @@ fn a_model_with_reference_runs_on_both_backends() {
     let s = AlbedoSettings {
         method: lobe::integrate::Method::Reference,
         samples: 0,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let e = cpu

@@ -1,6 +1,7 @@
 //! The Monte Carlo albedo methods (`uniform`, `cosine`, `sampled`): their estimates against the
 //! adaptive reference within their own error bounds, over several seeds, on both backends; the
-//! model's own sampler against the cosine on a peaked lobe; bad draw counts refused.
+//! model's own sampler against the cosine on a peaked lobe; bad draw counts refused; the seed of
+//! a request through the CLI, a scene file and the library, and bad seeds refused.
 
 mod common;
 
@@ -8,9 +9,9 @@ use glam::DVec3;
 use lobe::gpu::Gpu;
 use lobe::integrate::{
     directional, reference_albedo, sampled_albedo, view_direction, Method, Sampler, Settings,
-    MAX_SAMPLES, REFERENCE_RTOL,
+    DEFAULT_SEED, MAX_SAMPLES, REFERENCE_RTOL,
 };
-use lobe::{resolve_params, Evaluator, ParamSet, Query, Reference};
+use lobe::{resolve_params, Evaluator, ParamSet, Query, Reference, Session};
 
 /// Draws per estimate: 2^14 keeps the test binary quick while the standard error stays well
 /// above the reference's 1e-9-relative error.
@@ -165,6 +166,7 @@ fn too_many_draws_are_refused_naming_samples() {
     let s = Settings {
         method: Method::Sampled,
         samples: MAX_SAMPLES + 1,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let e = directional(&Evaluator::cpu(), &p, &s, &[(0.5, 0.0)]).unwrap_err();
@@ -178,6 +180,7 @@ fn the_directional_job_reports_the_variance_per_draw() {
     let s = Settings {
         method: Method::Sampled,
         samples: DRAWS,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: false,
     };
     let e = directional(&Evaluator::cpu(), &p, &s, &[(0.5, 0.0)]).expect("albedo");
@@ -234,4 +237,287 @@ fn albedo_csv_carries_the_variance_per_draw() {
     assert!(uniform.last().unwrap()[14..].iter().all(String::is_empty));
     let gauss = csv("gauss");
     assert!(gauss[1][14..].iter().all(String::is_empty));
+}
+
+/// Draws per direction of the requests sent through every door: few, so that the hemispherical
+/// albedo each `lobe albedo` run also makes stays quick on the CPU.
+const DOOR_DRAWS: usize = 4096;
+
+/// A seed far from the default, so that a door which dropped it would show.
+const DOOR_SEED: u32 = 4_000_000_123;
+
+/// An RGB triple of a JSON report, as the f64s it was printed from (serde_json prints the
+/// shortest text that reads back to the same f64).
+fn rgb(v: &serde_json::Value) -> [f64; 3] {
+    let c: Vec<f64> = v
+        .as_array()
+        .expect("an RGB array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect();
+    [c[0], c[1], c[2]]
+}
+
+fn door_settings(method: Method, seed: u32) -> Settings {
+    Settings {
+        method,
+        samples: DOOR_DRAWS,
+        seed,
+        white_furnace: false,
+    }
+}
+
+/// One request (Oren–Nayar, whose weights vary from draw to draw, so that every stream gives
+/// another estimate) through `lobe albedo`, a scene's `[[albedos]]` section and
+/// `Session::albedo_report`: the same seed gives the same f64s bit for bit, and the JSON names
+/// the seed.
+#[test]
+fn one_seed_gives_the_same_numbers_through_the_cli_a_scene_and_the_library() {
+    let p = params("oren_nayar", &[]);
+    let session = Session::cpu();
+    for method in [Method::Uniform, Method::Sampled] {
+        let seed_text = DOOR_SEED.to_string();
+        let draws = DOOR_DRAWS.to_string();
+        let cli = common::lobe_json(&[
+            "albedo",
+            "--backend",
+            "cpu",
+            "--model",
+            "oren_nayar",
+            "--method",
+            method.name(),
+            "--samples",
+            &draws,
+            "--seed",
+            &seed_text,
+            "--mu",
+            "0.3,0.8",
+            "--format",
+            "json",
+        ]);
+        assert_eq!(cli["seed"].as_u64(), Some(DOOR_SEED as u64), "{cli}");
+        let lib = session
+            .albedo_report(
+                &p,
+                &door_settings(method, DOOR_SEED),
+                &[(0.3, 0.0), (0.8, 0.0)],
+                0.0,
+            )
+            .expect("library albedo");
+        assert_eq!(lib.seed, Some(DOOR_SEED));
+        for (k, point) in lib.points.iter().enumerate() {
+            assert_eq!(rgb(&cli["points"][k]["albedo"]), point.albedo.to_array());
+            assert_eq!(
+                rgb(&cli["points"][k]["error_estimate"]),
+                point.error.to_array()
+            );
+        }
+        assert_eq!(
+            rgb(&cli["hemispherical"]["albedo"]),
+            lib.hemispherical.albedo.to_array()
+        );
+
+        // A scene's albedo section with the same request, at the scene's view directions.
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[[materials]]\nname = \"m\"\nmodel = \"oren_nayar\"\n[[albedos]]\nmaterial = \"m\"\nmethod = \"{}\"\nsamples = {DOOR_DRAWS}\nseed = {DOOR_SEED}\noutput = \"a.json\"\n",
+                method.name()
+            ),
+        )
+        .unwrap();
+        let (scene, out_dir) = (
+            scene.display().to_string(),
+            dir.path().display().to_string(),
+        );
+        let (code, _, err) =
+            common::lobe_run(&["run", &scene, "--output-dir", &out_dir, "--backend", "cpu"]);
+        assert_eq!(code, 0, "{err}");
+        let text = std::fs::read_to_string(dir.path().join("a.json")).expect("the scene's report");
+        let from_scene: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(from_scene["seed"].as_u64(), Some(DOOR_SEED as u64));
+        let points: Vec<(f64, f64)> = lobe::scene::ALBEDO_MU.iter().map(|&m| (m, 0.0)).collect();
+        let lib = session
+            .albedo_report(&p, &door_settings(method, DOOR_SEED), &points, 0.0)
+            .expect("library albedo");
+        for (k, point) in lib.points.iter().enumerate() {
+            assert_eq!(
+                rgb(&from_scene["points"][k]["albedo"]),
+                point.albedo.to_array()
+            );
+        }
+    }
+}
+
+/// Without --seed the Monte Carlo methods draw from DEFAULT_SEED, and the report says so; a rule
+/// reports no seed.
+#[test]
+fn the_default_seed_is_reported_and_a_rule_reports_none() {
+    let run = |method: &str, seed: Option<&str>| {
+        let mut args = vec![
+            "albedo",
+            "--backend",
+            "cpu",
+            "--model",
+            "oren_nayar",
+            "--method",
+            method,
+            "--samples",
+            "1024",
+            "--mu",
+            "0.5",
+            "--format",
+            "json",
+        ];
+        if let Some(s) = seed {
+            args.extend(["--seed", s]);
+        }
+        common::lobe_json(&args)
+    };
+    let default = run("cosine", None);
+    assert_eq!(default["seed"].as_u64(), Some(DEFAULT_SEED as u64));
+    let explicit = run("cosine", Some(&DEFAULT_SEED.to_string()));
+    assert_eq!(
+        rgb(&default["points"][0]["albedo"]),
+        rgb(&explicit["points"][0]["albedo"])
+    );
+    let other = run("cosine", Some("1"));
+    assert_ne!(
+        rgb(&default["points"][0]["albedo"]),
+        rgb(&other["points"][0]["albedo"])
+    );
+    assert!(run("gauss", None)["seed"].is_null());
+}
+
+/// Two seeds are two independent estimates: different numbers, each within its own bound of the
+/// adaptive reference (the bound as in `check_bounds`: a failure is a wrong bound or a seed that
+/// did not reach the draws, not bad luck). The directional job's draws are `sampled_albedo`'s for
+/// the same seed, bit for bit.
+#[test]
+fn different_seeds_give_different_estimates_each_within_its_bound() {
+    let cpu = Evaluator::cpu();
+    let jobs = [
+        ("oren_nayar", Method::Uniform),
+        ("oren_nayar", Method::Cosine),
+        ("oren_nayar", Method::Sampled),
+        ("ggx 0.05 grazing", Method::Sampled),
+        ("coupled", Method::Sampled),
+    ];
+    for (name, method) in jobs {
+        let (_, p, mu) = cases().into_iter().find(|c| c.0 == name).unwrap();
+        let want = truth(&p, mu);
+        let delta = Reference::new(&p, false).delta_albedo(mu);
+        let estimate = |seed: u32| {
+            let s = Settings {
+                method,
+                samples: DRAWS,
+                seed,
+                white_furnace: false,
+            };
+            let e = directional(&cpu, &p, &s, &[(mu, 0.0)]).expect("albedo")[0];
+            let direct = sampled_albedo(
+                &cpu,
+                Query::one(&p),
+                method.sampler().unwrap(),
+                DRAWS,
+                seed,
+                view_direction(mu, 0.0),
+            )
+            .expect("sampled albedo");
+            assert_eq!(
+                e.albedo.to_array(),
+                (direct.estimate.value + delta).to_array(),
+                "{name} {method:?} seed {seed}"
+            );
+            let err = (e.albedo - want).abs();
+            assert!(
+                err.cmple(e.error).all(),
+                "{name} {method:?} seed {seed}: |{} - {want}| = {err} above the bound {}",
+                e.albedo,
+                e.error
+            );
+            e.albedo
+        };
+        let (a, b) = (estimate(DEFAULT_SEED), estimate(DOOR_SEED));
+        assert_ne!(
+            a.to_array(),
+            b.to_array(),
+            "{name} {method:?}: one estimate for two seeds"
+        );
+    }
+}
+
+/// `--seed` takes a u32: a negative value, one above 2^32 − 1 or not an integer is a usage error
+/// (exit 2) naming --seed, with nothing on standard output. A method that draws nothing refuses
+/// it, naming --seed and --method (exit 1, as a `--samples` that does not fit the method).
+#[test]
+fn bad_seeds_are_refused_naming_seed() {
+    for bad in ["-1", "4294967296", "seven", "1.5", ""] {
+        let (code, out, err) = common::lobe_run(&[
+            "albedo",
+            "--backend",
+            "cpu",
+            "--model",
+            "lambert",
+            "--method",
+            "uniform",
+            "--seed",
+            bad,
+        ]);
+        assert_eq!(code, 2, "--seed {bad:?}: {err}");
+        assert!(err.contains("--seed"), "--seed {bad:?}: {err}");
+        assert!(out.is_empty(), "--seed {bad:?}: {out}");
+    }
+    for method in ["peak", "gauss", "reference"] {
+        let (code, out, err) = common::lobe_run(&[
+            "albedo",
+            "--backend",
+            "cpu",
+            "--model",
+            "lambert",
+            "--method",
+            method,
+            "--seed",
+            "3",
+        ]);
+        assert_eq!(code, 1, "{method}: {err}");
+        assert!(
+            err.contains("--seed 3") && err.contains(&format!("--method {method}")),
+            "{method}: {err}"
+        );
+        assert!(out.is_empty(), "{method}: {out}");
+    }
+}
+
+/// An albedo LUT by a Monte Carlo method draws every entry from the spec's seed: each entry is
+/// the directional albedo of its row's parameters with the same seed, and another seed changes
+/// the table.
+#[test]
+fn a_lut_draws_its_entries_from_its_seed() {
+    let cpu = Evaluator::cpu();
+    let table = |seed: u32| {
+        let mut spec = lobe::lut::LutSpec::new(params("oren_nayar", &[]));
+        (spec.n_mu, spec.n_p, spec.with_avg) = (3, 2, false);
+        (spec.method, spec.samples, spec.seed) = (Method::Uniform, DOOR_DRAWS, seed);
+        let lut = lobe::lut::compute(&cpu, &spec, &mut |_, _| {}).expect("lut");
+        (spec, lut)
+    };
+    let (spec, lut) = table(DOOR_SEED);
+    let points: Vec<(f64, f64)> = lut.mus.iter().map(|&m| (m, 0.0)).collect();
+    for (k, &p) in lut.ps.iter().enumerate() {
+        let at = spec.params_at(p).expect("in range");
+        let direct = directional(
+            &cpu,
+            &at,
+            &door_settings(Method::Uniform, DOOR_SEED),
+            &points,
+        )
+        .expect("albedo");
+        for (j, d) in direct.iter().enumerate() {
+            assert_eq!(lut.e[k * spec.n_mu + j], d.albedo, "p = {p}, mu = {}", d.mu);
+        }
+    }
+    assert_ne!(table(DEFAULT_SEED).1.e, lut.e);
 }

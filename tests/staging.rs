@@ -81,6 +81,7 @@ fn albedo(gpu: &Gpu) -> Vec<u64> {
     let s = Settings {
         method: Method::Peak,
         samples: 4096,
+        seed: lobe::integrate::DEFAULT_SEED,
         white_furnace: true,
     };
     let dir = directional(&eval, &params, &s, &[(0.2, 0.0), (0.7, 0.0), (1.0, 0.0)]).unwrap();

@@ -220,6 +220,7 @@ fn gauss_integration_error_is_recomputed_independently() {
         &Settings {
             method: Method::Reference,
             samples: 0,
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: false,
         },
         &points,
@@ -269,6 +270,7 @@ fn gauss_integration_error_is_recomputed_independently() {
         &Settings {
             method: Method::Gauss,
             samples: 1024,
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: false,
         },
         &points,

@@ -328,7 +328,7 @@ class Session:
                                    _positive_ints("res", res), os.fspath(path), bool(allow_invalid))
 
     def albedo(self, model, mu, params=None, material=None, white_furnace=False, phi=0.0,
-               method="peak", samples=None):
+               method="peak", samples=None, seed=0):
         mu_arr = _reals("mu", mu)
         bad = ~((mu_arr > 0.0) & (mu_arr <= 1.0))
         if bad.any():
@@ -337,35 +337,36 @@ class Session:
         sets_list, many = _sets_list(params)
         albedo, error = self._s.albedo(_model(model), material, sets_list, bool(white_furnace),
                                        mu_arr.reshape(-1).tolist(), _finite("phi", phi), method,
-                                       _samples(samples))
+                                       _samples(samples), _seed(seed))
         shape = (len(sets_list),) + mu_arr.shape + (3,)
         albedo, error = albedo.reshape(shape), error.reshape(shape)
         return Albedo(albedo, error) if many else Albedo(albedo[0], error[0])
 
     def hemispherical_albedo(self, model, params=None, material=None, white_furnace=False, phi=0.0,
-                             method="peak", samples=None):
+                             method="peak", samples=None, seed=0):
         sets_list, many = _sets_list(params)
         rows = self._s.hemispherical_albedo(_model(model), material, sets_list, bool(white_furnace),
-                                            _finite("phi", phi), method, _samples(samples))
+                                            _finite("phi", phi), method, _samples(samples),
+                                            _seed(seed))
         out = [HemisphericalAlbedo(**{k: (np.array(v) if isinstance(v, list) else v) for k, v in r.items()})
                for r in rows]
         return out if many else out[0]
 
     def albedo_lut(self, model, params=None, material=None, white_furnace=False, param=None,
                    range=None, res=(32, 32), mapping=None, method="peak", samples=None, phi=0.0,
-                   with_avg=True):
+                   with_avg=True, seed=0):
         keys = [param] if isinstance(param, str) else (None if param is None else list(param))
         lo_hi = None if range is None else tuple(_finite("range", v) for v in range)
         if lo_hi is not None and len(lo_hi) != 2:
             raise ValueError(f"range: expected (lo, hi), got {range!r}")
         d = _lobe.albedo_lut(self._s, _model(model), material, _sets(params), bool(white_furnace), keys,
                              lo_hi, tuple(_positive_ints("res", res, 2)), mapping, method,
-                             _samples(samples), _finite("phi", phi), bool(with_avg))
+                             _samples(samples), _seed(seed), _finite("phi", phi), bool(with_avg))
         return AlbedoLut(**d)
 
-    def engine_lut(self, kind="dfg", res=(32, 32), params=None, method="peak", samples=None):
+    def engine_lut(self, kind="dfg", res=(32, 32), params=None, method="peak", samples=None, seed=0):
         d = _lobe.engine_lut(self._s, kind, _sets(params), tuple(_positive_ints("res", res, 2)),
-                             method, _samples(samples))
+                             method, _samples(samples), _seed(seed))
         return EngineLut(**d)
 
 

@@ -232,14 +232,17 @@ class Session:
     @overload
     def albedo(self, model: ModelSpec, mu: npt.ArrayLike, params: Optional[Params] = None,
                material: Optional[str] = None, white_furnace: bool = False, phi: float = 0.0,
-               method: str = "peak", samples: Optional[int] = None) -> Albedo: ...
+               method: str = "peak", samples: Optional[int] = None,
+               seed: int = 0) -> Albedo: ...
     @overload
     def albedo(self, model: ModelSpec, mu: npt.ArrayLike, params: Sequence[Params],
                material: Optional[str] = None, white_furnace: bool = False, phi: float = 0.0,
-               method: str = "peak", samples: Optional[int] = None) -> Albedo: ...
+               method: str = "peak", samples: Optional[int] = None,
+               seed: int = 0) -> Albedo: ...
     def albedo(self, model: ModelSpec, mu: npt.ArrayLike, params: Any = None,
                material: Optional[str] = None, white_furnace: bool = False, phi: float = 0.0,
-               method: str = "peak", samples: Optional[int] = None) -> Albedo:
+               method: str = "peak", samples: Optional[int] = None,
+               seed: int = 0) -> Albedo:
         """Directional albedo E(wo) = integral f(wi, wo) cos(theta_i) dwi at each mu = cos(theta_o)
         in (0, 1] (any shape), view azimuth ``phi`` (radians; matters for anisotropic sets).
         Returns ``Albedo(albedo, error)``, each of shape mu.shape + (3,): the same numbers as
@@ -249,24 +252,31 @@ class Session:
         "reference" (the adaptive f64 integrator, on the CPU), or Monte Carlo by "uniform",
         "cosine" or "sampled" draws (the model's own sampler; error 4 standard errors);
         ``samples``: nodes or draws per direction (the method's default when None), for
-        "reference" its budget of integrand evaluations for the job."""
+        "reference" its budget of integrand evaluations for the job. ``seed`` (0 to 2^32 - 1):
+        the stream the Monte Carlo methods draw from, as ``lobe albedo --seed``: the same seed
+        draws the same directions and gives the same numbers, another seed an independent
+        estimate; the other methods draw nothing and ignore it."""
 
     @overload
     def hemispherical_albedo(self, model: ModelSpec, params: Optional[Params] = None,
                              material: Optional[str] = None, white_furnace: bool = False,
                              phi: float = 0.0, method: str = "peak",
-                             samples: Optional[int] = None) -> HemisphericalAlbedo: ...
+                             samples: Optional[int] = None,
+                             seed: int = 0) -> HemisphericalAlbedo: ...
     @overload
     def hemispherical_albedo(self, model: ModelSpec, params: Sequence[Params],
                              material: Optional[str] = None, white_furnace: bool = False,
                              phi: float = 0.0, method: str = "peak",
-                             samples: Optional[int] = None) -> List[HemisphericalAlbedo]: ...
+                             samples: Optional[int] = None,
+                             seed: int = 0) -> List[HemisphericalAlbedo]: ...
     def hemispherical_albedo(self, model: ModelSpec, params: Any = None,
                              material: Optional[str] = None, white_furnace: bool = False,
                              phi: float = 0.0, method: str = "peak",
-                             samples: Optional[int] = None) -> Any:
+                             samples: Optional[int] = None,
+                             seed: int = 0) -> Any:
         """Hemispherical albedo and Kulla-Conty's E_avg (at azimuth ``phi`` for anisotropic
-        sets), as ``lobe albedo`` reports them; one result per set for a list of dicts."""
+        sets), as ``lobe albedo`` reports them; one result per set for a list of dicts. ``method``,
+        ``samples`` and ``seed`` as in :meth:`albedo`."""
 
     def albedo_lut(self, model: ModelSpec, params: Optional[Params] = None,
                    material: Optional[str] = None, white_furnace: bool = False,
@@ -274,21 +284,23 @@ class Session:
                    range: Optional[Tuple[float, float]] = None, res: Tuple[int, int] = (32, 32),
                    mapping: Optional[str] = None, method: str = "peak",
                    samples: Optional[int] = None, phi: float = 0.0,
-                   with_avg: bool = True) -> AlbedoLut:
+                   with_avg: bool = True, seed: int = 0) -> AlbedoLut:
         """An albedo look-up table E(mu, p) and E_avg(p), as ``lobe albedo --lut`` computes it,
         in memory. ``param``: the parameter key(s) the rows sweep (the model's own axis when
         None); ``range``: (lo, hi) of p; ``res``: (Nmu, Np); ``mapping``: "linear", "log",
         "square" or "perceptual" (p = (lo + (hi - lo) t)^2). Axes: rows are p (``lut.p``),
-        columns are mu_j = (j + 0.5)/Nmu (``lut.mu``)."""
+        columns are mu_j = (j + 0.5)/Nmu (``lut.mu``). ``method``, ``samples`` and ``seed`` as in
+        :meth:`albedo`."""
 
     def engine_lut(self, kind: str = "dfg", res: Tuple[int, int] = (32, 32),
                    params: Optional[Params] = None, method: str = "peak",
-                   samples: Optional[int] = None) -> EngineLut:
+                   samples: Optional[int] = None, seed: int = 0) -> EngineLut:
         """A table a real-time engine loads, as ``lobe albedo --lut --engine KIND`` computes it:
         ``kind`` "dfg" (split-sum: channel 0 multiplies F0, channel 1 F90), "dfg-multiscatter",
         "kulla-conty" (E(mu, alpha) with F = 1, and E_avg) or "eon" (EON's E_hat(mu, r) and its
         average). ``res``: (Nmu, Np); rows are the roughness axis (``p``: alpha or r; ``axis``:
-        the perceptual value), columns are mu_j = (j + 0.5)/Nmu."""
+        the perceptual value), columns are mu_j = (j + 0.5)/Nmu. ``method``, ``samples`` and
+        ``seed`` as in :meth:`albedo`."""
 
     def chi2(self, model: ModelSpec, wo: Optional[npt.ArrayLike] = None,
              params: Optional[Params] = None, material: Optional[str] = None,

@@ -61,7 +61,12 @@ pub fn compare(
             Bins::Grid(grid)
         }
     };
-    let settings = settings(method, samples, white_furnace)?;
+    let settings = settings(
+        method,
+        samples,
+        lobe::integrate::DEFAULT_SEED,
+        white_furnace,
+    )?;
     let opts = Options {
         bins,
         white_furnace,

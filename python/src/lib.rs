@@ -52,10 +52,12 @@ pub(crate) fn pairs(
         .collect()
 }
 
-/// The integrator `method` with `samples` nodes a direction (its default when None).
+/// The integrator `method` with `samples` nodes a direction (its default when None), drawing
+/// from the stream `seed` when it is a Monte Carlo method.
 pub(crate) fn settings(
     method: &str,
     samples: Option<usize>,
+    seed: u32,
     white_furnace: bool,
 ) -> PyResult<AlbedoSettings> {
     let method =
@@ -63,6 +65,7 @@ pub(crate) fn settings(
     Ok(AlbedoSettings {
         method,
         samples: samples.unwrap_or(method.default_samples()),
+        seed,
         white_furnace,
     })
 }
@@ -201,12 +204,13 @@ impl PySession {
         phi: f64,
         method: &str,
         samples: Option<usize>,
+        seed: u32,
     ) -> PyResult<(
         Bound<'py, numpy::PyArrayDyn<f64>>,
         Bound<'py, numpy::PyArrayDyn<f64>>,
     )> {
         let rows = model::resolve_rows(model, material, &sets_list)?;
-        let settings = settings(method, samples, white_furnace)?;
+        let settings = settings(method, samples, seed, white_furnace)?;
         let points: Vec<(f64, f64)> = mu.iter().map(|&m| (m, phi)).collect();
         let s = &self.inner;
         let per_row = job::run(py, s, || match rows.as_slice() {
@@ -238,9 +242,10 @@ impl PySession {
         phi: f64,
         method: &str,
         samples: Option<usize>,
+        seed: u32,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let rows = model::resolve_rows(model, material, &sets_list)?;
-        let settings = settings(method, samples, white_furnace)?;
+        let settings = settings(method, samples, seed, white_furnace)?;
         let s = &self.inner;
         let hemis = job::run(py, s, || match rows.as_slice() {
             [one] => Ok(vec![s.hemispherical_albedo(one, &settings, phi)?]),

@@ -25,7 +25,7 @@ fn lut_error(e: anyhow::Error) -> PyErr {
 /// `e_error` (Np, Nμ), `e_avg_error` (Np), `max_error`, `keys`, `mapping`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (session, model, material, sets, white_furnace, param, range, res, mapping, method, samples, phi, with_avg))]
+#[pyo3(signature = (session, model, material, sets, white_furnace, param, range, res, mapping, method, samples, seed, phi, with_avg))]
 pub fn albedo_lut<'py>(
     py: Python<'py>,
     session: &Bound<'py, PySession>,
@@ -39,11 +39,12 @@ pub fn albedo_lut<'py>(
     mapping: Option<&str>,
     method: &str,
     samples: Option<usize>,
+    seed: u32,
     phi: f64,
     with_avg: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = model::resolve(model, material, &sets)?;
-    let s = settings(method, samples, white_furnace)?;
+    let s = settings(method, samples, seed, white_furnace)?;
     let mut spec = LutSpec::new(params);
     spec.white_furnace = white_furnace;
     if let Some(keys) = param {
@@ -56,7 +57,8 @@ pub fn albedo_lut<'py>(
         spec.mapping = Mapping::from_name(m).map_err(|e| from_anyhow("mapping", e))?;
     }
     (spec.n_mu, spec.n_p) = res;
-    (spec.method, spec.samples, spec.phi, spec.with_avg) = (s.method, s.samples, phi, with_avg);
+    (spec.method, spec.samples, spec.seed) = (s.method, s.samples, s.seed);
+    (spec.phi, spec.with_avg) = (phi, with_avg);
     spec.validate().map_err(lut_error)?;
     let session = &session.get().inner;
     let lut = job::run(py, session, || session.albedo_lut(&spec, &mut |_, _| {}))?;
@@ -86,7 +88,7 @@ pub fn albedo_lut<'py>(
 /// kind has one, `mu`, `p` (the model's parameter), `axis` (before the mapping), `error`,
 /// `avg_error`, `max_error`, `channels` (what each channel holds).
 #[pyfunction]
-#[pyo3(signature = (session, kind, sets, res, method, samples))]
+#[pyo3(signature = (session, kind, sets, res, method, samples, seed))]
 pub fn engine_lut<'py>(
     py: Python<'py>,
     session: &Bound<'py, PySession>,
@@ -95,6 +97,7 @@ pub fn engine_lut<'py>(
     res: (usize, usize),
     method: &str,
     samples: Option<usize>,
+    seed: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
     let Some(kind) = EngineKind::ALL.into_iter().find(|k| k.name() == kind) else {
         let names: Vec<&str> = EngineKind::ALL.iter().map(|k| k.name()).collect();
@@ -107,9 +110,9 @@ pub fn engine_lut<'py>(
         ));
     };
     let mut spec = EngineSpec::new(kind, &sets).map_err(|e| from_anyhow("params", e))?;
-    let s = settings(method, samples, false)?;
+    let s = settings(method, samples, seed, false)?;
     (spec.lut.n_mu, spec.lut.n_p) = res;
-    (spec.lut.method, spec.lut.samples) = (s.method, s.samples);
+    (spec.lut.method, spec.lut.samples, spec.lut.seed) = (s.method, s.samples, s.seed);
     spec.lut.validate().map_err(lut_error)?;
     let session = &session.get().inner;
     let t = job::run(py, session, || session.engine_lut(&spec, &mut |_, _| {}))?;

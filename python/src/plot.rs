@@ -47,7 +47,7 @@ pub fn plot(
             ..Default::default()
         }),
         "albedo" => Request::Albedo(albedo_curve::AlbedoOptions {
-            method: settings(method, None, false)?.method,
+            method: settings(method, None, lobe::integrate::DEFAULT_SEED, false)?.method,
             ..Default::default()
         }),
         other => {

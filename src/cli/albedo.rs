@@ -87,6 +87,16 @@ pub struct AlbedoArgs {
     /// still finishes its first pass), says where it stopped short and reports how far it got.
     #[arg(long)]
     samples: Option<usize>,
+    /// The stream the Monte Carlo methods (uniform, cosine, sampled) draw from, 0 to 4294967295
+    /// (default 0): the same seed draws the same directions and gives the same estimate; another
+    /// seed gives an independent one. The other methods draw nothing and refuse it.
+    #[arg(
+        long,
+        value_name = "SEED",
+        allow_hyphen_values = true,
+        conflicts_with = "scene"
+    )]
+    seed: Option<u32>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = TableFormat::Table)]
     format: TableFormat,
@@ -165,6 +175,7 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
         }
     }
     let method = Method::from(a.method);
+    let seed = check_seed(a.seed, method)?;
     if let (Some(kind), Some(path)) = (a.engine, &a.lut) {
         return write_engine_lut(&a, kind.into(), method, path);
     }
@@ -182,6 +193,7 @@ pub fn run(a: AlbedoArgs) -> Result<()> {
     let settings = Settings {
         method,
         samples: a.samples.unwrap_or(method.default_samples()),
+        seed,
         white_furnace: a.model.white_furnace,
     };
     let phi = a.phi_deg.to_radians();
@@ -251,6 +263,7 @@ fn lut_spec(a: &AlbedoArgs, params: ParamSet, settings: Settings, phi: f64) -> R
     spec.white_furnace = a.model.white_furnace;
     spec.method = settings.method;
     spec.samples = settings.samples;
+    spec.seed = settings.seed;
     spec.phi = phi;
     if !a.lut_param.is_empty() {
         spec.keys = a.lut_param.clone();
@@ -349,6 +362,7 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
     let mut spec = EngineSpec::new(kind, &a.model.sets)?;
     spec.lut.method = method;
     spec.lut.samples = a.samples.unwrap_or(method.default_samples());
+    spec.lut.seed = check_seed(a.seed, method)?;
     spec.lut.max_error = a.max_error;
     if let Some(r) = &a.lut_range {
         (spec.lut.lo, spec.lut.hi) = parse_pair("--lut-range", r, "LO,HI (two numbers)")?;
@@ -394,6 +408,7 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
                 "res": [spec.lut.n_mu, spec.lut.n_p],
                 "method": method.name(),
                 "samples": spec.lut.samples,
+                "seed": method.sampler().map(|_| spec.lut.seed),
                 "channel_ranges": ranges,
                 "max_error_estimate": table.max_error,
                 "seconds": table.seconds,
@@ -429,6 +444,19 @@ fn write_engine_lut(a: &AlbedoArgs, kind: EngineKind, method: Method, path: &Pat
         }
     }
     Ok(())
+}
+
+/// The stream of a Monte Carlo method: --seed, else [`lobe::integrate::DEFAULT_SEED`]; refused
+/// for a method that draws nothing, where it would change nothing.
+fn check_seed(seed: Option<u32>, method: Method) -> Result<u32> {
+    match seed {
+        Some(s) if method.sampler().is_none() => bail!(
+            "--seed {s} with --method {}: that method draws nothing; --seed applies to the Monte Carlo methods (uniform, cosine, sampled)",
+            method.name()
+        ),
+        Some(s) => Ok(s),
+        None => Ok(lobe::integrate::DEFAULT_SEED),
+    }
 }
 
 /// The view directions' mu = cos(theta_o): from --theta-o-deg, else --mu.

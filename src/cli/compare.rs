@@ -451,6 +451,7 @@ fn options(a: &CompareArgs, bins: Bins, method: Method) -> Options {
         albedo: (!a.no_albedo).then(|| Settings {
             method,
             samples: a.samples.unwrap_or(method.default_samples()),
+            seed: lobe::integrate::DEFAULT_SEED,
             white_furnace: a.white_furnace,
         }),
     }

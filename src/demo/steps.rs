@@ -91,6 +91,7 @@ fn albedo_settings(d: &Demo) -> AlbedoSettings {
     AlbedoSettings {
         method: Method::Peak,
         samples: d.settings.albedo_samples,
+        seed: crate::integrate::DEFAULT_SEED,
         white_furnace: false,
     }
 }

@@ -4,7 +4,7 @@
 use super::backend::{rule_albedo, rule_albedo_rows};
 use super::gauss::{adaptive_until, gk15, gk15_combine, gk15_nodes, graded, Estimate};
 use super::reference::{reference_albedo_within, Budget, REFERENCE_RTOL};
-use super::sampled::{sampled_albedo, DEFAULT_SEED};
+use super::sampled::sampled_albedo;
 use super::{view_direction, Settings, MAX_SAMPLES};
 use crate::eval::Evaluator;
 use crate::input::BadInput;
@@ -73,14 +73,7 @@ pub fn directional(
         let mut est = Vec::with_capacity(wo.len());
         let mut var = Vec::with_capacity(wo.len());
         for &o in &wo {
-            let a = sampled_albedo(
-                backend,
-                s.query(params),
-                sampler,
-                s.samples,
-                DEFAULT_SEED,
-                o,
-            )?;
+            let a = sampled_albedo(backend, s.query(params), sampler, s.samples, s.seed, o)?;
             est.push((a.estimate, false));
             var.push(a.variance);
         }
@@ -234,15 +227,10 @@ pub fn hemispherical(
         let table = hemispherical_directions(params, phi)
             .into_iter()
             .map(|o| {
-                Ok(sampled_albedo(
-                    backend,
-                    s.query(params),
-                    sampler,
-                    s.samples,
-                    DEFAULT_SEED,
-                    o,
-                )?
-                .estimate)
+                Ok(
+                    sampled_albedo(backend, s.query(params), sampler, s.samples, s.seed, o)?
+                        .estimate,
+                )
             })
             .collect::<Result<Vec<_>>>()?;
         return hemispherical_from(backend, params, s, phi, table);

@@ -216,7 +216,8 @@ pub fn view_direction(mu: f64, phi: f64) -> DVec3 {
     DVec3::new(s * phi.cos(), s * phi.sin(), mu)
 }
 
-/// How to integrate: a method, its node count, and whether under the white furnace.
+/// How to integrate: a method, its node count, the Monte Carlo methods' stream, and whether under
+/// the white furnace.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings {
     /// The integrator.
@@ -225,6 +226,11 @@ pub struct Settings {
     /// most integrand evaluations the job may spend, 0 for [`REFERENCE_MAX_EVALS`]
     /// ([`Settings::reference_evals`]).
     pub samples: usize,
+    /// The stream the Monte Carlo methods ([`Method::sampler`]) draw from: draw i takes
+    /// [`crate::random::draw_numbers`]`(seed, i, 0)`, so one seed gives the same directions and
+    /// the same estimate every time, and another seed an independent estimate. The rules and the
+    /// reference draw nothing and ignore it. [`DEFAULT_SEED`] by default.
+    pub seed: u32,
     /// Evaluate with every specular Fresnel factor at 1 (docs/design.md §3).
     pub white_furnace: bool,
 }
@@ -259,6 +265,7 @@ impl Default for Settings {
         Settings {
             method,
             samples: method.default_samples(),
+            seed: DEFAULT_SEED,
             white_furnace: false,
         }
     }

@@ -17,6 +17,9 @@ pub struct AlbedoReport {
     /// Nodes per direction asked for; for the adaptive reference, its budget of evaluations per
     /// job ([`Settings::reference_evals`]).
     pub samples: usize,
+    /// The stream a Monte Carlo method drew from ([`Settings::seed`]); None for the rules and
+    /// the reference, which draw nothing.
+    pub seed: Option<u32>,
     /// Directional albedo at each point asked for, in their order.
     pub points: Vec<PointAlbedo>,
     /// Hemispherical albedo and E_avg.
@@ -43,6 +46,7 @@ pub fn albedo_report(
         } else {
             s.samples
         },
+        seed: s.method.sampler().map(|_| s.seed),
         points: pts,
         hemispherical: hemi,
         seconds: start.elapsed().as_secs_f64(),
@@ -80,6 +84,7 @@ impl AlbedoReport {
             "backend": backend,
             "method": self.method.name(),
             "samples": self.samples,
+            "seed": self.seed,
             "units": "albedo (dimensionless), linear RGB; albedo includes the delta lobe, delta is its part",
             "points": points,
             "hemispherical": {
@@ -148,8 +153,8 @@ impl AlbedoReport {
         writeln!(out, "{} {}", params.model().name(), params.to_text())?;
         let nodes = if self.method == Method::Reference {
             format!("a budget of {} evaluations", self.samples)
-        } else if self.method.sampler().is_some() {
-            format!("{} draws per direction", self.samples)
+        } else if let Some(seed) = self.seed {
+            format!("{} draws per direction, seed {seed}", self.samples)
         } else {
             format!("{} nodes per direction", self.samples)
         };

@@ -582,6 +582,7 @@ fn engine_sidecar(spec: &EngineSpec, t: &EngineTable, files: &[PathBuf]) -> serd
         "e_avg": t.avg,
         "method": s.method.name(),
         "samples": s.samples,
+        "seed": s.method.sampler().map(|_| s.seed),
         "max_error_estimate": t.max_error,
         "seconds": t.seconds,
         "files": files.iter().map(|p| file_name(p)).collect::<Vec<_>>(),

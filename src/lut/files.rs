@@ -117,6 +117,7 @@ fn sidecar_fields(spec: &LutSpec, lut: &LutSummary, files: &ArtifactSet) -> serd
         "phi_o_deg": spec.phi.to_degrees(),
         "method": spec.method.name(),
         "samples": spec.samples,
+        "seed": spec.method.sampler().map(|_| spec.seed),
         "max_error_estimate": lut.max_error,
         "seconds": lut.seconds,
         "files": {

@@ -95,6 +95,7 @@ pub fn albedo_data(
     let settings = Settings {
         method: opts.method,
         samples: opts.samples.unwrap_or(opts.method.default_samples()),
+        seed: crate::integrate::DEFAULT_SEED,
         white_furnace: common.white_furnace,
     };
     let phi = opts.phi_deg.to_radians();

@@ -43,7 +43,7 @@
 //! output = "tables/brushed.exr"
 //!
 //! [[albedos]]
-//! material = "gold"                  # method (default peak), samples: as `lobe albedo`
+//! material = "gold"                  # method (default peak), samples, seed: as `lobe albedo`
 //! output = "albedo/gold.json"        # E at mu = 0.1, 0.25, 0.5, 0.75, 1 and the hemispherical albedo
 //!
 //! [[previews]]
@@ -188,6 +188,8 @@ pub struct AlbedoJob {
     /// Quadrature nodes per view direction, in [16, [`MAX_ALBEDO_SAMPLES`]] (the rule's default
     /// when the section gives none).
     pub samples: usize,
+    /// The Monte Carlo methods' stream ([`crate::integrate::Settings::seed`]).
+    pub seed: u32,
     /// Where the JSON report goes, relative to the output folder.
     pub output: PathBuf,
 }

@@ -82,6 +82,8 @@ struct AlbedoFile {
     /// Quadrature method and nodes per view direction (default: `lobe albedo`'s).
     method: Option<Spanned<String>>,
     samples: Option<Spanned<i64>>,
+    /// The Monte Carlo methods' stream (default: `lobe albedo`'s).
+    seed: Option<Spanned<i64>>,
     output: Spanned<String>,
 }
 

@@ -177,6 +177,7 @@ impl Scene {
         let settings = integrate::Settings {
             method: a.method,
             samples: a.samples,
+            seed: a.seed,
             white_furnace: a.white_furnace,
         };
         let points: Vec<(f64, f64)> = ALBEDO_MU.iter().map(|&mu| (mu, 0.0)).collect();

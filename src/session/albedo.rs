@@ -31,7 +31,7 @@ impl Session {
     ///
     /// ```
     /// use lobe::integrate::Method;
-    /// let settings = lobe::AlbedoSettings { method: Method::Gauss, samples: 256, white_furnace: false };
+    /// let settings = lobe::AlbedoSettings { method: Method::Gauss, samples: 256, seed: 0, white_furnace: false };
     /// let lambert = lobe::ParamSet::for_model("lambert")?.with("albedo", 0.5)?;
     /// let h = lobe::Session::cpu().hemispherical_albedo(&lambert, &settings, 0.0)?;
     /// assert!((h.albedo.x - 0.5).abs() < 1e-3);
@@ -50,7 +50,7 @@ impl Session {
     ///
     /// ```
     /// use lobe::integrate::Method;
-    /// let settings = lobe::AlbedoSettings { method: Method::Gauss, samples: 256, white_furnace: false };
+    /// let settings = lobe::AlbedoSettings { method: Method::Gauss, samples: 256, seed: 0, white_furnace: false };
     /// let lambert = lobe::ParamSet::for_model("lambert")?;
     /// let r = lobe::Session::cpu().albedo_report(&lambert, &settings, &[(1.0, 0.0)], 0.0)?;
     /// assert_eq!(r.points.len(), 1);

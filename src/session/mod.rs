@@ -312,6 +312,7 @@ mod tests {
             let settings = AlbedoSettings {
                 method,
                 samples: method.default_samples(),
+                seed: crate::integrate::DEFAULT_SEED,
                 white_furnace: false,
             };
             let e = s

@@ -108,6 +108,33 @@ def test_albedo_equals_lobe_albedo(lobe_bin, gpu, cpu, backend):
     assert hemi.error.tolist() == want["hemispherical"]["error_estimate"]
 
 
+@pytest.mark.parametrize("method", ["uniform", "cosine", "sampled"])
+def test_albedo_seed_equals_lobe_albedo_seed(lobe_bin, cpu, method):
+    """One Monte Carlo request, seed and all, gives the numbers of ``lobe albedo --seed``; another
+    seed gives other numbers (Oren-Nayar's weights vary from draw to draw)."""
+    seed = 4000000123
+    text = run(lobe_bin, "albedo", "--model", "oren_nayar", "--mu", "0.3,0.8", "--method", method,
+               "--samples", "4096", "--seed", str(seed), "--format", "json", "--backend", "cpu")
+    want = json.loads(text)
+    assert want["seed"] == seed
+    got = cpu.albedo("oren_nayar", mu=[0.3, 0.8], method=method, samples=4096, seed=seed)
+    assert got.albedo.tolist() == [p["albedo"] for p in want["points"]]
+    assert got.error.tolist() == [p["error_estimate"] for p in want["points"]]
+    hemi = cpu.hemispherical_albedo("oren_nayar", method=method, samples=4096, seed=seed)
+    assert hemi.albedo.tolist() == want["hemispherical"]["albedo"]
+    default = cpu.albedo("oren_nayar", mu=[0.3, 0.8], method=method, samples=4096)
+    assert default.albedo.tolist() == cpu.albedo("oren_nayar", mu=[0.3, 0.8], method=method,
+                                                 samples=4096, seed=0).albedo.tolist()
+    assert default.albedo.tolist() != got.albedo.tolist()
+
+
+@pytest.mark.parametrize("bad, error", [(-1, ValueError), (2**32, ValueError), (1.5, TypeError),
+                                        ("3", TypeError), (True, TypeError)])
+def test_albedo_refuses_a_bad_seed_naming_it(cpu, bad, error):
+    with pytest.raises(error, match="seed"):
+        cpu.albedo("lambert", mu=0.5, method="uniform", seed=bad)
+
+
 def test_albedo_lut_equals_lobe_albedo_lut(lobe_bin, tmp_path, gpu):
     run(lobe_bin, "albedo", "--model", "microfacet", "--lut", str(tmp_path / "lut.exr"),
         "--lut-res", "6,5")

@@ -293,11 +293,35 @@ pub(super) fn albedo(
             ))
         }
     };
+    let seed = match &af.seed {
+        None => crate::integrate::DEFAULT_SEED,
+        Some(n) if method.sampler().is_none() => {
+            return Err(loc.at(
+                n.span(),
+                format!(
+                    "seed = {}: method {} draws nothing; a seed applies to the Monte Carlo methods (uniform, cosine, sampled)",
+                    n.get_ref(),
+                    method.name()
+                ),
+            ))
+        }
+        Some(n) => u32::try_from(*n.get_ref()).map_err(|_| {
+            loc.at(
+                n.span(),
+                format!(
+                    "seed = {}: expected an integer in [0, {}]",
+                    n.get_ref(),
+                    u32::MAX
+                ),
+            )
+        })?,
+    };
     Ok(AlbedoJob {
         material: find_material(loc, materials, &af.material)?,
         white_furnace: af.white_furnace,
         method,
         samples,
+        seed,
         output: names.claim(loc, &af.output, "json", "albedo")?,
     })
 }
