@@ -34,6 +34,15 @@ impl CpuBackend {
             .map(|p| Reference::new(p, query.white_furnace))
             .collect())
     }
+
+    /// The reference of the query's first set (None for a query without sets).
+    fn first_reference(&self, query: &Query) -> Result<Option<Reference>> {
+        let refs = self.references(&Query {
+            sets: &query.sets[..query.sets.len().min(1)],
+            ..*query
+        })?;
+        Ok(refs.into_iter().next())
+    }
 }
 
 fn check(cancel: Option<&CancelToken>) -> Result<()> {
@@ -54,11 +63,7 @@ impl Backend for CpuBackend {
     }
 
     fn pdf(&self, query: Query, pairs: &[(DVec3, DVec3)]) -> Result<Vec<f64>> {
-        let refs = self.references(&Query {
-            sets: &query.sets[..query.sets.len().min(1)],
-            ..query
-        })?;
-        let Some(r) = refs.first() else {
+        let Some(r) = self.first_reference(&query)? else {
             return Ok(Vec::new());
         };
         Ok(pairs.par_iter().map(|&(wi, wo)| r.pdf(wi, wo)).collect())
@@ -77,11 +82,7 @@ impl Backend for CpuBackend {
             first,
             count,
         } = range;
-        let refs = self.references(&Query {
-            sets: &query.sets[..query.sets.len().min(1)],
-            ..query
-        })?;
-        let Some(r) = refs.first() else {
+        let Some(r) = self.first_reference(&query)? else {
             return Ok(Vec::new());
         };
         let mut out = Vec::with_capacity(count);
@@ -178,11 +179,7 @@ impl Backend for CpuBackend {
         pixels: &[SpherePixel],
         cancel: Option<&CancelToken>,
     ) -> Result<Vec<[f64; 3]>> {
-        let refs = self.references(&Query {
-            sets: &query.sets[..query.sets.len().min(1)],
-            ..query
-        })?;
-        let Some(r) = refs.first() else {
+        let Some(r) = self.first_reference(&query)? else {
             return Ok(Vec::new());
         };
         // Ctrl-C: one pixel's sum at most runs on past the token.
