@@ -54,7 +54,7 @@ pub struct DirectionResult {
     /// Cells whose integral stopped at the rectangle budget short of its tolerance.
     pub unconverged_cells: usize,
     /// Cells integrated again from finer rectangles because they held far more draws than
-    /// expected (more than [`REFINE_SIGMA`] σ).
+    /// expected (more than [`REFINE_SIGMA`](super::REFINE_SIGMA) σ).
     pub refined_cells: usize,
     /// Draws below the horizon (cosθi ≤ 0) or with pdf 0.
     pub leaked: u64,
@@ -99,11 +99,11 @@ pub struct Report {
     /// What was asked.
     pub options: Options,
     /// Where the draws were made and counted: "cpu (f64 reference)" or the device's backend
-    /// name ([`Backend::name`]).
+    /// name ([`Backend::name`](crate::backend::Backend::name)).
     pub backend: String,
     /// Where the density the expected counts integrate was evaluated: "f64" for the sampler's
     /// f64 pdf, or the backend's name and "(f32)" for a density that exists only in a device's
-    /// kernels ([`run_on_device`]). The integration itself is in f64 either way.
+    /// kernels ([`run_on_device`](super::run_on_device)). The integration itself is in f64 either way.
     pub density: String,
     /// Tests made: two per direction (the histogram and the outside share).
     pub tests: usize,
