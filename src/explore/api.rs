@@ -548,6 +548,12 @@ async fn models(state: Shared) -> Response {
         .iter()
         .map(|(_, p)| json!({"model": p.model().name(), "sets": changed_assignments(p)}))
         .collect();
+    // The maps opened on the page, by the names `POST /api/light` takes (a link names one).
+    let maps: Vec<String> = state
+        .maps
+        .lock()
+        .map(|list| list.iter().map(|(name, _)| name.clone()).collect())
+        .unwrap_or_default();
     json_response(&json!({
         "models": list
             .iter()
@@ -556,6 +562,7 @@ async fn models(state: Shared) -> Response {
         "materials": crate::material::all_names(),
         "material": state.material,
         "initial": initial,
+        "maps": maps,
         "backend": state.session.backend_name(),
         "limits": {
             "polar_samples": MAX_POLAR_SAMPLES,

@@ -28,12 +28,28 @@ const probe = window.lobeExplore = {
 let catalog = null;
 // m: the models; ti: θi; cos, log, wf: the polar plot's f·cosθi, log scale and white furnace;
 // wire: the 3D lobe as a wireframe; pd: the slice's φd; td: the θd of its θh cut (a row's
-// centre); to, po: the samples view's θo and φo; obj: the lit object; ev, tm: the lit views' exposure (stops) and tone map.
-const DEFAULT_STATE = { m: [], ti: 30, cos: false, log: true, wf: false, wire: false, pd: 90, td: 45.703125, obj: 'sphere', ev: 0, tm: 'clamp', to: 30, po: 0 };
+// centre); to, po: the samples view's θo and φo; obj: the lit object; ev, tm: the lit views' exposure (stops) and tone map;
+// env: the lit sphere's environment map (a built-in one, or one opened on the page, by the name the server keeps it under).
+const DEFAULT_STATE = { m: [], ti: 30, cos: false, log: true, wf: false, wire: false, pd: 90, td: 45.703125, obj: 'sphere', ev: 0, tm: 'clamp', to: 30, po: 0, env: 'sky' };
 let state = { ...DEFAULT_STATE };
 
 // The lit objects and the route that renders each.
 const LIT_OBJECTS = { sphere: '/api/sphere', torus: '/api/torus' };
+
+// The built-in maps of `lobe light --env`; the maps opened on the page are those the server
+// holds (the catalogue's `maps`).
+const BUILTIN_MAPS = ['sky', 'studio', 'constant'];
+const heldMap = (name) => BUILTIN_MAPS.includes(name) || (catalog && catalog.maps.includes(name));
+
+// Offers a map the server holds in the lit view's menu (once).
+function offerMap(name, text) {
+  const menu = $('light-env');
+  if ([...menu.options].some((o) => o.value === name)) return;
+  const option = document.createElement('option');
+  option.value = name;
+  option.textContent = text || name;
+  menu.append(option);
+}
 
 const $ = (id) => document.getElementById(id);
 const luminance = (r, g, b) => 0.2126 * r + 0.7152 * g + 0.0722 * b;
@@ -60,13 +76,13 @@ async function openMap(file) {
     });
     if (!r.ok) throw new Error(await r.text());
     const map = await r.json();
-    const option = document.createElement('option');
-    option.value = map.name;
-    option.textContent = map.downsampled
+    if (!catalog.maps.includes(map.name)) catalog.maps.push(map.name);
+    offerMap(map.name, map.downsampled
       ? `${map.name} (${map.file_width}×${map.file_height}, shown at ${map.width}×${map.height})`
-      : map.name;
-    $('light-env').append(option);
+      : map.name);
     $('light-env').value = map.name;
+    state.env = map.name;
+    saveState();
     scheduleLight();
   } catch (e) {
     shown.textContent = `${file.name}: ${e.message}`;
@@ -125,12 +141,16 @@ function applyState(s) {
     td: (v) => Number.isFinite(v) && v >= 0 && v <= 90, ev: (v) => Number.isFinite(v) && Math.abs(v) <= 10,
     to: (v) => Number.isFinite(v) && v >= 0 && v < 90, po: (v) => Number.isFinite(v) && v >= 0 && v <= 360,
     obj: (v) => Object.hasOwn(LIT_OBJECTS, v), tm: (v) => Object.hasOwn(TONE_MAPS, v),
+    env: (v) => typeof v === 'string' && heldMap(v),
   };
   const next = { ...DEFAULT_STATE };
   for (const k of Object.keys(DEFAULT_STATE)) {
     if (k === 'm' || !(k in s)) continue;
     const ok = fine[k] ? fine[k](s[k]) : typeof s[k] === typeof DEFAULT_STATE[k];
     if (ok) next[k] = s[k];
+  }
+  if (typeof s.env === 'string' && next.env !== s.env) {
+    notice(`The link names the environment map ${s.env}, which this server does not hold: it was opened on the page of a lobe explore that has stopped since, or of another one. The lit view shows ${next.env}; open ${s.env} again with “open map…” to see it.`);
   }
   next.m = s.m.filter((e) => e && modelInfo(e.model)).map((e) => ({ model: e.model, material: e.material || '', sets: e.sets || {} }));
   state = next;
@@ -166,6 +186,9 @@ function commandLines() {
   state.m.forEach((e) => lines.push(`lobe albedo --model ${quote(spec(e))}${mat(e)}${wf}`));
   const grid = catalog ? ` --grid ${catalog.table.grid} --res ${catalog.table.res}` : '';
   state.m.forEach((e, i) => lines.push(`lobe table --model ${quote(spec(e))}${mat(e)}${wf}${grid} -o table-${i + 1}.exr`));
+  // The lit sphere: the first model under the chosen map (an opened map by the file name it is
+  // kept under).
+  if (state.m.length) lines.push(`lobe light --model ${quote(spec(state.m[0]))}${mat(state.m[0])} --env ${quote(state.env)} --size ${LIGHT_FULL} -o light.exr`);
   return lines;
 }
 
@@ -322,6 +345,7 @@ function buildControls() {
   $('exposure').value = state.ev;
   $('exposure-value').textContent = evText(state.ev);
   $('tone-map').value = state.tm;
+  $('light-env').value = state.env;
 }
 
 // ---- requests: one in flight per kind, the newest state next, stale states dropped -----------
@@ -443,7 +467,7 @@ async function refreshLight(size) {
   if (!state.m.length) return;
   try {
     const { model, material, sets } = request(state.m[0], 0);
-    const asked = { model, material, sets, env: $('light-env').value, size };
+    const asked = { model, material, sets, env: state.env, size };
     probe.lightRequests += 1;
     const answer = await (await call('/api/light', asked, abort.signal)).json();
     if (abort.signal.aborted) return;
@@ -621,6 +645,7 @@ async function start() {
   if (!r.ok) { showError(await r.text()); return; }
   catalog = await r.json();
   $('backend').textContent = catalog.backend;
+  catalog.maps.forEach((name) => offerMap(name));
   await takeLink();
   buildControls();
   $('theta-i').addEventListener('input', () => { state.ti = Number($('theta-i').value); $('theta-i-value').textContent = `${state.ti}°`; changed(false); });
@@ -636,7 +661,7 @@ async function start() {
   $('lit-object').addEventListener('change', () => { state.obj = $('lit-object').value; imagesChanged(); });
   $('exposure').addEventListener('input', () => { state.ev = Number($('exposure').value); $('exposure-value').textContent = evText(state.ev); redrawImages(); });
   $('tone-map').addEventListener('change', () => { state.tm = $('tone-map').value; redrawImages(); });
-  $('light-env').addEventListener('change', scheduleLight);
+  $('light-env').addEventListener('change', () => { state.env = $('light-env').value; saveState(); scheduleLight(); });
   $('open-env').addEventListener('change', (ev) => { if (ev.target.files[0]) openMap(ev.target.files[0]); ev.target.value = ''; });
   $('add').addEventListener('click', () => { state.m.push({ model: catalog.models[0].name, material: '', sets: {} }); changed(true); });
   $('open-brdf').addEventListener('change', (ev) => { if (ev.target.files[0]) openFile(ev.target.files[0]); ev.target.value = ''; });
