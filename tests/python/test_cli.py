@@ -264,3 +264,59 @@ def test_chi2_takes_view_vectors_and_draws_on_the_sessions_backend(session):
         session.chi2("lambert", [0.0, 0.0, 2.0])
     with pytest.raises(ValueError, match="theta_o_deg"):
         session.chi2("lambert", [0.0, 0.0, 1.0], theta_o_deg=[10])
+
+
+# A .brdf file with its own sampler: a normalised Blinn-Phong lobe drawn through its half
+# vector, whose density over the solid angle of L is the half vector's over 4 (V.h).
+BLINN_WITH_SAMPLER = """analytic
+::begin parameters
+float m 1 100 20
+::end parameters
+::begin shader
+const float PI = 3.14159265358979;
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
+    vec3 H = normalize(L + V);
+    return vec3((m + 8.0) / (8.0 * PI) * pow(max(0.0, dot(N, H)), m));
+}
+vec3 sampleL(vec2 u, vec3 V, vec3 N, vec3 X, vec3 Y) {
+    float c = pow(u.x, 1.0 / (m + 1.0));
+    float s = sqrt(max(0.0, 1.0 - c * c));
+    float phi = 2.0 * PI * u.y;
+    vec3 H = c * N + s * (cos(phi) * X + sin(phi) * Y);
+    return normalize(2.0 * dot(V, H) * H - V);
+}
+float pdfL(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
+    vec3 H = normalize(L + V);
+    return (m + 1.0) / (2.0 * PI) * pow(max(0.0, dot(N, H)), m) / (4.0 * dot(V, H));
+}
+::end shader
+"""
+
+
+def test_chi2_and_pdf_of_a_brdf_files_sampler_are_lobe_chi2s(lobe_bin, gpu, cpu, tmp_path):
+    # The shader's sampler is tested on the GPU with its own pdfL integrated: the same counts,
+    # expectations and p-value through Python as through `lobe chi2`; a CPU session has no
+    # twin of the shader and refuses it naming the file.
+    path = tmp_path / "half_vector_sampler.brdf"
+    path.write_text(BLINN_WITH_SAMPLER)
+    cli = json.loads(run(lobe_bin, "chi2", "--model", str(path), "--theta-o-deg", "45", "--samples",
+                         "2^16", "--seed", "4", "--format", "json"))
+    py = gpu.chi2(str(path), theta_o_deg=[45], samples=1 << 16, seed=4)
+    assert py["passed"] == cli["passed"] is True
+    assert py["density"] == cli["density"]
+    assert py["density"].endswith("(f32)")
+    for a, b in zip(py["directions"], cli["directions"]):
+        assert a["observed"] == b["observed"]
+        assert a["expected"] == b["expected"]
+        assert a["p_value"] == b["p_value"]
+    # Session.pdf at the drawn directions is the draws' own density (pdfL in another kernel).
+    t = math.radians(45)
+    wo = np.array([math.sin(t), 0.0, math.cos(t)])
+    s = gpu.sample(str(path), wo, 512, seed=1)
+    kept = s.pdf > 0
+    wi = s.wi[kept] / np.linalg.norm(s.wi[kept], axis=1, keepdims=True)
+    assert np.allclose(gpu.pdf(str(path), wi, wo), s.pdf[kept], rtol=1e-5, atol=0)
+    with pytest.raises(Exception, match="half_vector_sampler.brdf"):
+        cpu.chi2(str(path), theta_o_deg=[45], samples=1 << 10)
+    with pytest.raises(Exception, match="half_vector_sampler.brdf"):
+        cpu.pdf(str(path), wi, wo)
