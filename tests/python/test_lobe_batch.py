@@ -3,6 +3,7 @@ survive kill -9 (of a Ray worker, of the whole batch) without losing or redoing 
 piece, and refuse bad input with a message naming it."""
 
 import csv
+import io
 import json
 import os
 import signal
@@ -87,12 +88,22 @@ def free_port():
         return s.getsockname()[1]
 
 
+def written_rows(path):
+    """The rows of ``path`` whose lines a running batch has finished writing: the file read at
+    once, up to its last newline (a batch appends a row at a time, so a poll can catch the
+    header or a row half written)."""
+    with open(path, newline="") as f:
+        text = f.read()
+    text = text[: text.rfind("\n") + 1]
+    return list(csv.DictReader(io.StringIO(text))) if text else []
+
+
 def wait_rows(path, count, proc):
     """Polls ``path`` until it has ``count`` rows (or the batch ended)."""
     deadline = time.monotonic() + HANG_S
     while time.monotonic() < deadline:
-        if os.path.exists(path) and len(rows(path)) >= count:
-            return rows(path)
+        if os.path.exists(path) and len(written := written_rows(path)) >= count:
+            return written
         if proc.poll() is not None:
             pytest.fail(f"the batch ended before {count} rows: {proc.stderr.read()}")
         time.sleep(0.02)
