@@ -298,6 +298,14 @@ fn the_gpu_sum_matches_the_cpu_reference() {
             "microfacet",
             &["distribution=ggx", "alpha=0.2", "diffuse=0.1"],
         ),
+        // No diffuse part: the kernel folds the exact conductor Fresnel into the texels'
+        // weights (glsl/kernels/light.comp), which the CPU's sum does not.
+        spec(
+            "microfacet",
+            &["fresnel=conductor", "masking=smith_separable", "alpha=0.3"],
+        ),
+        // The Kulla–Conty lobe takes no Fresnel factor: the kernel evaluates f whole.
+        spec("microfacet", &["multiscatter=kulla_conty", "alpha=0.5"]),
     ];
     common::on_gpu("the_gpu_sum_matches_the_cpu_reference", false, |gpu| {
         for (env, map) in &maps {

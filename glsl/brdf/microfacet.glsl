@@ -97,14 +97,21 @@ vec3 microfacet_fresnel(MicrofacetParams p, float c_d) {
     return F_conductor(c_d, p.conductor_e2m1k2, p.conductor_q4);
 }
 
-// s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
-vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
+// The Fresnel factor the specular lobe takes at c_d: microfacet_fresnel's, 1 without one or
+// under the white furnace.
+vec3 microfacet_fresnel_factor(MicrofacetParams p, float c_d) {
+    if (WHITE_FURNACE || MF_FRESNEL == 0u) return vec3(1.0);
+    return microfacet_fresnel(p, c_d);
+}
+
+// f at s = wi + wo with the Fresnel factor given (microfacet_fresnel_factor at c_d = |s| / 2):
+// the same operations as microfacet_from_sum (a factor of 1 multiplies exactly).
+vec3 microfacet_from_sum_fresnel(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s, vec3 fresnel) {
     float s2;
     float c_d = half_sum(s, s2);
     float c_i = wi.z, c_o = wo.z;
-    // specular F, multiplied only where there is a Fresnel factor.
-    vec3 weight = p.specular;
-    if (!WHITE_FURNACE && MF_FRESNEL != 0u) weight *= microfacet_fresnel(p, c_d);
+    // specular F.
+    vec3 weight = p.specular * fresnel;
     // D G / (4 c_i c_o) with one division; for Beckmann (D's denominator 1) it rounds as
     // specular_ratio does in cook_torrance.
     vec2 d = microfacet_d(p, s, s2);
@@ -120,10 +127,25 @@ vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
     return f_total;
 }
 
+// s = wi + wo, exact from the albedo kernel's mirror offsets (half_vector_from_sum in terms.glsl).
+vec3 microfacet_from_sum(MicrofacetParams p, vec3 wi, vec3 wo, vec3 s) {
+    float s2;
+    float c_d = half_sum(s, s2);
+    return microfacet_from_sum_fresnel(p, wi, wo, s, microfacet_fresnel_factor(p, c_d));
+}
+
 vec3 microfacet(MicrofacetParams p, vec3 wi, vec3 wo) {
     return microfacet_from_sum(p, wi, wo, wi + wo);
 }
 #define MODEL_EVAL_SUM microfacet_from_sum
+// Whether f is its Fresnel factor times the rest (no diffuse part, no Kulla-Conty lobe): the lit
+// sphere's kernel (kernels/light.comp) then folds the factor into each texel's weight.
+bool microfacet_fresnel_folds(MicrofacetParams p) {
+    return MF_MULTISCATTER == 0u && p.diffuse_over_pi == vec3(0.0);
+}
+#define MODEL_FRESNEL microfacet_fresnel_factor
+#define MODEL_FRESNEL_FOLDS microfacet_fresnel_folds
+#define MODEL_EVAL_FRESNEL microfacet_from_sum_fresnel
 
 // The specular lobe's probability against the cosine's (diffuse and, with Kulla-Conty, that
 // lobe's directional albedo at wo, specular F_ms L(mu_o)); the luminances come from the host.

@@ -8,6 +8,15 @@
 // each texel's direction and L dOmega in f64 and hands them over rounded to f32, so the kernel
 // only rotates, evaluates and sums.
 //
+// A model whose f is a Fresnel factor at c_d = wi.h times the rest (MODEL_FRESNEL_FOLDS: the
+// microfacet model without a diffuse part or the Kulla-Conty lobe) has the factor folded into
+// each texel's weight by a first pass of this kernel over the texels (chunk.n_wo =
+// FRESNEL_PASS): the camera is orthographic along +z, so every pixel's wo is +z in the world and
+// c_d = |d + z| / 2 depends on the texel's direction d alone. The sum then evaluates f with a
+// factor of 1 (MODEL_EVAL_FRESNEL), the same formula in the same operations but for the order of
+// one product and c_d's rounding (from world rather than local coordinates, an ulp or so): one
+// Fresnel evaluation per texel rather than per pixel and texel.
+//
 // f32 accumulation: each map row is summed on its own, then the rows' sums are added, so a
 // term meets at most (width + height) additions instead of width * height (a rounding error
 // bound of about (W + H) 2^-24 relative to the sum of |terms| rather than W H 2^-24).
@@ -28,7 +37,10 @@ layout(std430, set = 0, binding = 1) readonly buffer Pixels {
     uvec4 map;  // texels per row, rows, unused, unused
     Pixel pixels[];
 };
-layout(std430, set = 0, binding = 2) readonly buffer Texels { Texel texels[]; };
+layout(std430, set = 0, binding = 2) buffer Texels { Texel texels[]; };
+
+// chunk.n_wo of the first pass (twin of FRESNEL_PASS in src/gpu/light.rs); 0 for the sum.
+const uint FRESNEL_PASS = 1u;
 
 // A map row whose texels all lie below the pixel's horizon is skipped whole: over a row of
 // polar angle theta the largest n . d is cos(theta) n.y + sin(theta) |n.xz| (the first texel's
@@ -76,18 +88,34 @@ void visible_columns(vec3 d0, vec3 n, float n_xz, uint width, out uint a, out ui
     }
 }
 
+// Whether the first pass folds the model's Fresnel factor into the texels' weights.
+bool fresnel_folds(MODEL_PARAMS p) {
+#ifdef MODEL_FRESNEL_FOLDS
+    return MODEL_FRESNEL_FOLDS(p);
+#else
+    return false;
+#endif
+}
+
+// f at a texel: with folded, f's Fresnel factor is in the texel's weight.
+vec3 texel_f(MODEL_PARAMS p, vec3 wi, vec3 wo, bool folded) {
+#ifdef MODEL_EVAL_FRESNEL
+    if (folded) return wo.z > 0.0 ? MODEL_EVAL_FRESNEL(p, wi, wo, wi + wo, vec3(1.0)) : vec3(0.0);
+#endif
+    return brdf(p, wi, wo);
+}
+
 // Adds the terms of texels first + begin .. first + end to sum, in order.
-void add_terms(MODEL_PARAMS p, Pixel px, vec3 wo, uint first, uint begin, uint end, inout vec3 sum) {
+void add_terms(MODEL_PARAMS p, Pixel px, vec3 wo, uint first, uint begin, uint end, bool folded,
+               inout vec3 sum) {
     for (uint k = first + begin; k < first + end; ++k) {
         vec3 d = texels[k].direction.xyz;
         vec3 wi = vec3(dot(d, px.t.xyz), dot(d, px.b.xyz), dot(d, px.n.xyz));
-        if (wi.z > 0.0) {
-            sum += brdf(p, wi, wo) * wi.z * texels[k].weight.rgb;
-        }
+        if (wi.z > 0.0) sum += texel_f(p, wi, wo, folded) * wi.z * texels[k].weight.rgb;
     }
 }
 
-vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
+vec3 light_pixel(MODEL_PARAMS p, Pixel px, bool folded) {
     vec3 wo = vec3(px.t.w, px.b.w, px.n.w);
     vec3 total = vec3(0.0);
     float n_xz = length(px.n.xz);
@@ -98,17 +126,40 @@ vec3 light_pixel(MODEL_PARAMS p, Pixel px) {
         visible_columns(d0, px.n.xyz, n_xz, map.x, a, lo, hi);
         // The two spans in order into one sum, so the row adds its terms as the full loop would.
         vec3 sum = vec3(0.0);
-        add_terms(p, px, wo, k, 0u, a, sum);
-        add_terms(p, px, wo, k, lo, hi, sum);
+        add_terms(p, px, wo, k, 0u, a, folded, sum);
+        add_terms(p, px, wo, k, lo, hi, folded, sum);
         total += sum;
     }
     return total;
 }
 
 // One pixel per invocation (the runner sets EVALS_PER_INVOCATION to 1 for this kernel: the loop
-// over every texel is work enough to carry an invocation's overhead).
+// over every texel is work enough to carry an invocation's overhead). The first pass
+// (chunk.n_wo = FRESNEL_PASS) instead folds the Fresnel factor into texel first + index's weight
+// where the model's f allows. Each way of the sum has a loop of its own, so that a CPU driver's
+// SIMD lanes, which step through both sides of a branch under a mask, skip the other's loop at
+// once (the condition is the same for every lane).
 void main() {
     uint local_index = gl_GlobalInvocationID.x;
     if (local_index >= chunk.count) return;
-    store(local_index, light_pixel(params[0], pixels[chunk.first + local_index]));
+    if (chunk.n_wo == FRESNEL_PASS) {
+#ifdef MODEL_FRESNEL
+        if (fresnel_folds(params[0])) {
+            uint k = chunk.first + local_index;
+            float s2;
+            float c_d = half_sum(texels[k].direction.xyz + vec3(0.0, 0.0, 1.0), s2);
+            texels[k].weight.rgb *= MODEL_FRESNEL(params[0], c_d);
+        }
+#endif
+        return;
+    }
+    MODEL_PARAMS p = params[0];
+    Pixel px = pixels[chunk.first + local_index];
+    vec3 l;
+    if (fresnel_folds(p)) {
+        l = light_pixel(p, px, true);
+    } else {
+        l = light_pixel(p, px, false);
+    }
+    store(local_index, l);
 }

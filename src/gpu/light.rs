@@ -3,7 +3,7 @@
 //! uploaded once, then one pixel per evaluation in chunks.
 
 use super::buffer::Buffer;
-use super::pipeline::{Dispatcher, Kernel};
+use super::pipeline::{ChunkPush, Dispatcher, Kernel};
 use super::{Gpu, GpuError};
 use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::interrupt::CancelToken;
@@ -36,6 +36,14 @@ pub struct GpuTexel {
     /// L ΔΩ per channel, 0.
     pub weight: [f32; 4],
 }
+
+/// The light kernel's first pass (its chunk's `n_wo`, twin of `FRESNEL_PASS` in
+/// `glsl/kernels/light.comp`): for a model whose f is a Fresnel factor at c_d = ωi·h times the
+/// rest (the microfacet model without a diffuse part or the Kulla–Conty lobe), each texel's
+/// weight is multiplied by the factor at c_d = |d + z| / 2 once, rather than f's evaluating it
+/// at every pixel (the camera looks along −z, so ωo is +z in the world for every pixel). A pass
+/// that changes nothing for the other models.
+pub const FRESNEL_PASS: u32 = 1;
 
 fn f32x4(v: glam::DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
@@ -109,6 +117,19 @@ impl Gpu {
         texel_buf.write(bytemuck::cast_slice(&gpu_texels))?;
         let out_buf = Buffer::output(&self.dev, chunk * 12, "light output")?;
         let dispatcher = Dispatcher::new(&pipe, &[&param_buf, &pixel_buf, &texel_buf, &out_buf])?;
+        let by_dispatch = self.dev.limits.max_compute_work_group_count[0] as u64
+            * super::pipeline::LOCAL_SIZE as u64;
+        let mut first = 0;
+        while first < n_texels {
+            let count = (n_texels - first).min(by_dispatch);
+            dispatcher.run_one(&ChunkPush {
+                first: first as u32,
+                count: count as u32,
+                n_wo: FRESNEL_PASS,
+                n_wi: 0,
+            })?;
+            first += count;
+        }
         // Ctrl-C: looked at between chunks; the chunk running finishes first.
         let stop = || cancel.is_some_and(|c| c.check().is_err());
         let out = dispatcher.run_rgb(&out_buf, pixels.len() as u64, chunk, &stop)?;
