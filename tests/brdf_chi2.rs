@@ -22,31 +22,13 @@ const VIEW: [f64; 2] = [45.0, 20.0];
 const HEAD: &str =
     "analytic\n::begin parameters\nfloat m 1 100 20\n::end parameters\n::begin shader\n";
 
-/// A normalised Blinn–Phong lobe drawn through its half vector: h from the power cosine
-/// (m + 1)/(2π) (n·h)^m about n (cos θh = u1^(1/(m+1)), φh = 2π u2), ωi the reflection of ωo
-/// about h. The density of ωi is that of h over the Jacobian 4 (ωo·h) (Walter et al. 2007,
-/// eq. 14); `DENSITY` is the pdfL's return statement, `H_PDF` the half vector's density it uses.
-const BLINN: &str = "const float PI = 3.14159265358979;
-float h_density(float c) {
-    return H_PDF;
-}
-vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    vec3 H = normalize(L + V);
-    return vec3((m + 8.0) / (8.0 * PI) * pow(max(0.0, dot(N, H)), m));
-}
-vec3 sampleL(vec2 u, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    float c = pow(u.x, 1.0 / (m + 1.0));
-    float s = sqrt(max(0.0, 1.0 - c * c));
-    float phi = 2.0 * PI * u.y;
-    vec3 H = c * N + s * (cos(phi) * X + sin(phi) * Y);
-    return normalize(2.0 * dot(V, H) * H - V);
-}
-float pdfL(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    vec3 H = normalize(L + V);
-    float c = max(0.0, dot(N, H));
-    float ph = atan(dot(H, Y), dot(H, X));
-    return DENSITY;
-}";
+/// A normalised Blinn–Phong lobe drawn through its half vector, with its correct density
+/// (`testdata/brdf/half_vector_sampler.brdf`, which the Python tests read too): `shader` makes
+/// the variants by replacing the half vector's density (`H_DRAWN`) and pdfL's (`CORRECT`).
+const SAMPLER_FILE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/testdata/brdf/half_vector_sampler.brdf"
+);
 
 /// The half vector's density as drawn.
 const H_DRAWN: &str = "(m + 1.0) / (2.0 * PI) * pow(c, m)";
@@ -54,8 +36,22 @@ const H_DRAWN: &str = "(m + 1.0) / (2.0 * PI) * pow(c, m)";
 /// The correct density of ωi: the half vector's over 4 (ωo·h).
 const CORRECT: &str = "h_density(c) / (4.0 * dot(V, H))";
 
+/// The file's shader with the half vector's density `h_pdf` and pdfL's return value `density`.
 fn shader(h_pdf: &str, density: &str) -> String {
-    BLINN.replace("H_PDF", h_pdf).replace("DENSITY", density)
+    let text = std::fs::read_to_string(SAMPLER_FILE).unwrap();
+    let body = text
+        .split_once("::begin shader\n")
+        .and_then(|(_, rest)| rest.split_once("::end shader"))
+        .map(|(body, _)| body.trim_end())
+        .unwrap_or_else(|| panic!("{SAMPLER_FILE} has no shader section"));
+    for part in [H_DRAWN, CORRECT] {
+        assert!(
+            body.contains(&format!("return {part};")),
+            "{SAMPLER_FILE} returns no {part}"
+        );
+    }
+    body.replace(&format!("return {H_DRAWN};"), &format!("return {h_pdf};"))
+        .replace(&format!("return {CORRECT};"), &format!("return {density};"))
 }
 
 /// The sampling test of `shader` at `samples` draws per view direction, on the device.

@@ -5,6 +5,7 @@ import io
 import json
 import math
 import os
+import pathlib
 import subprocess
 
 import numpy as np
@@ -268,29 +269,9 @@ def test_chi2_takes_view_vectors_and_draws_on_the_sessions_backend(session):
 
 # A .brdf file with its own sampler: a normalised Blinn-Phong lobe drawn through its half
 # vector, whose density over the solid angle of L is the half vector's over 4 (V.h).
-BLINN_WITH_SAMPLER = """analytic
-::begin parameters
-float m 1 100 20
-::end parameters
-::begin shader
-const float PI = 3.14159265358979;
-vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    vec3 H = normalize(L + V);
-    return vec3((m + 8.0) / (8.0 * PI) * pow(max(0.0, dot(N, H)), m));
-}
-vec3 sampleL(vec2 u, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    float c = pow(u.x, 1.0 / (m + 1.0));
-    float s = sqrt(max(0.0, 1.0 - c * c));
-    float phi = 2.0 * PI * u.y;
-    vec3 H = c * N + s * (cos(phi) * X + sin(phi) * Y);
-    return normalize(2.0 * dot(V, H) * H - V);
-}
-float pdfL(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {
-    vec3 H = normalize(L + V);
-    return (m + 1.0) / (2.0 * PI) * pow(max(0.0, dot(N, H)), m) / (4.0 * dot(V, H));
-}
-::end shader
-"""
+BLINN_WITH_SAMPLER = (
+    pathlib.Path(__file__).resolve().parents[2] / "testdata" / "brdf" / "half_vector_sampler.brdf"
+).read_text()
 
 
 def test_chi2_and_pdf_of_a_brdf_files_sampler_are_lobe_chi2s(lobe_bin, gpu, cpu, tmp_path):
