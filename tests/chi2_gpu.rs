@@ -337,3 +337,58 @@ fn a_merl_files_sampler_passes_on_the_device() {
     let cases = [("merl gold".to_string(), ParamSet::defaults(model))];
     assert_all_pass_on_device(&session, &cases, &THETAS, 1 << 20);
 }
+
+/// The counting kernel's two ways of counting a draw in its cell, an atomic add on the device
+/// (a GPU's) and its cell's index counted on the host (a CPU driver's), give the same counts
+/// and tallies, draw for draw; and a chunk whose weights are not checked counts the same cells.
+#[test]
+fn host_and_device_cell_counting_agree() {
+    use lobe::gpu::{CellCounting, Gpu, GpuDrawRequest, COUNT_HEADER, COUNT_WEIGHT_ERROR};
+    use lobe::model::Brdf;
+    let Some(dev) = common::gpu_device("host and device cell counting") else {
+        return;
+    };
+    let gpu = Gpu::new(dev);
+    let p = params("microfacet", &["alpha=0.2", "diffuse=0.3"]);
+    let block = Brdf::new(&p).gpu_block();
+    let t = 40f32.to_radians();
+    let request = GpuDrawRequest {
+        wo: [t.sin(), 0.0, t.cos()],
+        seed: 3,
+        group: 1,
+        first_lo: 0,
+        first_hi: 0,
+        pad: 0,
+    };
+    let (n_phi, n_cos) = (60u32, 30u32);
+    // Not a whole number of invocations, and the checked draws end inside it.
+    let count = (1u64 << 20) + 12345;
+    let counts = |checked: u64, way: CellCounting| {
+        let mut words = vec![0u64; COUNT_HEADER + (n_phi * n_cos) as usize];
+        gpu.chi2_counts(
+            p.model(),
+            &block,
+            request,
+            [count, checked],
+            [n_phi, n_cos],
+            (false, way),
+            None,
+            &mut words,
+        )
+        .expect("the counting kernel runs");
+        words
+    };
+    let checked = 1000;
+    let device = counts(checked, CellCounting::Device);
+    let host = counts(checked, CellCounting::Host);
+    assert_eq!(device, host);
+    let in_cells: u64 = host[COUNT_HEADER..].iter().sum();
+    assert!(in_cells > count / 2, "{in_cells} of {count} draws in cells");
+    assert!(
+        host[COUNT_WEIGHT_ERROR] > 0,
+        "the checked draws' weights were compared"
+    );
+    let unchecked = counts(0, CellCounting::Host);
+    assert_eq!(unchecked[COUNT_HEADER..], host[COUNT_HEADER..]);
+    assert_eq!(unchecked[COUNT_WEIGHT_ERROR], 0);
+}

@@ -4,17 +4,29 @@
 // kernels/sample.comp (kernels/draw.glsl: the same numbers, the same sampler) are not stored but
 // counted. Each draw outside a delta lobe, finite, with pdf > 0 and above the horizon is counted
 // in its (phi, cos theta) cell (cells_index, twin of Cells::index in src/chi2/cells.rs); the
-// others are tallied as the CPU's Tally::draw tallies them (src/chi2/mod.rs), and each counted
-// draw's weight and pdf are checked against f cos(theta_i) / pdf and MODEL_PDF at its wi. The
-// host clears the counts before each chunk, reads them back after it and adds them in 64 bits.
+// others are tallied as the CPU's Tally::draw tallies them (src/chi2/tally.rs), with the weight
+// checks where CHECKED. The host clears the
+// counts before each chunk, reads them back after it and adds them in 64 bits.
 #include "kernels/draw.glsl"
 
-// The chunk's third and fourth push-constant words carry the cells: n_wo the steps in phi,
-// pad the steps in cos theta (ChunkPush::n_wo and n_wi on the host).
+// The chunk's third push-constant word carries the cells, the steps in phi in its low 16 bits
+// and those in cos theta in its high 16 (ChunkPush::n_wo on the host).
 
 // The counts: the tallies at these word offsets, then one count per cell from COUNT_HEADER on.
 // Twins of the COUNT_* constants of src/gpu/draws.rs.
 layout(std430, set = 0, binding = 2) buffer Counts { uint counts[]; };
+// HOST_COUNTS (a CPU driver, whose atomic add is a locked instruction per lane): each draw's
+// cell index, or NO_CELL, is stored at its place in the chunk and the host counts them; the
+// cells' counts are then not in Counts. Otherwise each draw adds 1 to its cell in Counts and
+// this buffer is not touched. Twin of CellCounting in src/gpu/draws.rs.
+layout(constant_id = 20) const bool HOST_COUNTS = false;
+layout(std430, set = 0, binding = 3) writeonly buffer Indices { uint indices[]; };
+const uint NO_CELL = 0xffffffffu;
+// CHECKED: each draw's weight is also checked against f cos(theta_i) / pdf and its pdf against
+// MODEL_PDF at its wi. A pipeline of its own rather than a branch: a CPU driver runs both sides
+// of a branch under masks, and the checks' f and pdf would then cost every draw. Twin of the
+// second of Pipeline::kernel_switches in src/gpu/pipeline/mod.rs.
+layout(constant_id = 21) const bool CHECKED = false;
 const uint COUNT_LOST = 0u;
 const uint COUNT_DELTA = 1u;
 const uint COUNT_INVALID = 2u;
@@ -69,10 +81,15 @@ void tally(uint word, uint n) {
     if (n > 0u) atomicAdd(counts[word], n);
 }
 
+// Draws whose hashes are made together before they are drawn: the hash is a chain of dependent
+// multiplies, and four independent chains side by side keep a CPU's multiplier busy.
+const uint HASH_BATCH = 4u;
+
 void main() {
+    const bool checked = CHECKED;
     uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
-    uint n_phi = chunk.n_wo;
-    uint n_cos = chunk.pad;
+    uint n_phi = chunk.n_wo & 0xffffu;
+    uint n_cos = chunk.n_wo >> 16u;
     MODEL_PARAMS p = params[0];
     vec3 wo = request.wo;
     uint histogram = COUNT_HEADER + (gl_WorkGroupID.x % HISTOGRAM_COPIES) * n_phi * n_cos;
@@ -80,41 +97,53 @@ void main() {
     uint lost = 0u, delta = 0u, invalid = 0u, non_unit = 0u, zero_pdf = 0u;
     uint non_finite_weight = 0u, weight_outside = 0u, pdf_below = 0u;
     float weight_error = 0.0, pdf_error = 0.0;
-    for (uint k = 0u; k < EVALS_PER_INVOCATION; ++k) {
-        uint local_index = base + k;
-        if (local_index >= chunk.count) break;
-        uint lo, hi;
-        draw_index(chunk.first + local_index, lo, hi);
-        float uc;
-        vec2 u;
-        draw_numbers(request.seed, lo, hi, request.group, uc, u);
-        Sample s = draw(p, wo, uc, u);
-        if (s.delta != 0u) {
-            delta += 1u;
-            continue;
+    for (uint k0 = 0u; k0 < EVALS_PER_INVOCATION; k0 += HASH_BATCH) {
+        vec4 numbers[HASH_BATCH];
+        for (uint j = 0u; j < HASH_BATCH; ++j) {
+            uint lo, hi;
+            draw_index(chunk.first + base + k0 + j, lo, hi);
+            numbers[j] = uniform4(request.seed, lo, hi, request.group);
         }
-        if (!finite3(s.wi) || !finite1(s.pdf) || s.pdf < 0.0) {
-            invalid += 1u;
-            continue;
-        }
-        if (!finite3(s.weight)) non_finite_weight += 1u;
-        float len = length(s.wi);
-        if (abs(len - 1.0) > UNIT_TOLERANCE_F32) non_unit += 1u;
-        int cell = s.pdf > 0.0 ? cells_index(s.wi / len, n_phi, n_cos) : -1;
-        if (cell < 0) {
-            lost += 1u;
-            if (s.wi.z > 0.0) {
-                zero_pdf += 1u;
-            } else if (s.pdf != 0.0) {
-                pdf_below += 1u;
+        for (uint j = 0u; j < HASH_BATCH; ++j) {
+            uint local_index = base + k0 + j;
+            if (k0 + j >= EVALS_PER_INVOCATION || local_index >= chunk.count) break;
+            Sample s = draw(p, wo, numbers[j].x, numbers[j].yz);
+            if (HOST_COUNTS) indices[local_index] = NO_CELL;
+            if (s.delta != 0u) {
+                delta += 1u;
+                continue;
             }
-            if (s.weight != vec3(0.0)) weight_outside += 1u;
-            continue;
+            if (!finite3(s.wi) || !finite1(s.pdf) || s.pdf < 0.0) {
+                invalid += 1u;
+                continue;
+            }
+            if (checked && !finite3(s.weight)) non_finite_weight += 1u;
+            float len = length(s.wi);
+            if (abs(len - 1.0) > UNIT_TOLERANCE_F32) non_unit += 1u;
+            int cell = s.pdf > 0.0 ? cells_index(s.wi / len, n_phi, n_cos) : -1;
+            if (cell < 0) {
+                lost += 1u;
+                if (s.wi.z > 0.0) {
+                    zero_pdf += 1u;
+                } else if (s.pdf != 0.0) {
+                    pdf_below += 1u;
+                }
+                if (checked && s.weight != vec3(0.0)) weight_outside += 1u;
+                continue;
+            }
+            if (HOST_COUNTS) {
+                indices[local_index] = uint(cell);
+            } else {
+                atomicAdd(counts[histogram + uint(cell)], 1u);
+            }
+            if (checked) {
+                pdf_error = max(pdf_error, relative(s.pdf, pdf_at(p, s.wi, wo)));
+                vec3 want = brdf(p, s.wi, wo) * max(s.wi.z, 0.0) / s.pdf;
+                for (int c = 0; c < 3; ++c) {
+                    weight_error = max(weight_error, relative(s.weight[c], want[c]));
+                }
+            }
         }
-        atomicAdd(counts[histogram + uint(cell)], 1u);
-        pdf_error = max(pdf_error, relative(s.pdf, pdf_at(p, s.wi, wo)));
-        vec3 want = brdf(p, s.wi, wo) * max(s.wi.z, 0.0) / s.pdf;
-        for (int c = 0; c < 3; ++c) weight_error = max(weight_error, relative(s.weight[c], want[c]));
     }
     tally(COUNT_LOST, lost);
     tally(COUNT_DELTA, delta);

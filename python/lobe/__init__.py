@@ -385,7 +385,8 @@ class Session:
 
 
     def chi2(self, model, wo=None, params=None, material=None, samples=1 << 24, seed=0,
-             theta_o_deg=None, phi_o_deg=0.0, significance=0.01, white_furnace=False):
+             theta_o_deg=None, phi_o_deg=0.0, significance=0.01, white_furnace=False,
+             checked_draws=1 << 24):
         if wo is not None and theta_o_deg is not None:
             raise ValueError("wo and theta_o_deg: give the view directions one way, not both")
         if wo is not None:
@@ -411,8 +412,10 @@ class Session:
             raise ValueError(f"significance: {significance} is out of range; expected a probability in (0, 1)")
         samples = _positive_ints("samples", samples, 1)[0]
         seed = _seed(seed)
+        if checked_draws is not None:
+            checked_draws = _positive_ints("checked_draws", checked_draws, 1)[0]
         return json.loads(_lobe.chi2(self._s, _model(model), material, _sets(params), bool(white_furnace),
-                                     thetas, phis, samples, seed, significance))
+                                     thetas, phis, samples, seed, significance, checked_draws))
 
     def light(self, model, env, size=256, params=None, material=None, method="exact"):
         if method not in ("exact", "split_sum"):

@@ -306,7 +306,8 @@ class Session:
              params: Optional[Params] = None, material: Optional[str] = None,
              samples: int = 1 << 24, seed: int = 0,
              theta_o_deg: Optional[Sequence[float]] = None, phi_o_deg: float = 0.0,
-             significance: float = 0.01, white_furnace: bool = False) -> Dict[str, Any]:
+             significance: float = 0.01, white_furnace: bool = False,
+             checked_draws: Optional[int] = 1 << 24) -> Dict[str, Any]:
         """The sampling test of the model's own sampler, as ``lobe chi2 --format json``
         reports it: per view direction the observed and expected histograms, the chi-square
         statistic, dof and p-value, the share of draws leaving the hemisphere against
@@ -316,8 +317,10 @@ class Session:
         the horizon, or else ``theta_o_deg`` (degrees, at azimuth ``phi_o_deg``; by default 0,
         30, 60 and 85). ``samples`` draws per direction (default 2^24), from the random stream
         ``seed``. Drawn and counted on this session's backend (``"backend"`` in the report
-        names it): on "gpu" by the counting kernel with every draw checked in f32 there, on
-        "cpu" through the f64 reference; the expected counts are the f64 reference pdf's
+        names it): on "gpu" by the counting kernel with the draws checked in f32 there, on
+        "cpu" through the f64 reference. Each direction's first ``checked_draws`` draws
+        (default 2^24, every draw at the default count; ``None`` for all) also have their
+        weight checked against f cos / pdf and their pdf against pdf(wi); the expected counts are the f64 reference pdf's
         integrals over the cells either way. A ``.brdf`` file's own ``sampleL`` and ``pdfL``
         are tested on "gpu" only, the expected counts integrating ``pdfL`` as the device
         evaluates it (``"density"`` in the report names where)."""

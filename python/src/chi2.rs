@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 /// The test's report as JSON text (what `lobe chi2 --format json` prints).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (session, model, material, sets, white_furnace, theta_o_deg, phi_o_deg, samples, seed, significance))]
+#[pyo3(signature = (session, model, material, sets, white_furnace, theta_o_deg, phi_o_deg, samples, seed, significance, checked_draws))]
 pub fn chi2(
     py: Python<'_>,
     session: &Bound<'_, PySession>,
@@ -19,6 +19,7 @@ pub fn chi2(
     samples: u64,
     seed: u32,
     significance: f64,
+    checked_draws: Option<u64>,
 ) -> PyResult<String> {
     let params = model::resolve(model, material, &sets)?;
     let options = lobe::chi2::Options {
@@ -31,6 +32,7 @@ pub fn chi2(
         seed,
         significance,
         cells: None,
+        checked_draws,
     };
     let s = &session.get().inner;
     let report = job::run(py, s, || {

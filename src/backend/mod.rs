@@ -176,6 +176,11 @@ pub struct DrawCounting {
     pub n_phi: usize,
     /// Steps in cosθ over [0, 1].
     pub n_cos: usize,
+    /// How many of the range's first draws also have their weight checked against
+    /// f cos θi / pdf and their pdf against the pdf at ωi ([`DrawCounts::max_weight_error`],
+    /// [`DrawCounts::max_pdf_error`], [`DrawCounts::non_finite_weight`],
+    /// [`DrawCounts::nonzero_weight_outside`]); every draw has the other checks.
+    pub checked: u64,
 }
 
 /// The arithmetic a backend evaluates and sums in: what an error estimate must allow for.

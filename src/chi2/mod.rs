@@ -7,14 +7,15 @@
 //! count of each cell is N ∫_cell pdf dω, integrated adaptively to well under the count's own
 //! noise. A chi-square test with pooling (as Mitsuba 3 and pbrt-v4 test their BSDFs) compares the
 //! two histograms; a second test compares the share of draws that leave the hemisphere with
-//! 1 − ∫ pdf over it; and every draw's weight and pdf are checked against the sampler's own
-//! `eval_cos` and `pdf`. The tests over all ωo together reject a correct sampler with
+//! 1 − ∫ pdf over it; and the weight and pdf of each direction's first
+//! [`Options::checked_draws`] draws (every draw at the default count) are checked against the
+//! sampler's own `eval_cos` and `pdf`. The tests over all ωo together reject a correct sampler with
 //! probability `significance` (Šidák's correction).
 //!
 //! The draws are counted either on the CPU through the [`Sampler`] (every draw checked in f64)
 //! or on a backend's device ([`Counting::Backend`]: the counting kernel draws the same numbers
-//! in f32, counts each draw in its cell with atomics and reduces the draw checks there, so no
-//! draw leaves the device); the expected counts are the f64 integrals of the sampler's f64 pdf
+//! in f32, counts each draw in its cell and reduces the draw checks there, so no draw leaves
+//! the device); the expected counts are the f64 integrals of the sampler's f64 pdf
 //! either way.
 //!
 //! The test knows no model: anything that implements [`Sampler`] can be judged.
@@ -96,6 +97,12 @@ pub const DRAW_TOLERANCE_F32: f64 = 1e-2;
 /// ~1e-6; 1e-5 still catches a direction never normalised. The counting kernel's
 /// `UNIT_TOLERANCE_F32` is its twin.
 pub const UNIT_TOLERANCE_F32: f64 = 1e-5;
+/// Draws per direction whose weight and pdf are checked by default ([`Options::checked_draws`]):
+/// every draw of the default 2²⁴. The checks evaluate f and the pdf again at each draw's ωi,
+/// which costs about as much as the draw itself; a weight or pdf that is wrong anywhere the
+/// sampler goes shows in a sample of 2²⁴ draws, while the histogram, the test that needs the
+/// count, keeps every draw.
+pub const CHECKED_DRAWS: u64 = 1 << 24;
 /// Draws per call of a backend's counting ([`Counting::Backend`]): the cancellation token and
 /// the progress callback are heard between calls.
 const DEVICE_BATCH: u64 = 1 << 24;
@@ -124,6 +131,11 @@ pub struct Options {
     pub significance: f64,
     /// The cells; `None` chooses them from `samples` ([`Cells::for_samples`]).
     pub cells: Option<Cells>,
+    /// How many of each direction's first draws have their weight checked against
+    /// eval_cos / pdf and their pdf against pdf(ωi) (and their weight for being finite, and 0
+    /// where the draw leaves); `None` for every draw. Every draw is counted, and checked for
+    /// being finite, of unit length and with pdf 0 where it leaves.
+    pub checked_draws: Option<u64>,
 }
 
 impl Default for Options {
@@ -134,6 +146,7 @@ impl Default for Options {
             seed: 0,
             significance: 0.01,
             cells: None,
+            checked_draws: Some(CHECKED_DRAWS),
         }
     }
 }
@@ -296,6 +309,9 @@ fn run_with<S: Sampler>(
             cells.n_phi, cells.n_cos
         )));
     }
+    let checked = options
+        .checked_draws
+        .map_or(options.samples, |n| n.min(options.samples));
     let tests = 2 * options.directions.len();
     let corrected = sidak(options.significance, tests);
     let total = options
@@ -316,7 +332,7 @@ fn run_with<S: Sampler>(
                 query,
                 wo,
                 options,
-                group,
+                (group, checked),
                 cells,
                 cancel,
                 &mut |n| {
@@ -345,7 +361,7 @@ fn run_with<S: Sampler>(
                         for i in chunk * CHUNK..last {
                             let (uc, u) = random::draw_numbers(options.seed, i, group);
                             let d = sampler.sample(wo, uc, u);
-                            t.draw(sampler, &cells, wo, i, d);
+                            t.draw(sampler, &cells, wo, (i, i < checked), d);
                         }
                         t
                     },
@@ -356,6 +372,7 @@ fn run_with<S: Sampler>(
             next = end;
             progress(done, total);
         }
+        tally.checks.checked_draws = checked;
         let sampling_seconds = t0.elapsed().as_secs_f64();
         if let Some(c) = cancel {
             c.check()?;
@@ -399,15 +416,15 @@ fn run_with<S: Sampler>(
     })
 }
 
-/// One direction's draws counted on `backend`'s device, `DEVICE_BATCH` at a time; `advance`
-/// hears each batch's draws.
+/// One direction's draws counted on `backend`'s device, `DEVICE_BATCH` at a time, the first
+/// `checked` with the weight checks; `advance` hears each batch's draws.
 #[allow(clippy::too_many_arguments)] // one call site: the direction's part of run_counted
 fn count_on_device(
     backend: &dyn Backend,
     query: Query<'_>,
     wo: DVec3,
     options: &Options,
-    group: u32,
+    (group, checked): (u32, u64),
     cells: Cells,
     cancel: Option<&CancelToken>,
     advance: &mut dyn FnMut(u64),
@@ -428,6 +445,7 @@ fn count_on_device(
             },
             n_phi: cells.n_phi,
             n_cos: cells.n_cos,
+            checked: checked.saturating_sub(first).min(n),
         };
         let counts = backend
             .draw_counts(query, wo, counting, cancel)

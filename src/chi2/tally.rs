@@ -38,6 +38,10 @@ pub struct DrawChecks {
     pub max_pdf_error: f64,
     /// The draw with the largest pdf error.
     pub worst_pdf_draw: Option<u64>,
+    /// How many of the direction's first draws had their weight and pdf checked (the errors
+    /// above, `non_finite_weight` and `nonzero_weight_outside`); the other counts are of every
+    /// draw.
+    pub checked_draws: u64,
 }
 
 impl DrawChecks {
@@ -120,6 +124,7 @@ impl Tally {
                 worst_weight_draw: None,
                 max_pdf_error: d.max_pdf_error,
                 worst_pdf_draw: None,
+                checked_draws: 0,
             },
         }
     }
@@ -160,7 +165,15 @@ impl Tally {
         self
     }
 
-    pub(super) fn draw<S: Sampler>(&mut self, s: &S, cells: &Cells, wo: DVec3, i: u64, d: Drawn) {
+    /// Counts draw `i`, `d`, and checks it; its weight and pdf too where `checked`.
+    pub(super) fn draw<S: Sampler>(
+        &mut self,
+        s: &S,
+        cells: &Cells,
+        wo: DVec3,
+        (i, checked): (u64, bool),
+        d: Drawn,
+    ) {
         let c = &mut self.checks;
         if d.delta {
             self.delta += 1;
@@ -170,7 +183,7 @@ impl Tally {
             c.invalid += 1;
             return;
         }
-        if !d.weight.is_finite() {
+        if checked && !d.weight.is_finite() {
             c.non_finite_weight += 1;
         }
         // pdf and eval_cos see ωi as drawn; only the cell is found from its normalised form.
@@ -191,12 +204,15 @@ impl Tally {
             } else if d.pdf != 0.0 {
                 c.nonzero_pdf_below += 1;
             }
-            if d.weight != DVec3::ZERO {
+            if checked && d.weight != DVec3::ZERO {
                 c.nonzero_weight_outside += 1;
             }
             return;
         };
         self.hist[cell] += 1;
+        if !checked {
+            return;
+        }
         let pdf = s.pdf(wi, wo);
         let e = relative(d.pdf, pdf);
         let e = if e.is_nan() { f64::INFINITY } else { e };

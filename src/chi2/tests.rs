@@ -451,6 +451,46 @@ fn chi2_reports_weight_and_pdf_mismatches() {
     );
 }
 
+/// Only the first `checked_draws` draws have their weight and pdf checked; the histogram and the
+/// other checks keep every draw.
+#[test]
+fn chi2_checks_weights_on_the_first_checked_draws() {
+    let bad = Cosine {
+        weight_scale: 1.01,
+        ..COSINE
+    };
+    let with = |checked: Option<u64>| {
+        let o = Options {
+            checked_draws: checked,
+            ..options(1 << 16, &[[0.0, 0.0]])
+        };
+        run(&bad, &o, None, |_, _| {}).expect("the test runs")
+    };
+    let some = with(Some(1000));
+    let d = &some.directions[0];
+    assert_eq!(d.draws.checked_draws, 1000);
+    assert!(d.draws.worst_weight_draw.is_some_and(|i| i < 1000));
+    assert!(!d.passed, "{}", describe(&some));
+    let all = with(None);
+    assert_eq!(all.directions[0].draws.checked_draws, 1 << 16);
+    assert_eq!(all.directions[0].observed, d.observed);
+    // None checked: the weight goes unseen, and the histogram is the same.
+    let none = with(Some(0));
+    let d0 = &none.directions[0];
+    assert!(
+        d0.passed && d0.draws.max_weight_error == 0.0,
+        "{}",
+        describe(&none)
+    );
+    assert_eq!(d0.draws.checked_draws, 0);
+    assert_eq!(d0.observed, d.observed);
+    // More than the draws: every draw.
+    assert_eq!(
+        with(Some(1 << 20)).directions[0].draws.checked_draws,
+        1 << 16
+    );
+}
+
 #[test]
 fn chi2_draws_do_not_depend_on_the_thread_count() {
     let opts = options(1 << 18, &[[20.0, 10.0]]);

@@ -42,6 +42,11 @@ pub struct Chi2Args {
     /// Draws per view direction: a count or a power of two, 2^24 (default 2^24; at most 2^40).
     #[arg(long, default_value = "2^24", value_parser = parse_count)]
     samples: u64,
+    /// How many of each view direction's first draws also have their weight checked against
+    /// f cos/pdf and their pdf against pdf(wi): a count, 2^K, or "all". Every draw is counted
+    /// in the histogram either way.
+    #[arg(long = "checked-draws", default_value = "2^24", value_parser = parse_checked)]
+    checked_draws: Checked,
     /// The random stream's seed: the same seed draws the same directions.
     #[arg(long, default_value_t = 0)]
     seed: u32,
@@ -78,6 +83,19 @@ fn parse_count(text: &str) -> Result<u64, String> {
     }
 }
 
+/// `--checked-draws`: a count, or every draw.
+#[derive(Clone, Copy, Debug)]
+struct Checked(Option<u64>);
+
+fn parse_checked(text: &str) -> Result<Checked, String> {
+    if text.trim() == "all" {
+        return Ok(Checked(None));
+    }
+    parse_count(text).map(|n| Checked(Some(n))).map_err(|_| {
+        format!("expected \"all\" or a count from 1 to 2^40 ({MAX_SAMPLES}), as N or 2^K")
+    })
+}
+
 /// Exit status of a sampler the test rejects (bad usage exits 2, as clap's own errors do).
 const REJECTED_STATUS: i32 = 1;
 
@@ -103,6 +121,7 @@ pub fn run(a: Chi2Args) -> Result<()> {
         seed: a.seed,
         significance: a.significance,
         cells: None,
+        checked_draws: a.checked_draws.0,
     };
     let session = super::open_session(&a.backend)?;
     let bar = indicatif::ProgressBar::new(options.samples * options.directions.len() as u64);
@@ -181,6 +200,7 @@ fn write_text(out: &mut dyn Write, params: &lobe::ParamSet, r: &Report) -> std::
         "{} draws per direction, seed {}, drawn on {}; {} tests at significance {} each (Sidak, {} overall)",
         r.options.samples, r.options.seed, r.backend, r.tests, fmt_p(r.corrected_significance), r.options.significance
     )?;
+    let checked = r.directions.first().map_or(0, |d| d.draws.checked_draws);
     writeln!(
         out,
         "{:>7} {:>7}  {:>10} {:>6} {:>10}  {:>9} {:>9} {:>10}  {:>9} {:>9}  verdict",
@@ -205,7 +225,8 @@ fn write_text(out: &mut dyn Write, params: &lobe::ParamSet, r: &Report) -> std::
     }
     writeln!(
         out,
-        "columns: leaked = share of draws outside the hemisphere's cells (below it, pdf 0, or a delta lobe), expected = 1 - integral of pdf; weight, pdf = largest relative differences from f cos/pdf and pdf(wi)"
+        "columns: leaked = share of draws outside the hemisphere's cells (below it, pdf 0, or a delta lobe), expected = 1 - integral of pdf; weight, pdf = largest relative differences from f cos/pdf and pdf(wi) over the first {checked} draws{}",
+        if checked < r.options.samples { " (--checked-draws)" } else { " (every draw)" }
     )?;
     for d in r.directions.iter().filter(|d| !d.passed) {
         write_failure(out, d)?;

@@ -150,7 +150,13 @@ impl Gpu {
         // The texel view covers the first maxTexelBufferElements nodes of the buffer.
         let texel_nodes = self.dev.cpu_kernels()
             && nodes.len as u64 <= self.dev.limits.max_texel_buffer_elements as u64;
-        let pipe = self.pipeline_with(Kernel::Albedo, model, white_furnace, false, texel_nodes)?;
+        let pipe = self.pipeline_with(
+            Kernel::Albedo,
+            model,
+            white_furnace,
+            false,
+            [texel_nodes, false],
+        )?;
         let plan = DispatchPlan::new(self, &spans)?;
         let bufs = SumBuffers::new(self, blocks, &spans, &plan)?;
         let node_buf = &nodes.buf;

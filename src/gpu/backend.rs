@@ -3,7 +3,7 @@
 
 use super::draws as counts;
 use super::pipeline::Kernel;
-use super::{Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
+use super::{CellCounting, Gpu, GpuDrawRequest, GpuPair, TableSwitches, DRAW_FLOATS};
 use crate::backend::light::{SpherePixel, WeightedTexels};
 use crate::backend::scene::Scene;
 use crate::backend::{
@@ -298,6 +298,7 @@ impl Gpu {
             range,
             n_phi,
             n_cos,
+            checked,
         } = counting;
         let cells = n_phi * n_cos;
         let Some(params) = query.sets.first() else {
@@ -327,13 +328,14 @@ impl Gpu {
         };
         let block = Brdf::new(params).gpu_block();
         let mut words = vec![0u64; counts::COUNT_HEADER + cells];
+        let cell_counting = CellCounting::for_device(self.device().cpu_kernels());
         self.chi2_counts(
             model,
             &block,
             request,
-            range.count as u64,
+            [range.count as u64, checked],
             [np, nc],
-            query.white_furnace,
+            (query.white_furnace, cell_counting),
             cancel,
             &mut words,
         )?;

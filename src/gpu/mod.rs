@@ -17,7 +17,9 @@ mod sums;
 use crate::model::Model;
 use buffer::{Buffer, TableInput};
 pub use device::{Device, DeviceOptions};
-pub use draws::{GpuDrawRequest, DRAW_FLOATS};
+pub use draws::{
+    CellCounting, GpuDrawRequest, COUNT_HEADER, COUNT_PDF_ERROR, COUNT_WEIGHT_ERROR, DRAW_FLOATS,
+};
 pub use error::{GpuError, Result, INSTALL_HINT};
 use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline, TableWalk};
 use std::collections::HashMap;
@@ -66,9 +68,10 @@ pub struct GpuPair {
     pub pad: u32,
 }
 
-/// What tells pipelines apart: the kernel, the model (with its component choices), and the
-/// white-furnace, fast-pow and texel-directions specialization constants, and the table walk.
-type PipelineKey = (Kernel, Model, bool, bool, bool, TableWalk);
+/// What tells pipelines apart: the kernel, the model (with its component choices), the
+/// white-furnace and fast-pow specialization constants, the kernel's own switch
+/// ([`Pipeline::kernel_switches`]) and the table walk.
+type PipelineKey = (Kernel, Model, bool, bool, [bool; 2], TableWalk);
 
 /// The specialization switches of a table pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -139,31 +142,31 @@ impl Gpu {
         white_furnace: bool,
         fast_pow: bool,
     ) -> Result<Arc<Pipeline>> {
-        self.pipeline_with(kernel, model, white_furnace, fast_pow, false)
+        self.pipeline_with(kernel, model, white_furnace, fast_pow, [false; 2])
     }
 
-    /// [`Gpu::pipeline`] with the table kernel's TEXEL_DIRECTIONS choice.
+    /// [`Gpu::pipeline`] with the kernel's own switches ([`Pipeline::kernel_switches`]).
     fn pipeline_with(
         &self,
         kernel: Kernel,
         model: Model,
         white_furnace: bool,
         fast_pow: bool,
-        texel_directions: bool,
+        kernel_switches: [bool; 2],
     ) -> Result<Arc<Pipeline>> {
         self.pipeline_keyed((
             kernel,
             model,
             white_furnace,
             fast_pow,
-            texel_directions,
+            kernel_switches,
             TableWalk::default(),
         ))
     }
 
     /// The pipeline for `key`, built on first use (see [`Gpu::pipeline`]).
     fn pipeline_keyed(&self, key: PipelineKey) -> Result<Arc<Pipeline>> {
-        let (kernel, model, white_furnace, fast_pow, texel_directions, walk) = key;
+        let (kernel, model, white_furnace, fast_pow, kernel_switches, walk) = key;
         let mut cache = lock(&self.pipelines);
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
@@ -180,7 +183,7 @@ impl Gpu {
             &source,
             white_furnace,
             fast_pow,
-            texel_directions,
+            kernel_switches,
             walk,
         )?);
         if let Some(log) = &self.log {
@@ -338,7 +341,7 @@ impl Gpu {
             model,
             white_furnace,
             fast_pow,
-            choice.texel_directions,
+            [choice.texel_directions, false],
             walk,
         ))?;
         // Whole invocations per chunk, so that every chunk but the last starts on an

@@ -232,16 +232,22 @@ def test_the_package_version_is_lobes():
 def test_chi2_gives_the_report_lobe_chi2_prints(lobe_bin, cpu):
     args = ["chi2", "--backend", "cpu", "--model", "microfacet", "--set", "alpha_x=0.1", "--set", "alpha_y=0.4",
             "--theta-o-deg", "0,45", "--phi-o-deg", "30", "--samples", "2^14", "--seed", "9",
-            "--format", "json"]
+            "--checked-draws", "1000", "--format", "json"]
     cli = json.loads(run(lobe_bin, *args))
     py = cpu.chi2("microfacet", params={"alpha_x": 0.1, "alpha_y": 0.4}, theta_o_deg=[0, 45],
-                  phi_o_deg=30, samples=1 << 14, seed=9)
+                  phi_o_deg=30, samples=1 << 14, seed=9, checked_draws=1000)
     assert py["passed"] == cli["passed"] is True
     assert py["parameters"] == cli["parameters"]
     for a, b in zip(py["directions"], cli["directions"]):
         assert a["observed"] == b["observed"]
         assert a["expected"] == b["expected"]
         assert a["p_value"] == b["p_value"]
+        assert a["draws"] == b["draws"]
+        assert a["draws"]["checked_draws"] == 1000
+    every = cpu.chi2("lambert", theta_o_deg=[30], samples=1 << 12, checked_draws=None)
+    assert every["directions"][0]["draws"]["checked_draws"] == 1 << 12
+    with pytest.raises(ValueError, match="checked_draws"):
+        cpu.chi2("lambert", checked_draws=0)
     with pytest.raises(ValueError, match="theta_o_deg"):
         cpu.chi2("lambert", theta_o_deg=[95])
     with pytest.raises(ValueError, match="significance"):

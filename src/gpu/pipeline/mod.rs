@@ -36,7 +36,8 @@ pub enum Kernel {
     Sample,
     /// The sampling test's counting: draws of the model's sampler for one ωo counted in cells,
     /// with the draw checks' tallies (bindings 0 params, 1 the request, 2 the counts, cleared
-    /// before each chunk); see glsl/kernels/chi2.comp and [`crate::gpu::Gpu::chi2_counts`].
+    /// before each chunk, 3 each draw's cell where the host counts them); see
+    /// glsl/kernels/chi2.comp and [`crate::gpu::Gpu::chi2_counts`].
     Chi2,
     /// `lobe light`'s exact sum: one lit sphere pixel per evaluation, summed over every texel of
     /// an environment map (bindings 0 params, 1 pixels, 2 texels, 3 out); see
@@ -66,7 +67,7 @@ impl Kernel {
             // 4 and 5: the wi and wo lists again, as texel buffers (TEXEL_DIRECTIONS).
             Kernel::Table => &[(0, S), (1, S), (2, S), (3, S), (4, T), (5, T), (6, S)],
             Kernel::Pairs | Kernel::Sample => &[(0, S), (1, S), (3, S)],
-            Kernel::Chi2 => &[(0, S), (1, S), (2, S)],
+            Kernel::Chi2 => &[(0, S), (1, S), (2, S), (3, S)],
             Kernel::Preview | Kernel::Light => &[(0, S), (1, S), (2, S), (3, S)],
             // 4: the nodes again, as a texel buffer (TEXEL_NODES).
             Kernel::Albedo => &[(0, S), (1, S), (2, S), (3, S), (4, T)],
@@ -130,9 +131,11 @@ impl ModelData {
 /// Specialization constant id of FAST_POW (glsl/common.glsl).
 pub const FAST_POW_ID: u32 = 10;
 
-/// Specialization constant id of TEXEL_DIRECTIONS (glsl/kernels/table.comp) and TEXEL_NODES
-/// (glsl/kernels/albedo.comp): read a list through a texel buffer.
-pub const TEXEL_DIRECTIONS_ID: u32 = 20;
+/// Specialization constant id of a kernel's first own switch ([`Pipeline::kernel_switches`]):
+/// TEXEL_DIRECTIONS (glsl/kernels/table.comp) and TEXEL_NODES (glsl/kernels/albedo.comp), read
+/// a list through a texel buffer; HOST_COUNTS (glsl/kernels/chi2.comp), store each draw's cell
+/// for the host to count. The counting kernel's second, CHECKED, is the next id.
+pub const KERNEL_SWITCH_ID: u32 = 20;
 
 /// Specialization constant id of LANE_PARTIALS (glsl/kernels/albedo.comp): every invocation
 /// writes its own partial sum, no workgroup tree.
@@ -228,11 +231,10 @@ pub struct ChunkPush {
     pub first: u32,
     /// Number of elements in this chunk.
     pub count: u32,
-    /// Length of the wo list (the table kernel; the counting kernel: the cells' steps in φ; 0
-    /// elsewhere).
+    /// Length of the wo list (the table kernel; the counting kernel: the cells' steps in φ in
+    /// the low 16 bits, in cosθ in the high 16; 0 elsewhere).
     pub n_wo: u32,
-    /// Length of the wi list (the table kernel; the counting kernel: the cells' steps in cosθ;
-    /// 0 elsewhere).
+    /// Length of the wi list (the table kernel; 0 elsewhere).
     pub n_wi: u32,
 }
 
@@ -249,9 +251,12 @@ pub struct Pipeline {
     /// Evaluations one invocation makes (specialization constant 2): see
     /// [`evals_per_invocation`] and, for the table kernel, [`table_evals_per_invocation`].
     pub evals_per_invocation: u32,
-    /// Whether the table kernel reads its direction lists as texel buffers
-    /// (TEXEL_DIRECTIONS).
-    pub texel_directions: bool,
+    /// The kernel's own switches (specialization constants [`KERNEL_SWITCH_ID`] and the next):
+    /// whether the table kernel reads its direction lists as texel buffers (TEXEL_DIRECTIONS),
+    /// the albedo kernel its nodes (TEXEL_NODES); whether the counting kernel stores each
+    /// draw's cell for the host to count (HOST_COUNTS) and checks each draw's weight and pdf
+    /// (CHECKED). Unused switches are false.
+    pub kernel_switches: [bool; 2],
     /// How long creating the pipeline took (the driver compiles the shader here).
     pub build_time: Duration,
     /// `kernel/model-label`, with " (white furnace)" where it applies; used in logs and errors.
@@ -273,7 +278,7 @@ impl Pipeline {
         source: &KernelSource,
         white_furnace: bool,
         fast_pow: bool,
-        texel_directions: bool,
+        kernel_switches: [bool; 2],
         walk: TableWalk,
     ) -> Result<Pipeline> {
         let start = Instant::now();
@@ -300,7 +305,7 @@ impl Pipeline {
             } else {
                 evals_per_invocation(dev.cpu_kernels())
             },
-            texel_directions,
+            kernel_switches,
             build_time: Duration::ZERO,
             label: pipeline_label(kernel, source, white_furnace, walk),
             gpu_ns: AtomicU64::new(0),
@@ -503,9 +508,9 @@ impl SpecConstants {
             p.evals_per_invocation,
             fast_pow as u32,
         ];
-        if matches!(kernel, Kernel::Table | Kernel::Albedo) {
-            ids.push(TEXEL_DIRECTIONS_ID);
-            data.push(p.texel_directions as u32);
+        if matches!(kernel, Kernel::Table | Kernel::Albedo | Kernel::Chi2) {
+            ids.push(KERNEL_SWITCH_ID);
+            data.push(p.kernel_switches[0] as u32);
         }
         if kernel == Kernel::Table {
             ids.extend([UPPER_TRIANGLE_ID, ROW_ALIGNED_ID, INTERLEAVED_ID]);
@@ -514,6 +519,10 @@ impl SpecConstants {
                 walk.row_aligned as u32,
                 walk.interleaved as u32,
             ]);
+        }
+        if kernel == Kernel::Chi2 {
+            ids.push(KERNEL_SWITCH_ID + 1);
+            data.push(p.kernel_switches[1] as u32);
         }
         if kernel == Kernel::Albedo {
             ids.push(LANE_PARTIALS_ID);
