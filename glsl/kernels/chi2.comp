@@ -82,7 +82,8 @@ void tally(uint word, uint n) {
 }
 
 // Draws whose hashes are made together before they are drawn: the hash is a chain of dependent
-// multiplies, and four independent chains side by side keep a CPU's multiplier busy.
+// multiplies, and four independent chains side by side keep a CPU's multiplier busy. Where an
+// invocation makes fewer draws (a GPU's one), only those are hashed.
 const uint HASH_BATCH = 4u;
 
 void main() {
@@ -100,6 +101,9 @@ void main() {
     for (uint k0 = 0u; k0 < EVALS_PER_INVOCATION; k0 += HASH_BATCH) {
         vec4 numbers[HASH_BATCH];
         for (uint j = 0u; j < HASH_BATCH; ++j) {
+            // A constant once the loop is unrolled and specialised: a GPU's one draw per
+            // invocation makes one hash.
+            if (j >= EVALS_PER_INVOCATION) break;
             uint lo, hi;
             draw_index(chunk.first + base + k0 + j, lo, hi);
             numbers[j] = uniform4(request.seed, lo, hi, request.group);

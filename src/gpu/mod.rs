@@ -18,7 +18,8 @@ use crate::model::Model;
 use buffer::{Buffer, TableInput};
 pub use device::{Device, DeviceOptions};
 pub use draws::{
-    CellCounting, GpuDrawRequest, COUNT_HEADER, COUNT_PDF_ERROR, COUNT_WEIGHT_ERROR, DRAW_FLOATS,
+    CellCounting, GpuDrawRequest, CHI2_HISTOGRAM_COPIES, COUNT_HEADER, COUNT_LOST, COUNT_PDF_ERROR,
+    COUNT_WEIGHT_ERROR, DRAW_FLOATS,
 };
 pub use error::{GpuError, Result, INSTALL_HINT};
 use pipeline::{ChunkPush, Dispatcher, Kernel, Pipeline, TableWalk};
