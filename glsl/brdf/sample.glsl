@@ -153,7 +153,9 @@ vec3 stretch(vec3 wo, float ax, float ay) {
 vec3 unstretch(vec3 h, float ax, float ay) {
     vec3 v = vec3(ax * h.x, ay * h.y, max(h.z, 0.0));
     float len = length(v);
-    return len > 0.0 ? v / len : vec3(0.0, 0.0, 1.0);
+    // One division for the three components' (a CPU driver divides at a fraction of its rate
+    // of multiplying), within an f32 rounding of the twin's v / len.
+    return len > 0.0 ? v * (1.0 / len) : vec3(0.0, 0.0, 1.0);
 }
 
 // A GGX visible normal by Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical
@@ -265,7 +267,11 @@ vec3 sample_vndf(uint distribution, vec3 wo, float ax, float ay, vec2 u) {
 // where (alpha tan theta_o)^2 overflows (the twin's smith_lambda returns None there).
 float pdf_vndf(uint distribution, vec3 wi, vec3 wo, float ax, float ay) {
     if (wi.z <= 0.0 || wo.z <= 0.0) return 0.0;
-    vec3 h = normalize(wi + wo);
+    // The twin's normalize with one division: some drivers take normalize(v) as v / length(v),
+    // a division per component, and a CPU driver divides at a fraction of its rate of
+    // multiplying.
+    vec3 sum = wi + wo;
+    vec3 h = sum * inversesqrt(dot(sum, sum));
     float q = alpha_sin2(wo, ax * ax, ay * ay);
     float t2 = q / (wo.z * wo.z);
     if (isinf(t2)) return 0.0;
@@ -280,7 +286,8 @@ float pdf_vndf(uint distribution, vec3 wi, vec3 wo, float ax, float ay) {
         float g = ggx_q(h, inv_x, inv_y);
         d = d_norm / (g * g);
     }
-    return d / (4.0 * wo.z * (1.0 + lambda));
+    // The factor is wo's alone: computed once for a loop over draws, then each multiplies.
+    return d * (1.0 / (4.0 * wo.z * (1.0 + lambda)));
 }
 
 #endif

@@ -9,9 +9,6 @@
 // counts before each chunk, reads them back after it and adds them in 64 bits.
 #include "kernels/draw.glsl"
 
-// The chunk's third push-constant word carries the cells, the steps in phi in its low 16 bits
-// and those in cos theta in its high 16 (ChunkPush::n_wo on the host).
-
 // The counts: the tallies at these word offsets, then one count per cell from COUNT_HEADER on.
 // Twins of the COUNT_* constants of src/gpu/draws.rs.
 layout(std430, set = 0, binding = 2) buffer Counts { uint counts[]; };
@@ -57,15 +54,33 @@ float infinity() {
     return uintBitsToFloat(0x7f800000u);
 }
 
-// Twin of Cells::index: the cell (i_cos * n_phi + i_phi) of a unit direction with cos theta > 0,
-// -1 otherwise; n_phi equal steps of phi over [0, 2 pi), n_cos of cos theta over [0, 1].
-int cells_index(vec3 w, uint n_phi, uint n_cos) {
-    if (!(w.z > 0.0)) return -1;
+// The cells: n_phi equal steps of phi over [0, 2 pi), n_cos of cos theta over [0, 1], and the
+// factors that take phi and cos theta to steps.
+struct Cells {
+    uint n_phi;
+    uint n_cos;
+    float phi_steps;
+    float cos_steps;
+};
+
+// The cells of the chunk's third push-constant word: the steps in phi in its low 16 bits, those
+// in cos theta in its high 16 (ChunkPush::n_wo on the host).
+Cells cells_of(uint word) {
+    uint n_phi = word & 0xffffu, n_cos = word >> 16u;
+    return Cells(n_phi, n_cos, float(n_phi) / (2.0 * PI), float(n_cos));
+}
+
+// Twin of Cells::index for the unit direction w / len (len = |w|): the cell
+// (i_cos * n_phi + i_phi) where cos theta > 0, NO_CELL otherwise. phi is w's own (atan of y and
+// x is that of their ratio), so only cos theta is divided by len.
+uint cells_index(vec3 w, float len, Cells c) {
+    float cos_theta = w.z / len;
+    if (!(cos_theta > 0.0)) return NO_CELL;
     float phi = atan(w.y, w.x);
     if (!(phi >= 0.0)) phi = phi < 0.0 ? phi + 2.0 * PI : 0.0;
-    uint i_phi = min(uint(phi / (2.0 * PI) * float(n_phi)), n_phi - 1u);
-    uint i_cos = min(uint(w.z * float(n_cos)), n_cos - 1u);
-    return int(i_cos * n_phi + i_phi);
+    uint i_phi = min(uint(phi * c.phi_steps), c.n_phi - 1u);
+    uint i_cos = min(uint(cos_theta * c.cos_steps), c.n_cos - 1u);
+    return i_cos * c.n_phi + i_phi;
 }
 
 // Twin of chi2's relative: |a - b| / max(|a|, |b|), 0 when both are below TINY_F32, infinite
@@ -81,82 +96,95 @@ void tally(uint word, uint n) {
     if (n > 0u) atomicAdd(counts[word], n);
 }
 
+// An invocation's tallies and largest errors, added to the counts once at its end.
+struct Tallies {
+    uint lost, delta, invalid, non_unit, zero_pdf, non_finite_weight, weight_outside, pdf_below;
+    float weight_error, pdf_error;
+};
+
+// Draws the sample of the numbers r for wo and tallies it in t: its cell, or NO_CELL where it
+// is counted outside the cells.
+uint count_draw(MODEL_PARAMS p, vec3 wo, vec4 r, Cells cells, inout Tallies t) {
+    Sample s = draw(p, wo, r.x, r.yz);
+    if (s.delta != 0u) {
+        t.delta += 1u;
+        return NO_CELL;
+    }
+    if (!finite3(s.wi) || !finite1(s.pdf) || s.pdf < 0.0) {
+        t.invalid += 1u;
+        return NO_CELL;
+    }
+    if (CHECKED && !finite3(s.weight)) t.non_finite_weight += 1u;
+    float len = length(s.wi);
+    if (abs(len - 1.0) > UNIT_TOLERANCE_F32) t.non_unit += 1u;
+    uint cell = s.pdf > 0.0 ? cells_index(s.wi, len, cells) : NO_CELL;
+    if (cell == NO_CELL) {
+        t.lost += 1u;
+        if (s.wi.z > 0.0) {
+            t.zero_pdf += 1u;
+        } else if (s.pdf != 0.0) {
+            t.pdf_below += 1u;
+        }
+        if (CHECKED && s.weight != vec3(0.0)) t.weight_outside += 1u;
+        return NO_CELL;
+    }
+    if (CHECKED) {
+        t.pdf_error = max(t.pdf_error, relative(s.pdf, pdf_at(p, s.wi, wo)));
+        vec3 want = brdf(p, s.wi, wo) * max(s.wi.z, 0.0) / s.pdf;
+        for (int c = 0; c < 3; ++c) {
+            t.weight_error = max(t.weight_error, relative(s.weight[c], want[c]));
+        }
+    }
+    return cell;
+}
+
 // Draws whose hashes are made together before they are drawn: the hash is a chain of dependent
 // multiplies, and four independent chains side by side keep a CPU's multiplier busy. Where an
 // invocation makes fewer draws (a GPU's one), only those are hashed.
 const uint HASH_BATCH = 4u;
 
 void main() {
-    const bool checked = CHECKED;
-    uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
-    uint n_phi = chunk.n_wo & 0xffffu;
-    uint n_cos = chunk.n_wo >> 16u;
+    // The request, the chunk and the parameters, read once: a CPU driver reads a buffer inside
+    // a loop lane by lane.
+    DrawRequest r = request;
+    uint first = chunk.first, count = chunk.count;
+    Cells cells = cells_of(chunk.n_wo);
     MODEL_PARAMS p = params[0];
-    vec3 wo = request.wo;
-    uint histogram = COUNT_HEADER + (gl_WorkGroupID.x % HISTOGRAM_COPIES) * n_phi * n_cos;
-    // This invocation's tallies and largest errors, added to the counts once at its end.
-    uint lost = 0u, delta = 0u, invalid = 0u, non_unit = 0u, zero_pdf = 0u;
-    uint non_finite_weight = 0u, weight_outside = 0u, pdf_below = 0u;
-    float weight_error = 0.0, pdf_error = 0.0;
+    uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
+    uint histogram = COUNT_HEADER + (gl_WorkGroupID.x % HISTOGRAM_COPIES) * cells.n_phi * cells.n_cos;
+    Tallies t = Tallies(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, 0.0);
     for (uint k0 = 0u; k0 < EVALS_PER_INVOCATION; k0 += HASH_BATCH) {
         vec4 numbers[HASH_BATCH];
+        // Both loops' trip counts are constants once specialised (the draws past the chunk are
+        // skipped by an if, not a break), so that they are unrolled and numbers[j] stays in
+        // registers.
         for (uint j = 0u; j < HASH_BATCH; ++j) {
-            // A constant once the loop is unrolled and specialised: a GPU's one draw per
-            // invocation makes one hash.
             if (j >= EVALS_PER_INVOCATION) break;
             uint lo, hi;
-            draw_index(chunk.first + base + k0 + j, lo, hi);
-            numbers[j] = uniform4(request.seed, lo, hi, request.group);
+            draw_index(r, first + base + k0 + j, lo, hi);
+            numbers[j] = uniform4(r.seed, lo, hi, r.group);
         }
         for (uint j = 0u; j < HASH_BATCH; ++j) {
+            if (j >= EVALS_PER_INVOCATION) break;
             uint local_index = base + k0 + j;
-            if (k0 + j >= EVALS_PER_INVOCATION || local_index >= chunk.count) break;
-            Sample s = draw(p, wo, numbers[j].x, numbers[j].yz);
-            if (HOST_COUNTS) indices[local_index] = NO_CELL;
-            if (s.delta != 0u) {
-                delta += 1u;
-                continue;
-            }
-            if (!finite3(s.wi) || !finite1(s.pdf) || s.pdf < 0.0) {
-                invalid += 1u;
-                continue;
-            }
-            if (checked && !finite3(s.weight)) non_finite_weight += 1u;
-            float len = length(s.wi);
-            if (abs(len - 1.0) > UNIT_TOLERANCE_F32) non_unit += 1u;
-            int cell = s.pdf > 0.0 ? cells_index(s.wi / len, n_phi, n_cos) : -1;
-            if (cell < 0) {
-                lost += 1u;
-                if (s.wi.z > 0.0) {
-                    zero_pdf += 1u;
-                } else if (s.pdf != 0.0) {
-                    pdf_below += 1u;
-                }
-                if (checked && s.weight != vec3(0.0)) weight_outside += 1u;
-                continue;
-            }
-            if (HOST_COUNTS) {
-                indices[local_index] = uint(cell);
-            } else {
-                atomicAdd(counts[histogram + uint(cell)], 1u);
-            }
-            if (checked) {
-                pdf_error = max(pdf_error, relative(s.pdf, pdf_at(p, s.wi, wo)));
-                vec3 want = brdf(p, s.wi, wo) * max(s.wi.z, 0.0) / s.pdf;
-                for (int c = 0; c < 3; ++c) {
-                    weight_error = max(weight_error, relative(s.weight[c], want[c]));
+            if (k0 + j < EVALS_PER_INVOCATION && local_index < count) {
+                uint cell = count_draw(p, r.wo, numbers[j], cells, t);
+                if (HOST_COUNTS) {
+                    indices[local_index] = cell;
+                } else if (cell != NO_CELL) {
+                    atomicAdd(counts[histogram + cell], 1u);
                 }
             }
         }
     }
-    tally(COUNT_LOST, lost);
-    tally(COUNT_DELTA, delta);
-    tally(COUNT_INVALID, invalid);
-    tally(COUNT_NON_UNIT, non_unit);
-    tally(COUNT_ZERO_PDF, zero_pdf);
-    tally(COUNT_NON_FINITE_WEIGHT, non_finite_weight);
-    tally(COUNT_WEIGHT_OUTSIDE, weight_outside);
-    tally(COUNT_PDF_BELOW, pdf_below);
-    if (weight_error > 0.0) atomicMax(counts[COUNT_WEIGHT_ERROR], floatBitsToUint(weight_error));
-    if (pdf_error > 0.0) atomicMax(counts[COUNT_PDF_ERROR], floatBitsToUint(pdf_error));
+    tally(COUNT_LOST, t.lost);
+    tally(COUNT_DELTA, t.delta);
+    tally(COUNT_INVALID, t.invalid);
+    tally(COUNT_NON_UNIT, t.non_unit);
+    tally(COUNT_ZERO_PDF, t.zero_pdf);
+    tally(COUNT_NON_FINITE_WEIGHT, t.non_finite_weight);
+    tally(COUNT_WEIGHT_OUTSIDE, t.weight_outside);
+    tally(COUNT_PDF_BELOW, t.pdf_below);
+    if (t.weight_error > 0.0) atomicMax(counts[COUNT_WEIGHT_ERROR], floatBitsToUint(t.weight_error));
+    if (t.pdf_error > 0.0) atomicMax(counts[COUNT_PDF_ERROR], floatBitsToUint(t.pdf_error));
 }

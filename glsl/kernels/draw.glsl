@@ -21,11 +21,12 @@ struct DrawRequest {
 
 layout(std430, set = 0, binding = 1) readonly buffer Request { DrawRequest request; };
 
-// Draw first + offset: the 64-bit index as (low, high) with the carry of the low word's sum.
-void draw_index(uint offset, out uint lo, out uint hi) {
+// Draw first + offset of the request r: the 64-bit index as (low, high) with the carry of the
+// low word's sum.
+void draw_index(DrawRequest r, uint offset, out uint lo, out uint hi) {
     uint carry;
-    lo = uaddCarry(request.first_lo, offset, carry);
-    hi = request.first_hi + carry;
+    lo = uaddCarry(r.first_lo, offset, carry);
+    hi = r.first_hi + carry;
 }
 
 #endif

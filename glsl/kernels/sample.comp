@@ -27,18 +27,18 @@ void store_draw(uint local_index, Sample s, float pdf_value, vec3 eval_cos) {
 }
 
 void main() {
+    DrawRequest r = request;
+    MODEL_PARAMS p = params[0];
     uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
     for (uint k = 0u; k < EVALS_PER_INVOCATION; ++k) {
         uint local_index = base + k;
         if (local_index >= chunk.count) return;
         uint lo, hi;
-        draw_index(chunk.first + local_index, lo, hi);
+        draw_index(r, chunk.first + local_index, lo, hi);
         float uc;
         vec2 u;
-        draw_numbers(request.seed, lo, hi, request.group, uc, u);
-        MODEL_PARAMS p = params[0];
-        vec3 wo = request.wo;
-        Sample s = draw(p, wo, uc, u);
-        store_draw(local_index, s, pdf_at(p, s.wi, wo), brdf(p, s.wi, wo) * max(s.wi.z, 0.0));
+        draw_numbers(r.seed, lo, hi, r.group, uc, u);
+        Sample s = draw(p, r.wo, uc, u);
+        store_draw(local_index, s, pdf_at(p, s.wi, r.wo), brdf(p, s.wi, r.wo) * max(s.wi.z, 0.0));
     }
 }
