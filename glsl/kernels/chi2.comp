@@ -9,8 +9,9 @@
 // counts before each chunk, reads them back after it and adds them in 64 bits.
 #include "kernels/draw.glsl"
 
-// The counts: the tallies at these word offsets, then one count per cell from COUNT_HEADER on.
-// Twins of the COUNT_* constants of src/gpu/draws.rs.
+// The counts: HISTOGRAM_COPIES blocks of COUNT_HEADER words, each with the tallies at these
+// word offsets, then (where the cells are counted here) HISTOGRAM_COPIES copies of one count
+// per cell. Twins of the COUNT_* constants of src/gpu/draws.rs.
 layout(std430, set = 0, binding = 2) buffer Counts { uint counts[]; };
 // HOST_COUNTS (a CPU driver, whose atomic add is a locked instruction per lane): each draw's
 // cell index, or NO_CELL, is stored at its place in the chunk and the host counts them; the
@@ -37,11 +38,11 @@ const uint COUNT_PDF_BELOW = 7u;
 const uint COUNT_WEIGHT_ERROR = 8u;
 const uint COUNT_PDF_ERROR = 9u;
 const uint COUNT_HEADER = 16u;
-// The cells' counts are kept HISTOGRAM_COPIES times, workgroup w adding to copy w mod
-// HISTOGRAM_COPIES, and the host adds the copies: the threads of a CPU driver (or a GPU's
-// workgroups on a peaked lobe) then rarely add to the same cell at once, whose cache line
-// would otherwise pass between cores at every draw. Twin of CHI2_HISTOGRAM_COPIES in
-// src/gpu/draws.rs.
+// The tallies and the cells' counts are kept HISTOGRAM_COPIES times, workgroup w adding to copy
+// w mod HISTOGRAM_COPIES, and the host adds the copies: the threads of a CPU driver (or a GPU's
+// workgroups) then rarely add to the same word at once, whose cache line would otherwise pass
+// between cores at nearly every invocation (the tallies: a block of 16 words is one 64-byte
+// line). Twin of CHI2_HISTOGRAM_COPIES in src/gpu/draws.rs.
 const uint HISTOGRAM_COPIES = 16u;
 
 // Twin of chi2::UNIT_TOLERANCE_F32: a drawn wi may differ from unit length by this much.
@@ -94,6 +95,11 @@ float relative(float a, float b) {
 
 void tally(uint word, uint n) {
     if (n > 0u) atomicAdd(counts[word], n);
+}
+
+// The largest of the non-negative x and the float whose bits are at word.
+void tally_max(uint word, float x) {
+    if (x > 0.0) atomicMax(counts[word], floatBitsToUint(x));
 }
 
 // An invocation's tallies and largest errors, added to the counts once at its end.
@@ -151,7 +157,9 @@ void main() {
     Cells cells = cells_of(chunk.n_wo);
     MODEL_PARAMS p = params[0];
     uint base = gl_GlobalInvocationID.x * EVALS_PER_INVOCATION;
-    uint histogram = COUNT_HEADER + (gl_WorkGroupID.x % HISTOGRAM_COPIES) * cells.n_phi * cells.n_cos;
+    uint copy = gl_WorkGroupID.x % HISTOGRAM_COPIES;
+    uint tallies = copy * COUNT_HEADER;
+    uint histogram = HISTOGRAM_COPIES * COUNT_HEADER + copy * cells.n_phi * cells.n_cos;
     Tallies t = Tallies(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, 0.0);
     for (uint k0 = 0u; k0 < EVALS_PER_INVOCATION; k0 += HASH_BATCH) {
         vec4 numbers[HASH_BATCH];
@@ -177,14 +185,14 @@ void main() {
             }
         }
     }
-    tally(COUNT_LOST, t.lost);
-    tally(COUNT_DELTA, t.delta);
-    tally(COUNT_INVALID, t.invalid);
-    tally(COUNT_NON_UNIT, t.non_unit);
-    tally(COUNT_ZERO_PDF, t.zero_pdf);
-    tally(COUNT_NON_FINITE_WEIGHT, t.non_finite_weight);
-    tally(COUNT_WEIGHT_OUTSIDE, t.weight_outside);
-    tally(COUNT_PDF_BELOW, t.pdf_below);
-    if (t.weight_error > 0.0) atomicMax(counts[COUNT_WEIGHT_ERROR], floatBitsToUint(t.weight_error));
-    if (t.pdf_error > 0.0) atomicMax(counts[COUNT_PDF_ERROR], floatBitsToUint(t.pdf_error));
+    tally(tallies + COUNT_LOST, t.lost);
+    tally(tallies + COUNT_DELTA, t.delta);
+    tally(tallies + COUNT_INVALID, t.invalid);
+    tally(tallies + COUNT_NON_UNIT, t.non_unit);
+    tally(tallies + COUNT_ZERO_PDF, t.zero_pdf);
+    tally(tallies + COUNT_NON_FINITE_WEIGHT, t.non_finite_weight);
+    tally(tallies + COUNT_WEIGHT_OUTSIDE, t.weight_outside);
+    tally(tallies + COUNT_PDF_BELOW, t.pdf_below);
+    tally_max(tallies + COUNT_WEIGHT_ERROR, t.weight_error);
+    tally_max(tallies + COUNT_PDF_ERROR, t.pdf_error);
 }

@@ -80,7 +80,8 @@ impl Gpu {
     }
 }
 
-/// Word offsets of the counting kernel's tallies in its counts buffer (twins of the `COUNT_*`
+/// Word offsets of the counting kernel's tallies in each of its [`CHI2_HISTOGRAM_COPIES`]
+/// blocks of tallies and in the counts [`Gpu::chi2_counts`] adds up (twins of the `COUNT_*`
 /// constants of `glsl/kernels/chi2.comp`): draws outside the cells (below the horizon or pdf 0),
 /// delta draws, invalid draws (ωi or pdf not finite, pdf negative), draws off unit length, draws
 /// above the horizon with pdf 0, non-finite weights, draws leaving with a weight, draws below the
@@ -104,13 +105,16 @@ pub const COUNT_PDF_BELOW: usize = 7;
 pub const COUNT_WEIGHT_ERROR: usize = 8;
 /// See [`COUNT_LOST`].
 pub const COUNT_PDF_ERROR: usize = 9;
-/// The cells' counts start at this word.
+/// The words of a block of tallies (one 64-byte cache line); the cells' counts start at this
+/// word of the counts [`Gpu::chi2_counts`] adds up.
 pub const COUNT_HEADER: usize = 16;
-/// The counting kernel keeps the cells' counts this many times over, workgroup w adding to copy
-/// w mod CHI2_HISTOGRAM_COPIES (twin of `HISTOGRAM_COPIES` in `glsl/kernels/chi2.comp`), so that
-/// concurrent workgroups seldom add to one cell at once; the host adds the copies. On lavapipe's
-/// two threads this took GGX α = 0.3's 10⁸ draws from 2.8–2.9 s to 2.4–2.8 s (one copy: the
-/// cells' cache lines pass between the cores at nearly every draw).
+/// The counting kernel keeps its tallies and the cells' counts this many times over, workgroup
+/// w adding to copy w mod CHI2_HISTOGRAM_COPIES (twin of `HISTOGRAM_COPIES` in
+/// `glsl/kernels/chi2.comp`), so that concurrent workgroups seldom add to one word at once; the
+/// host adds the copies. On lavapipe's two threads the cells' copies took GGX α = 0.3's 10⁸
+/// draws from 2.8–2.9 s to 2.4–2.8 s (one copy: the cells' cache lines pass between the cores
+/// at nearly every draw), and the tallies' copies took that test's sampling from 1.18–1.21 s to
+/// 1.14–1.15 s.
 pub const CHI2_HISTOGRAM_COPIES: usize = 16;
 
 /// Draws per dispatch of the counting kernel at most: 2²⁴ keeps each chunk's counts far below
@@ -214,7 +218,8 @@ impl Gpu {
             );
         }
         let host = cell_counting == CellCounting::Host;
-        let words = COUNT_HEADER
+        let tally_words = CHI2_HISTOGRAM_COPIES * COUNT_HEADER;
+        let words = tally_words
             + if host {
                 0
             } else {
@@ -285,13 +290,15 @@ impl Gpu {
                 _ => dispatcher.run_one(&push)?,
             }
             let got = counts_buf.read_u32(words);
-            let (tallies, copies) = got.split_at(COUNT_HEADER);
-            for (k, (total, &c)) in counts.iter_mut().zip(tallies).enumerate() {
-                if k == COUNT_WEIGHT_ERROR || k == COUNT_PDF_ERROR {
-                    // Non-negative floats' bits order as the numbers do.
-                    *total = (*total).max(u64::from(c));
-                } else {
-                    *total += u64::from(c);
+            let (tallies, copies) = got.split_at(tally_words);
+            for block in tallies.chunks_exact(COUNT_HEADER) {
+                for (k, (total, &c)) in counts.iter_mut().zip(block).enumerate() {
+                    if k == COUNT_WEIGHT_ERROR || k == COUNT_PDF_ERROR {
+                        // Non-negative floats' bits order as the numbers do.
+                        *total = (*total).max(u64::from(c));
+                    } else {
+                        *total += u64::from(c);
+                    }
                 }
             }
             if host {
