@@ -5,8 +5,8 @@
 // counted. Each draw outside a delta lobe, finite, with pdf > 0 and above the horizon is counted
 // in its (phi, cos theta) cell (cells_index, twin of Cells::index in src/chi2/cells.rs); the
 // others are tallied as the CPU's Tally::draw tallies them (src/chi2/tally.rs), with the weight
-// checks where CHECKED. The host clears the
-// counts before each chunk, reads them back after it and adds them in 64 bits.
+// checks where CHECKED. The dispatch clears the counts before each chunk; the host reads them
+// back after it and adds them in 64 bits.
 #include "kernels/draw.glsl"
 
 // The counts: HISTOGRAM_COPIES blocks of COUNT_HEADER words, each with the tallies at these
@@ -41,8 +41,8 @@ const uint COUNT_HEADER = 16u;
 // The tallies and the cells' counts are kept HISTOGRAM_COPIES times, workgroup w adding to copy
 // w mod HISTOGRAM_COPIES, and the host adds the copies: the threads of a CPU driver (or a GPU's
 // workgroups) then rarely add to the same word at once, whose cache line would otherwise pass
-// between cores at nearly every invocation (the tallies: a block of 16 words is one 64-byte
-// line). Twin of CHI2_HISTOGRAM_COPIES in src/gpu/draws.rs.
+// between cores at nearly every invocation (a block of tallies, 16 words, is a 64-byte cache
+// line's worth). Twin of CHI2_HISTOGRAM_COPIES in src/gpu/draws.rs.
 const uint HISTOGRAM_COPIES = 16u;
 
 // Twin of chi2::UNIT_TOLERANCE_F32: a drawn wi may differ from unit length by this much.
@@ -163,9 +163,9 @@ void main() {
     Tallies t = Tallies(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0.0, 0.0);
     for (uint k0 = 0u; k0 < EVALS_PER_INVOCATION; k0 += HASH_BATCH) {
         vec4 numbers[HASH_BATCH];
-        // Both loops' trip counts are constants once specialised (the draws past the chunk are
-        // skipped by an if, not a break), so that they are unrolled and numbers[j] stays in
-        // registers.
+        // The two inner loops' trip counts are constants once specialised (the draws past the
+        // chunk are skipped by an if, not a break), so that they are unrolled and numbers[j]
+        // stays in registers.
         for (uint j = 0u; j < HASH_BATCH; ++j) {
             if (j >= EVALS_PER_INVOCATION) break;
             uint lo, hi;
